@@ -1,0 +1,16 @@
+# SuiteSparse 5 on Debian ships no CMake config: find CHOLMOD by hand.
+# Defines the imported target Cholmod::Cholmod.
+find_path(CHOLMOD_INCLUDE_DIR cholmod.h PATH_SUFFIXES suitesparse)
+find_library(CHOLMOD_LIBRARY cholmod)
+find_library(SUITESPARSECONFIG_LIBRARY suitesparseconfig)
+include(FindPackageHandleStandardArgs)
+find_package_handle_standard_args(Cholmod DEFAULT_MSG
+  CHOLMOD_INCLUDE_DIR CHOLMOD_LIBRARY SUITESPARSECONFIG_LIBRARY)
+if(Cholmod_FOUND AND NOT TARGET Cholmod::Cholmod)
+  add_library(Cholmod::Cholmod UNKNOWN IMPORTED)
+  set_target_properties(Cholmod::Cholmod PROPERTIES
+    IMPORTED_LOCATION "${CHOLMOD_LIBRARY}"
+    INTERFACE_INCLUDE_DIRECTORIES "${CHOLMOD_INCLUDE_DIR}"
+    INTERFACE_LINK_LIBRARIES "${SUITESPARSECONFIG_LIBRARY}")
+endif()
+mark_as_advanced(CHOLMOD_INCLUDE_DIR CHOLMOD_LIBRARY SUITESPARSECONFIG_LIBRARY)

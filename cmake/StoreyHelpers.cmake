@@ -1,0 +1,42 @@
+# storey_core_library(NAME <area> [DEPS <targets>...] [PRIVATE_DEPS <targets>...])
+# Builds every .cpp beside the calling CMakeLists.txt into storey_<area>
+# (alias storey::<area>). Headers are included as "storey/<area>/x.h".
+function(storey_core_library)
+  cmake_parse_arguments(ARG "" "NAME" "DEPS;PRIVATE_DEPS" ${ARGN})
+  file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.cpp)
+  set(target storey_${ARG_NAME})
+  add_library(${target} STATIC ${sources})
+  add_library(storey::${ARG_NAME} ALIAS ${target})
+  target_include_directories(${target} PUBLIC
+    $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/components/core>
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+  target_link_libraries(${target} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
+  set_target_properties(${target} PROPERTIES EXPORT_NAME ${ARG_NAME})
+  set_property(GLOBAL APPEND PROPERTY STOREY_LIBRARIES ${target})
+  install(TARGETS ${target} EXPORT storeyTargets
+    ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+endfunction()
+
+# storey_test(NAME <name> LABEL unit|integration|scenario LIBS <targets>...
+#             [SOURCES <files>...])
+# One gtest executable per call; every TEST becomes its own ctest entry with the label.
+# Without SOURCES, every *_test.cpp beside the calling CMakeLists.txt is used.
+function(storey_test)
+  cmake_parse_arguments(ARG "" "NAME;LABEL;TIMEOUT" "LIBS;SOURCES" ${ARGN})
+  if(NOT ARG_SOURCES)
+    file(GLOB ARG_SOURCES CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*_test.cpp)
+  endif()
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 300)
+  endif()
+  add_executable(${ARG_NAME} ${ARG_SOURCES})
+  target_link_libraries(${ARG_NAME} PRIVATE ${ARG_LIBS} storey_test_support GTest::gtest_main)
+  target_compile_definitions(${ARG_NAME} PRIVATE
+    STOREY_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+    STOREY_SHARED_DATA_DIR="${PROJECT_SOURCE_DIR}/../shared/data")
+  gtest_discover_tests(${ARG_NAME}
+    DISCOVERY_MODE PRE_TEST
+    WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR}
+    PROPERTIES LABELS ${ARG_LABEL} TIMEOUT ${ARG_TIMEOUT})
+endfunction()

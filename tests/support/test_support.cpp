@@ -1,0 +1,42 @@
+#include "test_support.h"
+
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <stdexcept>
+
+namespace storey::test {
+
+std::string sourceDir() { return STOREY_SOURCE_DIR; }
+std::string binaryDir() { return STOREY_BINARY_DIR; }
+
+std::string sharedDataPath(const std::string& relative) {
+  const char* override_dir = std::getenv("STOREY_SHARED_DATA");
+  const std::filesystem::path base =
+      override_dir ? std::filesystem::path(override_dir)
+                   : std::filesystem::path(STOREY_SOURCE_DIR) / ".." / "shared" / "data";
+  const std::filesystem::path path = base / relative;
+  return std::filesystem::exists(path) ? std::filesystem::canonical(path).string() : "";
+}
+
+std::string makeTempDir(const std::string& prefix) {
+  std::string pattern = (std::filesystem::temp_directory_path() / (prefix + "_XXXXXX")).string();
+  if (!mkdtemp(pattern.data())) throw std::runtime_error("cannot create a temporary directory");
+  return pattern;
+}
+
+Eigen::MatrixXd numericJacobian(const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& f,
+                                const Eigen::VectorXd& x, double step) {
+  const Eigen::VectorXd f0 = f(x);
+  Eigen::MatrixXd jacobian(f0.size(), x.size());
+  for (int i = 0; i < x.size(); ++i) {
+    Eigen::VectorXd plus = x, minus = x;
+    plus[i] += step;
+    minus[i] -= step;
+    jacobian.col(i) = (f(plus) - f(minus)) / (2.0 * step);
+  }
+  return jacobian;
+}
+
+}  // namespace storey::test

@@ -1,0 +1,49 @@
+// storey: maps multistory buildings. `storey <command> --help` describes each command.
+#include <cstring>
+#include <exception>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "args.h"
+#include "commands.inc"
+#include "storey/common/config.h"
+
+namespace {
+
+void printCommands() {
+  std::cout << "usage: storey <command> [arguments]\n\ncommands:\n";
+  for (const auto& entry : storey::cli::kCommands) {
+    std::string name = entry.name;
+    std::cout << "  " << name << std::string(name.size() < 12 ? 12 - name.size() : 1, ' ')
+              << entry.summary << "\n";
+  }
+  std::cout << "\n`storey <command> --help` describes a command.\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h") ||
+      !std::strcmp(argv[1], "help")) {
+    printCommands();
+    return argc < 2 ? 2 : 0;
+  }
+  const std::string command = argv[1];
+  for (const auto& entry : storey::cli::kCommands) {
+    if (command != entry.name) continue;
+    storey::cli::Args args(command, std::vector<std::string>(argv + 2, argv + argc));
+    try {
+      return entry.run(args);
+    } catch (const storey::cli::UsageError& e) {
+      std::cerr << "storey " << command << ": " << e.what() << "\n";
+      return 2;
+    } catch (const std::exception& e) {
+      std::cerr << "storey " << command << ": error: " << e.what() << "\n";
+      return 1;
+    }
+  }
+  std::cerr << "storey: unknown command '" << command << "'\n";
+  printCommands();
+  return 2;
+}
