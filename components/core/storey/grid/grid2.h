@@ -1,0 +1,51 @@
+// A dense 2D grid of values over the plane. Cell (cx, cy) covers
+// [origin_x + cx*res, origin_x + (cx+1)*res) x [origin_y + cy*res, ...); row-major, y up.
+#pragma once
+
+#include <Eigen/Core>
+#include <cmath>
+#include <vector>
+
+namespace storey::grid {
+
+struct GridFrame {
+  double resolution = 0.05;
+  double origin_x = 0.0;
+  double origin_y = 0.0;
+  int width = 0;
+  int height = 0;
+
+  Eigen::Vector2i cellOf(const Eigen::Vector2d& p) const {
+    return {static_cast<int>(std::floor((p.x() - origin_x) / resolution)),
+            static_cast<int>(std::floor((p.y() - origin_y) / resolution))};
+  }
+  // Continuous cell coordinates: cell (cx, cy) has its centre at (cx + 0.5, cy + 0.5).
+  Eigen::Vector2d continuousCellOf(const Eigen::Vector2d& p) const {
+    return {(p.x() - origin_x) / resolution, (p.y() - origin_y) / resolution};
+  }
+  Eigen::Vector2d centerOf(int cx, int cy) const {
+    return {origin_x + (cx + 0.5) * resolution, origin_y + (cy + 0.5) * resolution};
+  }
+  bool contains(int cx, int cy) const { return cx >= 0 && cy >= 0 && cx < width && cy < height; }
+  std::size_t index(int cx, int cy) const {
+    return static_cast<std::size_t>(cy) * static_cast<std::size_t>(width) + static_cast<std::size_t>(cx);
+  }
+  std::size_t cellCount() const { return static_cast<std::size_t>(width) * static_cast<std::size_t>(height); }
+  double maxX() const { return origin_x + width * resolution; }
+  double maxY() const { return origin_y + height * resolution; }
+};
+
+template <typename T>
+struct Grid2 {
+  GridFrame frame;
+  std::vector<T> data;
+
+  Grid2() = default;
+  Grid2(const GridFrame& f, T fill) : frame(f), data(f.cellCount(), fill) {}
+  T& at(int cx, int cy) { return data[frame.index(cx, cy)]; }
+  const T& at(int cx, int cy) const { return data[frame.index(cx, cy)]; }
+  // The value at a cell, or `outside` beyond the grid.
+  T valueOr(int cx, int cy, T outside) const { return frame.contains(cx, cy) ? at(cx, cy) : outside; }
+};
+
+}  // namespace storey::grid

@@ -1,0 +1,114 @@
+#include "storey/grid/likelihood_field.h"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+
+#include "storey/grid/distance_transform.h"
+
+namespace storey::grid {
+
+LikelihoodFieldOptions readLikelihoodFieldOptions(const common::ConfigNode& node) {
+  LikelihoodFieldOptions o;
+  o.sigma_hit = node.getDouble("sigma_hit", o.sigma_hit, 1e-3, 10.0);
+  o.z_hit = node.getDouble("z_hit", o.z_hit, 0.0, 1.0);
+  o.z_rand = node.getDouble("z_rand", o.z_rand, 0.0, 1.0);
+  o.max_distance = node.getDouble("max_distance", o.max_distance, 0.01, 100.0);
+  o.range_max = node.getDouble("range_max", o.range_max, 0.1, 1000.0);
+  o.occupied_threshold = node.getDouble("occupied_threshold", o.occupied_threshold, 0.5, 1.0);
+  node.finish();
+  if (o.z_hit + o.z_rand <= 0.0) node.fail("z_hit", "z_hit + z_rand must be positive");
+  return o;
+}
+
+std::vector<std::uint8_t> obstacleMask(const OccupancyGrid& grid, double occupied_threshold) {
+  const GridFrame& f = grid.frame();
+  std::vector<std::uint8_t> mask(f.cellCount(), 0);
+  for (int cy = 0; cy < f.height; ++cy)
+    for (int cx = 0; cx < f.width; ++cx)
+      mask[f.index(cx, cy)] = grid.stateAt(cx, cy, occupied_threshold, 0.0) == CellState::kOccupied;
+  return mask;
+}
+
+LikelihoodField::LikelihoodField(const OccupancyGrid& grid, const LikelihoodFieldOptions& options)
+    : options_(options) {
+  distance_.frame = grid.frame();
+  build(obstacleMask(grid, options.occupied_threshold));
+}
+
+LikelihoodField::LikelihoodField(const GridFrame& frame, const std::vector<std::uint8_t>& obstacles,
+                                 const LikelihoodFieldOptions& options)
+    : options_(options) {
+  distance_.frame = frame;
+  build(obstacles);
+}
+
+void LikelihoodField::build(const std::vector<std::uint8_t>& obstacles) {
+  const GridFrame frame = distance_.frame;
+  distance_ = distanceField(frame, obstacles, options_.max_distance);
+  log_likelihood_ = Grid2<float>(frame, 0.0f);
+  score_ = Grid2<float>(frame, 0.0f);
+  const double norm = 1.0 / (std::sqrt(2.0 * M_PI) * options_.sigma_hit);
+  const double inv_two_sigma2 = 1.0 / (2.0 * options_.sigma_hit * options_.sigma_hit);
+  const double uniform = options_.z_rand / options_.range_max;
+  for (std::size_t i = 0; i < distance_.data.size(); ++i) {
+    const double d = distance_.data[i];
+    const double gauss = std::exp(-d * d * inv_two_sigma2);
+    log_likelihood_.data[i] = static_cast<float>(std::log(options_.z_hit * norm * gauss + uniform));
+    score_.data[i] = static_cast<float>(gauss);
+  }
+  const double d = options_.max_distance;
+  outside_log_likelihood_ =
+      static_cast<float>(std::log(options_.z_hit * norm * std::exp(-d * d * inv_two_sigma2) + uniform));
+}
+
+float LikelihoodField::logLikelihoodAt(const Eigen::Vector2d& p) const {
+  const Eigen::Vector2i c = frame().cellOf(p);
+  return log_likelihood_.valueOr(c.x(), c.y(), outside_log_likelihood_);
+}
+
+double LikelihoodField::interpolatedScore(const Eigen::Vector2d& p, Eigen::Vector2d* gradient) const {
+  const GridFrame& f = frame();
+  // Cell centres sit at integer + 0.5 in continuous cell coordinates.
+  const Eigen::Vector2d c = f.continuousCellOf(p) - Eigen::Vector2d(0.5, 0.5);
+  const int x0 = static_cast<int>(std::floor(c.x())), y0 = static_cast<int>(std::floor(c.y()));
+  const double fx = c.x() - x0, fy = c.y() - y0;
+  const double v00 = score_.valueOr(x0, y0, 0.0f), v10 = score_.valueOr(x0 + 1, y0, 0.0f);
+  const double v01 = score_.valueOr(x0, y0 + 1, 0.0f), v11 = score_.valueOr(x0 + 1, y0 + 1, 0.0f);
+  if (gradient) {
+    const double inv_res = 1.0 / f.resolution;
+    gradient->x() = ((v10 - v00) * (1 - fy) + (v11 - v01) * fy) * inv_res;
+    gradient->y() = ((v01 - v00) * (1 - fx) + (v11 - v10) * fx) * inv_res;
+  }
+  return (v00 * (1 - fx) + v10 * fx) * (1 - fy) + (v01 * (1 - fx) + v11 * fx) * fy;
+}
+
+namespace {
+// out[i] = max(in[i .. i + window)) along one line (shorter window at the far end).
+void slidingMax(const float* in, float* out, int n, int stride, int window) {
+  std::deque<int> candidates;  // indices with decreasing values
+  for (int i = n - 1; i >= 0; --i) {
+    while (!candidates.empty() && in[candidates.back() * stride] <= in[i * stride]) candidates.pop_back();
+    candidates.push_back(i);
+    while (candidates.front() >= i + window) candidates.pop_front();
+    out[i * stride] = in[candidates.front() * stride];
+  }
+}
+}  // namespace
+
+std::vector<Grid2<float>> maxPyramid(const Grid2<float>& base, int levels) {
+  std::vector<Grid2<float>> pyramid{base};
+  const GridFrame& f = base.frame;
+  for (int level = 1; level < levels; ++level) {
+    const int window = 1 << level;
+    Grid2<float> rows(f, 0.0f), out(f, 0.0f);
+    for (int y = 0; y < f.height; ++y)
+      slidingMax(&base.data[f.index(0, y)], &rows.data[f.index(0, y)], f.width, 1, window);
+    for (int x = 0; x < f.width; ++x)
+      slidingMax(&rows.data[f.index(x, 0)], &out.data[f.index(x, 0)], f.height, f.width, window);
+    pyramid.push_back(std::move(out));
+  }
+  return pyramid;
+}
+
+}  // namespace storey::grid

@@ -1,0 +1,232 @@
+#include "storey/grid/occupancy_grid.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <iterator>
+#include <limits>
+#include <stdexcept>
+
+namespace storey::grid {
+namespace {
+// Extra room added whenever the grid grows, so growth happens rarely.
+constexpr double kGrowMargin = 8.0;
+
+double probabilityFromLogOdds(double l) { return 1.0 - 1.0 / (1.0 + std::exp(l)); }
+}  // namespace
+
+OccupancyGridOptions readOccupancyGridOptions(const common::ConfigNode& node) {
+  OccupancyGridOptions o;
+  o.resolution = node.getDouble("resolution", 0.005, 5.0);
+  o.hit_log_odds = node.getDouble("hit_log_odds", o.hit_log_odds, 0.0, 20.0);
+  o.miss_log_odds = node.getDouble("miss_log_odds", o.miss_log_odds, -20.0, 0.0);
+  o.min_log_odds = node.getDouble("min_log_odds", o.min_log_odds, -100.0, 0.0);
+  o.max_log_odds = node.getDouble("max_log_odds", o.max_log_odds, 0.0, 100.0);
+  o.free_space_for_no_return = node.get<bool>("free_space_for_no_return", o.free_space_for_no_return);
+  o.no_return_free_range = node.getDouble("no_return_free_range", o.no_return_free_range, 0.0, 1000.0);
+  o.max_insert_range = node.getDouble("max_insert_range", o.max_insert_range, 0.0, 1000.0);
+  node.finish();
+  return o;
+}
+
+OccupancyGrid::OccupancyGrid(const OccupancyGridOptions& options) : options_(options) {
+  if (!(options_.resolution > 0.0)) throw std::invalid_argument("occupancy grid resolution must be > 0");
+  log_odds_.frame.resolution = options_.resolution;
+}
+
+double OccupancyGrid::probabilityAt(int cx, int cy) const {
+  return probabilityFromLogOdds(logOddsAt(cx, cy));
+}
+
+CellState OccupancyGrid::stateAt(int cx, int cy, double occupied_threshold,
+                                 double free_threshold) const {
+  const float l = logOddsAt(cx, cy);
+  if (l == 0.0f) return CellState::kUnknown;
+  const double p = probabilityFromLogOdds(l);
+  if (p > occupied_threshold) return CellState::kOccupied;
+  if (p < free_threshold) return CellState::kFree;
+  return CellState::kUnknown;
+}
+
+std::array<std::size_t, 3> OccupancyGrid::countStates() const {
+  std::array<std::size_t, 3> counts{0, 0, 0};
+  const GridFrame& f = frame();
+  for (int cy = 0; cy < f.height; ++cy)
+    for (int cx = 0; cx < f.width; ++cx) ++counts[static_cast<int>(stateAt(cx, cy))];
+  return counts;
+}
+
+void OccupancyGrid::ensureContains(const Eigen::Vector2d& min_corner,
+                                   const Eigen::Vector2d& max_corner) {
+  GridFrame& f = log_odds_.frame;
+  const double res = f.resolution;
+  if (f.width == 0) {
+    GridFrame fresh = f;
+    fresh.origin_x = std::floor((min_corner.x() - kGrowMargin) / res) * res;
+    fresh.origin_y = std::floor((min_corner.y() - kGrowMargin) / res) * res;
+    fresh.width = static_cast<int>(std::ceil((max_corner.x() + kGrowMargin - fresh.origin_x) / res));
+    fresh.height = static_cast<int>(std::ceil((max_corner.y() + kGrowMargin - fresh.origin_y) / res));
+    log_odds_ = Grid2<float>(fresh, 0.0f);
+    return;
+  }
+  if (min_corner.x() >= f.origin_x && min_corner.y() >= f.origin_y && max_corner.x() < f.maxX() &&
+      max_corner.y() < f.maxY())
+    return;
+  // Grow by whole cells so existing cells keep their world position.
+  const int add_left = min_corner.x() < f.origin_x
+                           ? static_cast<int>(std::ceil((f.origin_x - min_corner.x() + kGrowMargin) / res))
+                           : 0;
+  const int add_bottom = min_corner.y() < f.origin_y
+                             ? static_cast<int>(std::ceil((f.origin_y - min_corner.y() + kGrowMargin) / res))
+                             : 0;
+  const int add_right = max_corner.x() >= f.maxX()
+                            ? static_cast<int>(std::ceil((max_corner.x() - f.maxX() + kGrowMargin) / res))
+                            : 0;
+  const int add_top = max_corner.y() >= f.maxY()
+                          ? static_cast<int>(std::ceil((max_corner.y() - f.maxY() + kGrowMargin) / res))
+                          : 0;
+  GridFrame grown = f;
+  grown.origin_x -= add_left * res;
+  grown.origin_y -= add_bottom * res;
+  grown.width += add_left + add_right;
+  grown.height += add_bottom + add_top;
+  Grid2<float> next(grown, 0.0f);
+  for (int cy = 0; cy < f.height; ++cy)
+    std::copy_n(&log_odds_.data[f.index(0, cy)], f.width, &next.data[grown.index(add_left, cy + add_bottom)]);
+  log_odds_ = std::move(next);
+}
+
+void OccupancyGrid::addLogOdds(std::size_t index, double delta) {
+  float& cell = log_odds_.data[index];
+  cell = static_cast<float>(std::clamp(cell + delta, options_.min_log_odds, options_.max_log_odds));
+  // Exactly zero means "never observed"; keep observed cells distinguishable.
+  if (cell == 0.0f) cell = delta > 0 ? 1e-6f : -1e-6f;
+}
+
+void OccupancyGrid::traceRay(const Eigen::Vector2d& from, const Eigen::Vector2d& to,
+                             std::vector<std::size_t>* cells) const {
+  const GridFrame& f = log_odds_.frame;
+  const Eigen::Vector2d a = f.continuousCellOf(from), b = f.continuousCellOf(to);
+  int cx = static_cast<int>(std::floor(a.x())), cy = static_cast<int>(std::floor(a.y()));
+  const int end_x = static_cast<int>(std::floor(b.x())), end_y = static_cast<int>(std::floor(b.y()));
+  const Eigen::Vector2d d = b - a;
+  const int step_x = d.x() > 0 ? 1 : -1, step_y = d.y() > 0 ? 1 : -1;
+  const double inf = std::numeric_limits<double>::infinity();
+  // Parameter t along the ray at which the next vertical / horizontal cell border is crossed.
+  double t_max_x = d.x() != 0 ? ((step_x > 0 ? cx + 1 - a.x() : a.x() - cx) / std::abs(d.x())) : inf;
+  double t_max_y = d.y() != 0 ? ((step_y > 0 ? cy + 1 - a.y() : a.y() - cy) / std::abs(d.y())) : inf;
+  const double t_delta_x = d.x() != 0 ? 1.0 / std::abs(d.x()) : inf;
+  const double t_delta_y = d.y() != 0 ? 1.0 / std::abs(d.y()) : inf;
+  const int max_steps = std::abs(end_x - cx) + std::abs(end_y - cy);
+  for (int i = 0; i < max_steps; ++i) {
+    cells->push_back(f.index(cx, cy));
+    if (t_max_x < t_max_y) {
+      t_max_x += t_delta_x;
+      cx += step_x;
+    } else {
+      t_max_y += t_delta_y;
+      cy += step_y;
+    }
+  }
+}
+
+void OccupancyGrid::insertScan(const sensor::LaserScan& scan, const geometry::Pose2& robot_pose) {
+  if (!scan.validate().empty() || !robot_pose.isFinite()) return;
+  const geometry::Pose2 sensor_pose = robot_pose * scan.sensor_offset;
+  const Eigen::Vector2d origin = sensor_pose.translation();
+  const double insert_max =
+      options_.max_insert_range > 0.0 ? std::min(options_.max_insert_range, scan.range_max) : scan.range_max;
+  struct Beam {
+    Eigen::Vector2d end;
+    bool hit;
+  };
+  std::vector<Beam> beams;
+  beams.reserve(scan.size());
+  Eigen::Vector2d lo = origin, hi = origin;
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    const double angle = sensor_pose.theta() + scan.angle(i);
+    const Eigen::Vector2d dir(std::cos(angle), std::sin(angle));
+    if (scan.isReturn(i) && scan.ranges[i] < insert_max) {
+      beams.push_back({origin + dir * scan.ranges[i], true});
+    } else if (options_.free_space_for_no_return) {
+      const float r = scan.ranges[i];
+      // A beam that ended on something beyond the insert range still proves free space.
+      const bool beyond = scan.isReturn(i) || (std::isfinite(r) && r >= scan.range_max) ||
+                          std::isinf(r);
+      if (!beyond) continue;
+      beams.push_back({origin + dir * std::min(options_.no_return_free_range, insert_max), false});
+    } else {
+      continue;
+    }
+    lo = lo.cwiseMin(beams.back().end);
+    hi = hi.cwiseMax(beams.back().end);
+  }
+  if (beams.empty()) return;
+  ensureContains(lo, hi);
+  // Each cell gets at most one update per scan, and a cell that holds an endpoint in this
+  // scan is never cleared by a neighbouring beam passing through it.
+  const GridFrame& f = log_odds_.frame;
+  std::vector<std::size_t> hits, misses;
+  for (const Beam& beam : beams) {
+    traceRay(origin, beam.end, &misses);
+    const Eigen::Vector2i end = f.cellOf(beam.end);
+    (beam.hit ? hits : misses).push_back(f.index(end.x(), end.y()));
+  }
+  std::sort(hits.begin(), hits.end());
+  hits.erase(std::unique(hits.begin(), hits.end()), hits.end());
+  std::sort(misses.begin(), misses.end());
+  misses.erase(std::unique(misses.begin(), misses.end()), misses.end());
+  for (std::size_t index : hits) addLogOdds(index, options_.hit_log_odds);
+  std::vector<std::size_t> free_only;
+  std::set_difference(misses.begin(), misses.end(), hits.begin(), hits.end(), std::back_inserter(free_only));
+  for (std::size_t index : free_only) addLogOdds(index, options_.miss_log_odds);
+}
+
+Image renderGrey(const OccupancyGrid& grid, double occupied_threshold, double free_threshold) {
+  const GridFrame& f = grid.frame();
+  Image image(f.width, f.height, 1);
+  auto& pixels = image.pixels;
+  for (int cy = 0; cy < f.height; ++cy) {
+    const int row = f.height - 1 - cy;
+    for (int cx = 0; cx < f.width; ++cx) {
+      std::uint8_t value = 205;
+      switch (grid.stateAt(cx, cy, occupied_threshold, free_threshold)) {
+        case CellState::kOccupied: value = 0; break;
+        case CellState::kFree: value = 254; break;
+        case CellState::kUnknown: value = 205; break;
+      }
+      pixels[static_cast<std::size_t>(row) * f.width + cx] = value;
+    }
+  }
+  return image;
+}
+
+void writeMapServerFiles(const OccupancyGrid& grid, const std::string& stem,
+                         double occupied_threshold, double free_threshold) {
+  const GridFrame& f = grid.frame();
+  const std::string pgm_path = stem + ".pgm", yaml_path = stem + ".yaml";
+  {
+    std::ofstream pgm(pgm_path, std::ios::binary);
+    if (!pgm) throw std::runtime_error(pgm_path + ": cannot open for writing");
+    pgm << "P5\n# storey occupancy grid\n" << f.width << " " << f.height << "\n255\n";
+    const auto pixels = renderGrey(grid, occupied_threshold, free_threshold).pixels;
+    pgm.write(reinterpret_cast<const char*>(pixels.data()), static_cast<std::streamsize>(pixels.size()));
+    if (!pgm) throw std::runtime_error(pgm_path + ": write failed");
+  }
+  std::ofstream yaml(yaml_path);
+  if (!yaml) throw std::runtime_error(yaml_path + ": cannot open for writing");
+  const std::size_t slash = pgm_path.find_last_of('/');
+  yaml << std::setprecision(10) << "image: "
+       << (slash == std::string::npos ? pgm_path : pgm_path.substr(slash + 1)) << "\n"
+       << "mode: trinary\n"
+       << "resolution: " << f.resolution << "\n"
+       << "origin: [" << f.origin_x << ", " << f.origin_y << ", 0.0]\n"
+       << "negate: 0\n"
+       << "occupied_thresh: " << occupied_threshold << "\n"
+       << "free_thresh: " << free_threshold << "\n";
+  if (!yaml) throw std::runtime_error(yaml_path + ": write failed");
+}
+
+}  // namespace storey::grid
