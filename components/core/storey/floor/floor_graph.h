@@ -1,0 +1,51 @@
+// A floor graph: one robot's pose graph of one floor (the paper's g_i). Each node keeps
+// its pose and its scan (n_k = <p_k, z_k>) and the odometry pose at that moment, so any
+// floor's scans can later be replayed, with their odometry, in another floor's map.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "storey/geometry/pose2.h"
+#include "storey/grid/occupancy_grid.h"
+#include "storey/sensor/laser_scan.h"
+
+namespace storey::floor {
+
+struct FloorNode {
+  int id = 0;  // unique within its floor graph
+  double stamp = 0.0;
+  geometry::Pose2 pose;      // optimised pose in the floor graph's frame
+  geometry::Pose2 odometry;  // raw odometry pose when the scan was taken
+  sensor::LaserScan scan;
+};
+
+enum class EdgeKind { kOdometry, kScanMatch, kLoopClosure };
+const char* edgeKindName(EdgeKind kind);
+
+struct FloorEdge {
+  int from = 0;
+  int to = 0;
+  geometry::Pose2 measurement;  // pose of `to` in the frame of `from`
+  Eigen::Matrix3d information = Eigen::Matrix3d::Identity();
+  EdgeKind kind = EdgeKind::kOdometry;
+};
+
+struct FloorGraph {
+  std::string robot;
+  int graph_id = 0;  // unique per (robot, floor visit series); a floor visited twice is one graph
+  int floor_id = 0;
+  double floor_height = 0.0;
+  std::vector<FloorNode> nodes;  // in creation (time) order
+  std::vector<FloorEdge> edges;
+
+  const FloorNode* findNode(int id) const;
+  // Index of the node nearest to a point (in this graph's frame); -1 when empty.
+  int nearestNodeIndex(const Eigen::Vector2d& point) const;
+};
+
+// The occupancy map of a floor graph: every node's scan inserted at its pose.
+grid::OccupancyGrid renderFloorMap(const FloorGraph& graph, const grid::OccupancyGridOptions& options);
+
+}  // namespace storey::floor
