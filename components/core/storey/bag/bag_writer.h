@@ -1,0 +1,81 @@
+// Writes a rosbag2 bag (ROS 2 Humble layout, sqlite3 storage, schema 3): a folder holding
+// <name>_0.db3 and metadata.yaml. Messages are opaque serialized bytes (CDR with its
+// 4-byte encapsulation header for ROS 2 types). Inserts are batched in transactions.
+// Thread-safe: record callbacks may write from several threads.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "storey/bag/metadata.h"
+
+namespace storey::bag {
+
+namespace detail {
+class Database;
+class Statement;
+}  // namespace detail
+
+struct BagWriterOptions {
+  std::size_t batch_size = 2000;      // messages per transaction
+  std::string ros_distro = "humble";  // stored in the schema table
+};
+
+class BagWriter {
+ public:
+  BagWriter();
+  // Opens at once (see open()).
+  explicit BagWriter(const std::string& folder, BagWriterOptions options = {});
+  ~BagWriter();  // closes; errors are logged, never thrown from here
+  BagWriter(const BagWriter&) = delete;
+  BagWriter& operator=(const BagWriter&) = delete;
+
+  // Creates `folder` (which must not exist, or be an empty folder) and its database.
+  void open(const std::string& folder, BagWriterOptions options = {});
+  // Declares a topic. Declaring the same name again with the same type is a no-op; with a
+  // different type it is an error.
+  void createTopic(const TopicInfo& topic);
+  bool hasTopic(const std::string& name) const;
+  // Appends one message on a declared topic; stamps need not be ordered.
+  void write(const std::string& topic, std::int64_t stamp_ns, const std::uint8_t* data,
+             std::size_t size);
+  void write(const std::string& topic, std::int64_t stamp_ns,
+             const std::vector<std::uint8_t>& data) {
+    write(topic, stamp_ns, data.data(), data.size());
+  }
+  // Commits, closes the database and writes metadata.yaml. Idempotent.
+  void close();
+
+  bool isOpen() const { return db_ != nullptr; }
+  const std::string& folder() const { return folder_; }
+  std::string databasePath() const;
+  std::uint64_t messageCount() const;
+
+ private:
+  struct Topic {
+    std::int64_t id = 0;
+    TopicInfo info;
+    std::uint64_t count = 0;
+  };
+  void commitLocked();
+  void closeLocked();
+
+  mutable std::mutex mutex_;
+  BagWriterOptions options_;
+  std::string folder_;
+  std::string db_name_;
+  std::unique_ptr<detail::Database> db_;
+  std::unique_ptr<detail::Statement> insert_;
+  std::map<std::string, Topic> topics_;
+  std::vector<std::string> topic_order_;
+  std::size_t pending_ = 0;
+  std::uint64_t count_ = 0;
+  std::int64_t min_stamp_ = 0;
+  std::int64_t max_stamp_ = 0;
+};
+
+}  // namespace storey::bag
