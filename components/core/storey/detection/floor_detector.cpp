@@ -1,0 +1,624 @@
+#include "storey/detection/floor_detector.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "storey/common/log.h"
+
+namespace storey::detection {
+
+using common::str;
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr std::size_t kMaxScansKept = 200;
+constexpr std::size_t kMaxSamplesKept = 2000000;
+
+double sign(double v) { return v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0); }
+
+double sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
+
+// Pearson correlation of paired values; NaN when either side has no variance.
+double correlation(const std::vector<double>& a, const std::vector<double>& b) {
+  const double n = static_cast<double>(a.size());
+  double ma = 0.0, mb = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    ma += a[i];
+    mb += b[i];
+  }
+  ma /= n;
+  mb /= n;
+  double sab = 0.0, saa = 0.0, sbb = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    sab += (a[i] - ma) * (b[i] - mb);
+    saa += (a[i] - ma) * (a[i] - ma);
+    sbb += (b[i] - mb) * (b[i] - mb);
+  }
+  if (saa <= 1e-12 || sbb <= 1e-12) return std::numeric_limits<double>::quiet_NaN();
+  return sab / std::sqrt(saa * sbb);
+}
+
+}  // namespace
+
+const char* transitModeName(TransitMode mode) {
+  switch (mode) {
+    case TransitMode::kElevator:
+      return "elevator";
+    case TransitMode::kStairs:
+      return "stairs";
+    default:
+      return "unknown";
+  }
+}
+
+FloorDetector::FloorDetector(const FloorDetectorOptions& options) : options_(options) {
+  if (options_.floors.heights.empty()) {
+    floors_.push_back(Floor{0, 0.0, 1, true});
+    current_floor_ = 0;
+  } else {
+    for (std::size_t i = 0; i < options_.floors.heights.size(); ++i) {
+      floors_.push_back(Floor{static_cast<int>(i), options_.floors.heights[i], 0, true});
+    }
+    current_floor_ = options_.floors.initial_floor;
+    floors_[current_floor_].arrivals = 1;
+  }
+}
+
+double FloorDetector::historySeconds() const {
+  const auto& b = options_.barometer;
+  const auto& t = options_.transit;
+  return b.median_window + b.velocity_window + t.reference_window +
+         std::max(t.min_duration, t.new_floor_settle_time) + 5.0;
+}
+
+std::vector<FloorEvent> FloorDetector::takeEvents() {
+  std::vector<FloorEvent> out;
+  out.swap(events_);
+  return out;
+}
+
+double FloorDetector::currentHeight() const {
+  const double floor_height = floors_[current_floor_].height;
+  if (state_ == State::kOnFloor || !velocity_valid_) return floor_height;
+  return floor_height + window_height_ - start_height_;
+}
+
+void FloorDetector::rejectLog(const std::string& what, std::size_t& counter) {
+  ++counter;
+  // The first few and then every thousandth: a broken sensor must not flood the log.
+  if (counter <= 10 || counter % 1000 == 0) {
+    common::logWarn(str("floor_detector: rejected ", what, " (", counter, " so far)"));
+  }
+}
+
+bool FloorDetector::addPressure(const sensor::PressureSample& sample) {
+  const auto& b = options_.barometer;
+  if (!std::isfinite(sample.stamp)) {
+    rejectLog("pressure sample with a non-finite stamp", stats_.rejected_pressure);
+    return false;
+  }
+  if (!std::isfinite(sample.pascal) || sample.pascal < b.min_pressure ||
+      sample.pascal > b.max_pressure) {
+    rejectLog(str("pressure ", sample.pascal, " Pa at t=", sample.stamp, " (valid range ",
+                  b.min_pressure, "..", b.max_pressure, ")"),
+              stats_.rejected_pressure);
+    return false;
+  }
+  if (sample.stamp <= last_pressure_stamp_) {
+    rejectLog(str("pressure sample at t=", sample.stamp, " not after t=", last_pressure_stamp_),
+              stats_.rejected_pressure);
+    return false;
+  }
+  ++stats_.pressure_samples;
+  if (stats_.pressure_samples > 1 && sample.stamp - last_pressure_stamp_ > b.max_gap) {
+    handleGap(last_pressure_stamp_, sample.stamp);
+  }
+  last_pressure_stamp_ = sample.stamp;
+  last_pressure_ = sample.pascal;
+
+  const double h = pressureHeight(sample.pascal, b.temperature_kelvin);
+  raw_.push_back({sample.stamp, h});
+  while (raw_.size() > 1 && raw_.front().t < sample.stamp - b.median_window) raw_.pop_front();
+
+  std::vector<double> values;
+  values.reserve(raw_.size());
+  for (const auto& r : raw_) values.push_back(r.value);
+  const std::size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + mid, values.end());
+  double median = values[mid];
+  if (values.size() % 2 == 0) {
+    const double lower = *std::max_element(values.begin(), values.begin() + mid);
+    median = 0.5 * (median + lower);
+  }
+  // Stamped at the centre of the window it summarises, so the series is not delayed.
+  filtered_.push_back({0.5 * (raw_.front().t + sample.stamp), median});
+  processFiltered(sample.stamp);
+  return true;
+}
+
+void FloorDetector::processFiltered(double now) {
+  const double vw = options_.barometer.velocity_window;
+  const double newest = filtered_.back().t;
+  double st = 0.0, sh = 0.0;
+  std::size_t n = 0;
+  double first = kInf;
+  for (auto it = filtered_.rbegin(); it != filtered_.rend() && it->t >= newest - vw; ++it) {
+    st += it->t;
+    sh += it->value;
+    first = it->t;
+    ++n;
+  }
+  if (n >= 3 && newest - first >= 0.5 * vw) {
+    const double mt = st / static_cast<double>(n);
+    const double mh = sh / static_cast<double>(n);
+    double stt = 0.0, sth = 0.0;
+    for (auto it = filtered_.rbegin(); it != filtered_.rend() && it->t >= newest - vw; ++it) {
+      stt += (it->t - mt) * (it->t - mt);
+      sth += (it->t - mt) * (it->value - mh);
+    }
+    if (stt > 0.0) {
+      velocity_valid_ = true;
+      last_velocity_ = sth / stt;
+      window_height_ = mh;
+      onVelocity(mt, last_velocity_, now);
+    }
+  } else {
+    velocity_valid_ = false;
+  }
+  trimHistories(now);
+}
+
+void FloorDetector::trimHistories(double now) {
+  double keep_from = now - historySeconds();
+  if (state_ != State::kOnFloor) keep_from = std::min(keep_from, onset_ - historySeconds());
+  // The filtered series is needed only for the reference before a ride and the quiet
+  // window after it, both within historySeconds() of now or of the onset.
+  const double filtered_from = now - historySeconds();
+  while (filtered_.size() > 1 && filtered_.front().t < filtered_from) filtered_.pop_front();
+  while (!imu_.empty() && (imu_.front().t < keep_from || imu_.size() > kMaxSamplesKept)) {
+    imu_.pop_front();
+  }
+  while (!odom_.empty() && (odom_.front().t < keep_from || odom_.size() > kMaxSamplesKept)) {
+    odom_.pop_front();
+  }
+  while (!scans_.empty() && (scans_.front().stamp < now - historySeconds() ||
+                             scans_.size() > kMaxScansKept)) {
+    scans_.pop_front();
+  }
+}
+
+FloorDetector::Window FloorDetector::filteredWindow(double from, double to) const {
+  Window w;
+  double s = 0.0, ss = 0.0, t0 = kInf, t1 = -kInf;
+  for (const auto& f : filtered_) {
+    if (f.t < from || f.t > to) continue;
+    s += f.value;
+    ss += f.value * f.value;
+    t0 = std::min(t0, f.t);
+    t1 = std::max(t1, f.t);
+    ++w.count;
+  }
+  if (w.count == 0) return w;
+  const double n = static_cast<double>(w.count);
+  w.mean = s / n;
+  w.stddev = std::sqrt(std::max(0.0, ss / n - w.mean * w.mean));
+  w.span = t1 - t0;
+  // Median-filtered values are correlated over the median window: count independent ones.
+  const double independent =
+      std::max(1.0, w.span / std::max(options_.barometer.median_window, 1e-3));
+  w.stddev /= std::sqrt(std::min(independent, n));
+  return w;
+}
+
+void FloorDetector::onVelocity(double t_v, double v, double /*now*/) {
+  const auto& t = options_.transit;
+  switch (state_) {
+    case State::kOnFloor:
+      if (std::abs(v) >= t.start_velocity) beginCandidate(t_v, v);
+      break;
+    case State::kCandidate:
+      if (std::abs(v) >= t.end_velocity && sign(v) == candidate_sign_) {
+        transit_velocity_.push_back({t_v, v});
+        peak_speed_ = std::max(peak_speed_, std::abs(v));
+        if (t_v - candidate_since_ >= t.min_duration &&
+            std::abs(window_height_ - start_height_) >= t.min_start_change) {
+          confirmTransit();
+        }
+      } else {
+        // Too short to be a ride: a door slam that outlived the median, a bump.
+        ++stats_.cancelled_candidates;
+        common::logDebug(str("floor_detector: vertical motion at t=", candidate_since_,
+                             " too short, ignored"));
+        state_ = State::kOnFloor;
+        transit_velocity_.clear();
+      }
+      break;
+    case State::kTransit:
+      transit_velocity_.push_back({t_v, v});
+      peak_speed_ = std::max(peak_speed_, std::abs(v));
+      if (std::abs(v) < t.end_velocity) {
+        if (quiet_since_ < 0.0) quiet_since_ = t_v;
+        loud_since_ = -1.0;
+        maybeEndTransit(t_v);
+      } else if (quiet_since_ >= 0.0) {
+        // Noise pokes above end_velocity now and then; only clear or lasting motion
+        // ends the quiet period.
+        if (loud_since_ < 0.0) loud_since_ = t_v;
+        if (std::abs(v) >= t.start_velocity || t_v - loud_since_ >= t.min_duration) {
+          quiet_since_ = -1.0;
+          loud_since_ = -1.0;
+        } else {
+          maybeEndTransit(t_v);
+        }
+      }
+      break;
+  }
+}
+
+void FloorDetector::beginCandidate(double t_v, double v) {
+  const double vw = options_.barometer.velocity_window;
+  const double mw = options_.barometer.median_window;
+  // The slope window that crossed the threshold holds the start of the motion.
+  onset_ = t_v - 0.5 * vw;
+  const double ref_end = onset_ - 0.5 * mw;
+  Window w = filteredWindow(ref_end - options_.transit.reference_window, ref_end);
+  if (w.count == 0) w = filteredWindow(-kInf, ref_end);
+  if (w.count == 0) {
+    w.mean = filtered_.front().value;
+    w.stddev = 0.0;
+  }
+  start_height_ = w.mean;
+  start_height_stddev_ = w.stddev;
+  state_ = State::kCandidate;
+  silent_transit_ = false;
+  candidate_since_ = t_v;
+  candidate_sign_ = sign(v);
+  quiet_since_ = -1.0;
+  loud_since_ = -1.0;
+  peak_speed_ = std::abs(v);
+  transit_velocity_.assign(1, {t_v, v});
+  scan_similarity_.clear();
+  has_reference_scan_ = false;
+}
+
+void FloorDetector::confirmTransit() {
+  state_ = State::kTransit;
+  quiet_since_ = -1.0;
+  loud_since_ = -1.0;
+  if (!silent_transit_) {
+    FloorEvent e;
+    e.type = FloorEventType::kTransitStarted;
+    e.stamp = onset_;
+    e.start_stamp = onset_;
+    e.from_floor = floors_[current_floor_].id;
+    e.from_height = floors_[current_floor_].height;
+    e.floor_id = e.from_floor;
+    e.floor_height = e.from_height;
+    events_.push_back(e);
+    common::logInfo(str("floor_detector: transit started at t=", onset_, " from floor ",
+                        e.from_floor));
+  }
+  // The last scan before the motion is the cabin (or stairwell) as the ride began.
+  has_reference_scan_ = false;
+  scan_similarity_.clear();
+  for (const auto& s : scans_) {
+    if (s.stamp <= onset_) {
+      reference_scan_ = s;
+      has_reference_scan_ = true;
+    } else if (has_reference_scan_) {
+      const double sim = scanSimilarity(reference_scan_, s, options_.corroboration.scan);
+      if (sim >= 0.0) scan_similarity_.push_back({s.stamp, sim});
+    }
+  }
+}
+
+void FloorDetector::maybeEndTransit(double t_v) {
+  const auto& t = options_.transit;
+  const auto& f = options_.floors;
+  const double quiet = t_v - quiet_since_;
+  if (quiet < t.settle_time) return;
+  const double mw = options_.barometer.median_window;
+  const Window end = filteredWindow(quiet_since_ + 0.5 * mw, kInf);
+  if (end.count < 3) return;
+  const double dh = end.mean - start_height_;
+  const double arrival = floors_[current_floor_].height + dh;
+  std::size_t nearest = 0;
+  for (std::size_t i = 1; i < floors_.size(); ++i) {
+    if (std::abs(floors_[i].height - arrival) < std::abs(floors_[nearest].height - arrival)) {
+      nearest = i;
+    }
+  }
+  const bool matched = std::abs(floors_[nearest].height - arrival) <= f.match_tolerance;
+  const int current = current_floor_;
+  if (matched && static_cast<int>(nearest) != current) {
+    endTransit(static_cast<int>(nearest), true, false, arrival);
+    return;
+  }
+  // A new floor, or no change (a ramp, a landing): wait longer, the robot may go on.
+  if (quiet < t.new_floor_settle_time) return;
+  if (!matched && std::abs(dh) >= f.min_change_fraction * f.storey_height) {
+    floors_.push_back(Floor{static_cast<int>(floors_.size()), arrival, 0, false});
+    endTransit(static_cast<int>(floors_.size()) - 1, true, true, arrival);
+  } else {
+    endTransit(current, false, false, arrival);
+  }
+}
+
+void FloorDetector::endTransit(int floor_index, bool changed, bool created, double arrival) {
+  const auto& b = options_.barometer;
+  const auto& c = options_.corroboration;
+  const double mw = b.median_window;
+  const Window end = filteredWindow(quiet_since_ + 0.5 * mw, kInf);
+  const double dh = end.mean - start_height_;
+  const double motion_end = quiet_since_;
+  const double duration = std::max(motion_end - onset_, 1e-3);
+
+  // Uncertainty: both plateaus, weather drift over the ride, the temperature's scale.
+  const double height_per_pascal = scaleHeight(b.temperature_kelvin) / last_pressure_;
+  const double drift = b.max_drift_rate / 3600.0 * height_per_pascal * duration;
+  const double scale = std::abs(dh) * b.temperature_uncertainty_kelvin / b.temperature_kelvin;
+  const double stddev = std::sqrt(start_height_stddev_ * start_height_stddev_ +
+                                  end.stddev * end.stddev + drift * drift + scale * scale);
+
+  Evidence e;
+  // Barometer: sustained vertical motion was seen; a known floor's height adds to it.
+  e.log_odds = 1.0;
+  if (changed && !created) {
+    const double residual = std::abs(floors_[floor_index].height - arrival);
+    e.log_odds += 1.0 * (1.0 - residual / options_.floors.match_tolerance);
+  }
+  if (silent_transit_) e.log_odds -= 1.5;  // the ride fell in a gap of the barometer
+  if (peak_speed_ >= c.elevator_min_speed) e.elevator_votes += 1.0;
+  if (peak_speed_ <= c.stairs_max_speed) e.stairs_votes += 1.0;
+  if (c.use_imu) imuEvidence(onset_, motion_end, e);
+  if (c.use_odometry) odometryEvidence(onset_, motion_end, e);
+  if (c.use_scan) scanEvidence(onset_, motion_end, e);
+
+  Floor& reached = floors_[floor_index];
+  if (changed && !created && !reached.configured) {
+    // Running mean of the arrivals at a floor observed (not configured) so far.
+    reached.height += (arrival - reached.height) / static_cast<double>(reached.arrivals + 1);
+  }
+  if (changed) ++reached.arrivals;
+
+  if (changed || !silent_transit_) {
+    if (silent_transit_) {
+      FloorEvent s;
+      s.type = FloorEventType::kTransitStarted;
+      s.stamp = s.start_stamp = onset_;
+      s.from_floor = floors_[current_floor_].id;
+      s.from_height = floors_[current_floor_].height;
+      s.floor_id = s.from_floor;
+      s.floor_height = s.from_height;
+      events_.push_back(s);
+    }
+    FloorEvent ev;
+    ev.type = FloorEventType::kTransitEnded;
+    ev.stamp = motion_end;
+    ev.start_stamp = onset_;
+    ev.from_floor = floors_[current_floor_].id;
+    ev.from_height = floors_[current_floor_].height;
+    ev.height_change = dh;
+    ev.height_change_stddev = stddev;
+    ev.floor_id = reached.id;
+    ev.floor_height = reached.height;
+    ev.floor_changed = changed;
+    ev.new_floor = created;
+    ev.confidence = sigmoid(e.log_odds);
+    ev.mode = e.elevator_votes > e.stairs_votes
+                  ? TransitMode::kElevator
+                  : (e.stairs_votes > e.elevator_votes ? TransitMode::kStairs
+                                                       : TransitMode::kUnknown);
+    events_.push_back(ev);
+    common::logInfo(str("floor_detector: transit ended at t=", motion_end, ": floor ",
+                        ev.from_floor, " -> ", ev.floor_id, created ? " (new)" : "",
+                        ", dz=", dh, " +- ", stddev, ", ", transitModeName(ev.mode),
+                        ", confidence ", ev.confidence));
+  }
+  current_floor_ = floor_index;
+  state_ = State::kOnFloor;
+  silent_transit_ = false;
+  quiet_since_ = -1.0;
+  loud_since_ = -1.0;
+  transit_velocity_.clear();
+  scan_similarity_.clear();
+  has_reference_scan_ = false;
+}
+
+void FloorDetector::handleGap(double gap_start, double gap_end) {
+  ++stats_.gaps;
+  common::logWarn(str("floor_detector: no pressure between t=", gap_start, " and t=", gap_end,
+                      " (", gap_end - gap_start, " s); filter restarted"));
+  raw_.clear();
+  velocity_valid_ = false;
+  if (state_ == State::kOnFloor) {
+    // Compare what comes after the gap with the floor's height before it; report only if
+    // the floor changed.
+    const double ref_end = filtered_.empty() ? gap_start : filtered_.back().t;
+    Window w = filteredWindow(ref_end - options_.transit.reference_window, ref_end);
+    if (w.count == 0) return;  // nothing before the gap to compare with
+    start_height_ = w.mean;
+    start_height_stddev_ = w.stddev;
+    onset_ = gap_start;
+    silent_transit_ = true;
+    peak_speed_ = 0.0;
+    transit_velocity_.clear();
+    scan_similarity_.clear();
+    has_reference_scan_ = false;
+  } else if (state_ == State::kCandidate) {
+    silent_transit_ = true;
+  }
+  state_ = State::kTransit;
+  quiet_since_ = -1.0;
+  loud_since_ = -1.0;
+  filtered_.clear();
+}
+
+void FloorDetector::imuEvidence(double start, double end, Evidence& e) const {
+  if (imu_.size() < 10) return;
+  const double ref = options_.transit.reference_window;
+  double bias = 0.0;
+  std::size_t nb = 0;
+  for (const auto& s : imu_) {
+    if (s.t >= start - ref && s.t <= start) {
+      bias += s.value;
+      ++nb;
+    }
+  }
+  if (nb < 5) return;
+  bias /= static_cast<double>(nb);
+  // Vertical velocity from the accelerometer over the ride, detrended so it ends at rest.
+  std::vector<TimedValue> vel;
+  double v = 0.0, sa = 0.0, saa = 0.0;
+  const TimedValue* prev = nullptr;
+  for (const auto& s : imu_) {
+    if (s.t < start || s.t > end) continue;
+    if (prev) v += 0.5 * ((prev->value - bias) + (s.value - bias)) * (s.t - prev->t);
+    vel.push_back({s.t, v});
+    sa += s.value - bias;
+    saa += (s.value - bias) * (s.value - bias);
+    prev = &s;
+  }
+  if (vel.size() < 10 || vel.front().t > start + 1.0 || vel.back().t < end - 1.0) return;
+  const double t0 = vel.front().t, t1 = vel.back().t;
+  const double v1 = vel.back().value;
+  double peak = 0.0;
+  for (auto& p : vel) {
+    p.value -= v1 * (p.t - t0) / std::max(t1 - t0, 1e-6);
+    peak = std::max(peak, std::abs(p.value));
+  }
+  std::vector<double> baro, inertial;
+  std::size_t j = 0;
+  for (const auto& p : transit_velocity_) {
+    if (p.t < t0 || p.t > t1) continue;
+    while (j + 1 < vel.size() && vel[j + 1].t < p.t) ++j;
+    baro.push_back(p.value);
+    inertial.push_back(vel[j].value);
+  }
+  if (baro.size() < 5) return;
+  const double rho = correlation(baro, inertial);
+  const double n = static_cast<double>(vel.size());
+  const double accel_std = std::sqrt(std::max(0.0, saa / n - (sa / n) * (sa / n)));
+  if (std::isfinite(rho)) {
+    if (rho > 0.5) e.log_odds += 1.0;
+    if (rho < 0.0) e.log_odds -= 1.0;
+    // A smooth accelerate-cruise-brake profile is a cabin; footfalls shake the robot.
+    if (rho > 0.7 && peak >= 0.3 && accel_std < 0.7) e.elevator_votes += 1.0;
+  }
+  if (accel_std > 1.0) e.stairs_votes += 1.0;
+}
+
+void FloorDetector::odometryEvidence(double start, double end, Evidence& e) const {
+  double path = 0.0;
+  const OdomPoint* prev = nullptr;
+  double first = kInf, last = -kInf;
+  for (const auto& p : odom_) {
+    if (p.t < start || p.t > end) continue;
+    if (prev) path += std::hypot(p.x - prev->x, p.y - prev->y);
+    first = std::min(first, p.t);
+    last = std::max(last, p.t);
+    prev = &p;
+  }
+  if (!prev || first > start + 1.0 || last < end - 1.0 || last <= first) return;
+  const double speed = path / (last - first);
+  const auto& c = options_.corroboration;
+  if (speed <= c.stationary_speed) {
+    e.elevator_votes += 2.0;
+    e.log_odds += 0.5;
+  } else if (speed <= c.max_planar_speed) {
+    e.stairs_votes += 2.0;
+    e.log_odds += 0.5;
+  } else {
+    e.log_odds -= 1.0;  // driving fast on a level floor does not take it up a storey
+  }
+}
+
+void FloorDetector::scanEvidence(double start, double end, Evidence& e) const {
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (const auto& s : scan_similarity_) {
+    if (s.t < start || s.t > end) continue;
+    sum += s.value;
+    ++n;
+  }
+  if (n < 3) return;
+  const double mean = sum / static_cast<double>(n);
+  const auto& c = options_.corroboration;
+  if (mean >= c.static_scan_similarity) {
+    e.elevator_votes += 2.0;
+    e.log_odds += 1.0;
+  } else if (mean <= c.moving_scan_similarity) {
+    e.stairs_votes += 1.0;
+  }
+}
+
+bool FloorDetector::addImu(const sensor::ImuSample& sample) {
+  if (!options_.corroboration.use_imu) return true;
+  if (!std::isfinite(sample.stamp) || !sample.linear_acceleration.allFinite()) {
+    rejectLog("IMU sample with non-finite values", stats_.rejected_other);
+    return false;
+  }
+  if (sample.stamp <= last_imu_stamp_) {
+    rejectLog(str("IMU sample at t=", sample.stamp, " out of order"), stats_.rejected_other);
+    return false;
+  }
+  last_imu_stamp_ = sample.stamp;
+  imu_.push_back({sample.stamp, sample.linear_acceleration.z()});
+  if (state_ == State::kOnFloor) {
+    while (imu_.front().t < sample.stamp - historySeconds()) imu_.pop_front();
+  } else if (imu_.size() > kMaxSamplesKept) {
+    imu_.pop_front();
+  }
+  return true;
+}
+
+bool FloorDetector::addOdometry(const sensor::OdometrySample& sample) {
+  if (!options_.corroboration.use_odometry) return true;
+  const auto& t = sample.pose.translation();
+  if (!std::isfinite(sample.stamp) || !std::isfinite(t.x()) || !std::isfinite(t.y())) {
+    rejectLog("odometry sample with non-finite values", stats_.rejected_other);
+    return false;
+  }
+  if (sample.stamp <= last_odom_stamp_) {
+    rejectLog(str("odometry sample at t=", sample.stamp, " out of order"),
+              stats_.rejected_other);
+    return false;
+  }
+  last_odom_stamp_ = sample.stamp;
+  odom_.push_back({sample.stamp, t.x(), t.y()});
+  if (state_ == State::kOnFloor) {
+    while (odom_.front().t < sample.stamp - historySeconds()) odom_.pop_front();
+  } else if (odom_.size() > kMaxSamplesKept) {
+    odom_.pop_front();
+  }
+  return true;
+}
+
+bool FloorDetector::addScan(const sensor::LaserScan& scan) {
+  if (!options_.corroboration.use_scan) return true;
+  const std::string problem = scan.validate();
+  if (!std::isfinite(scan.stamp) || !problem.empty()) {
+    rejectLog(str("scan at t=", scan.stamp, ": ", problem.empty() ? "bad stamp" : problem),
+              stats_.rejected_other);
+    return false;
+  }
+  if (scan.stamp <= last_scan_stamp_) {
+    rejectLog(str("scan at t=", scan.stamp, " out of order"), stats_.rejected_other);
+    return false;
+  }
+  last_scan_stamp_ = scan.stamp;
+  scans_.push_back(scan);
+  while (scans_.size() > 1 && (scans_.front().stamp < scan.stamp - historySeconds() ||
+                               scans_.size() > kMaxScansKept)) {
+    scans_.pop_front();
+  }
+  if (state_ == State::kTransit && has_reference_scan_) {
+    const double sim = scanSimilarity(reference_scan_, scan, options_.corroboration.scan);
+    if (sim >= 0.0) scan_similarity_.push_back({scan.stamp, sim});
+  }
+  return true;
+}
+
+}  // namespace storey::detection

@@ -1,0 +1,161 @@
+// Floor-change detection for one robot: barometric height (hypsometric equation) with a
+// spike-rejecting median filter and a least-squares vertical velocity; a ride or stair
+// climb is sustained vertical motion, weather drift is not. IMU, odometry and scans, each
+// optional, corroborate a ride and tell an elevator from stairs. Arrival heights are
+// matched to known floors (seen before, or from the building's configuration).
+//
+// Pressure samples drive the clock; feed every stream in time order per stream (streams
+// may interleave with a lag of a few seconds). No DDS here: see components/floor_detector.
+#pragma once
+
+#include <deque>
+#include <string>
+#include <vector>
+
+#include "storey/detection/barometer.h"
+#include "storey/detection/floor_detector_options.h"
+#include "storey/sensor/laser_scan.h"
+
+namespace storey::detection {
+
+enum class TransitMode { kUnknown = 0, kElevator = 1, kStairs = 2 };
+const char* transitModeName(TransitMode mode);
+
+enum class FloorEventType { kTransitStarted = 0, kTransitEnded = 1 };
+
+// One event. TransitStarted fills stamp, from_floor and from_height; TransitEnded fills
+// everything.
+struct FloorEvent {
+  FloorEventType type = FloorEventType::kTransitStarted;
+  double stamp = 0.0;          // s: start of the vertical motion, or its end
+  double start_stamp = 0.0;    // s: start of the ride (TransitEnded)
+  int from_floor = 0;
+  double from_height = 0.0;    // m, building frame
+  double height_change = 0.0;  // m, measured by the barometer (up is positive)
+  double height_change_stddev = 0.0;
+  int floor_id = 0;            // floor reached (== from_floor when the floor did not change)
+  double floor_height = 0.0;   // m, that floor's height estimate
+  bool floor_changed = false;
+  bool new_floor = false;      // the floor was created by this ride
+  double confidence = 0.0;     // in (0, 1), see docs/floor_detector.md
+  TransitMode mode = TransitMode::kUnknown;
+};
+
+struct Floor {
+  int id = 0;
+  double height = 0.0;    // m, building frame
+  int arrivals = 0;       // rides that ended here
+  // Height kept fixed: from the building's configuration, or the starting floor (datum).
+  bool configured = false;
+};
+
+struct FloorDetectorStats {
+  std::size_t pressure_samples = 0;
+  std::size_t rejected_pressure = 0;  // NaN, out of range, out of order
+  std::size_t rejected_other = 0;     // bad IMU / odometry / scan samples
+  std::size_t gaps = 0;
+  std::size_t cancelled_candidates = 0;  // vertical motion too short to be a ride
+};
+
+class FloorDetector {
+ public:
+  explicit FloorDetector(const FloorDetectorOptions& options);
+
+  // Each returns false (and logs, rate-limited) when the sample was rejected.
+  bool addPressure(const sensor::PressureSample& sample);
+  bool addImu(const sensor::ImuSample& sample);
+  bool addOdometry(const sensor::OdometrySample& sample);
+  bool addScan(const sensor::LaserScan& scan);
+
+  // Events produced since the last call, oldest first.
+  std::vector<FloorEvent> takeEvents();
+
+  int currentFloor() const { return current_floor_; }
+  bool inTransit() const { return state_ == State::kTransit && !silent_transit_; }
+  // Height estimate of the robot in the building frame (m); the current floor's height
+  // plus the filtered barometric change since the floor's reference.
+  double currentHeight() const;
+  const std::vector<Floor>& floors() const { return floors_; }
+  const FloorDetectorStats& stats() const { return stats_; }
+  const FloorDetectorOptions& options() const { return options_; }
+
+ private:
+  enum class State { kOnFloor, kCandidate, kTransit };
+  struct TimedValue {
+    double t;
+    double value;
+  };
+  struct OdomPoint {
+    double t;
+    double x, y;
+  };
+  struct Window {
+    double mean = 0.0;
+    double stddev = 0.0;
+    std::size_t count = 0;
+    double span = 0.0;
+  };
+
+  void processFiltered(double now);
+  void onVelocity(double t_v, double v, double now);
+  void beginCandidate(double t_v, double v);
+  void confirmTransit();
+  void maybeEndTransit(double t_v);
+  void endTransit(int floor_index, bool changed, bool created, double end_height);
+  void handleGap(double gap_start, double gap_end);
+  Window filteredWindow(double from, double to) const;
+  void trimHistories(double now);
+  void rejectLog(const std::string& what, std::size_t& counter);
+
+  // Corroboration evaluated over [start, end] at the end of a ride.
+  struct Evidence {
+    double log_odds = 0.0;
+    double elevator_votes = 0.0;
+    double stairs_votes = 0.0;
+  };
+  void imuEvidence(double start, double end, Evidence& e) const;
+  void odometryEvidence(double start, double end, Evidence& e) const;
+  void scanEvidence(double start, double end, Evidence& e) const;
+  double historySeconds() const;
+
+  FloorDetectorOptions options_;
+  std::vector<Floor> floors_;
+  int current_floor_ = 0;  // index into floors_ (== id)
+  std::vector<FloorEvent> events_;
+  FloorDetectorStats stats_;
+
+  // Barometer filter.
+  double last_pressure_stamp_ = -1e300;
+  std::deque<TimedValue> raw_;       // raw heights within the median window
+  std::deque<TimedValue> filtered_;  // median-filtered heights (stamped at window centre)
+  double last_velocity_ = 0.0;
+  double window_height_ = 0.0;  // mean filtered height over the velocity window
+  bool velocity_valid_ = false;
+
+  // State machine.
+  State state_ = State::kOnFloor;
+  bool silent_transit_ = false;  // entered through a pressure gap: no TransitStarted yet
+  double onset_ = 0.0;           // start of vertical motion (s)
+  double start_height_ = 0.0;    // filtered barometric height before the motion
+  double start_height_stddev_ = 0.0;
+  double quiet_since_ = -1.0;    // velocity time at which the robot became quiet, or < 0
+  double loud_since_ = -1.0;     // while quiet: velocity time it last rose above end_velocity
+  double candidate_since_ = 0.0;  // velocity time at which the candidate began
+  double candidate_sign_ = 0.0;
+  double last_pressure_ = kReferencePressure;
+  double peak_speed_ = 0.0;
+  std::vector<TimedValue> transit_velocity_;  // baro vertical velocity during the ride
+
+  // Corroborating streams (trimmed to a few seconds while on a floor).
+  std::deque<TimedValue> imu_;  // vertical acceleration including gravity
+  std::deque<OdomPoint> odom_;
+  std::deque<sensor::LaserScan> scans_;
+  std::vector<TimedValue> scan_similarity_;  // during a ride, vs the last scan before it
+  sensor::LaserScan reference_scan_;
+  bool has_reference_scan_ = false;
+  double last_imu_stamp_ = -1e300;
+  double last_odom_stamp_ = -1e300;
+  double last_scan_stamp_ = -1e300;
+};
+
+}  // namespace storey::detection
