@@ -4,6 +4,11 @@
 #include <sstream>
 #include <string>
 
+// Fast DDS headers (including the generated message headers) define function-like macros
+// logInfo/logError that would rewrite the functions below: include this header after them.
+#undef logInfo
+#undef logError
+
 namespace storey::common {
 
 enum class LogLevel { kDebug = 0, kInfo = 1, kWarn = 2, kError = 3, kSilent = 4 };

@@ -1,0 +1,171 @@
+#include "storey/runtime/context.h"
+
+#include <cstdlib>
+#include <fstream>
+#include <set>
+
+#include "storey/common/log.h"
+
+namespace fdds = eprosima::fastdds::dds;
+
+namespace storey::runtime {
+namespace {
+
+bool fileExists(const std::string& path) { return std::ifstream(path).good(); }
+
+std::string resolveQosFile(const std::string& requested) {
+  if (!requested.empty()) return requested;
+  if (const char* env = std::getenv("STOREY_QOS_PROFILES"); env && *env) return env;
+  if (fileExists(STOREY_SOURCE_QOS_FILE)) return STOREY_SOURCE_QOS_FILE;
+  return STOREY_INSTALLED_QOS_FILE;
+}
+
+// The factory is process-wide: load each profile file once.
+void loadQosProfiles(const std::string& path) {
+  static std::mutex mutex;
+  static std::set<std::string> loaded;
+  std::lock_guard<std::mutex> lock(mutex);
+  if (loaded.count(path)) return;
+  if (!fileExists(path)) throw DdsError("QoS profile file " + path + " does not exist");
+  if (fdds::DomainParticipantFactory::get_instance()->load_XML_profiles_file(path) !=
+      ReturnCode_t::RETCODE_OK) {
+    throw DdsError("cannot load the QoS profiles in " + path);
+  }
+  loaded.insert(path);
+}
+
+}  // namespace
+
+int resolveDomainId(int requested) {
+  if (requested >= 0) return requested;
+  const char* env = std::getenv("ROS_DOMAIN_ID");
+  if (!env || !*env) return 0;
+  char* end = nullptr;
+  const long value = std::strtol(env, &end, 10);
+  if (*end != '\0' || value < 0 || value > 232) {
+    throw DdsError(std::string("ROS_DOMAIN_ID='") + env + "' is not a domain id in [0, 232]");
+  }
+  return static_cast<int>(value);
+}
+
+std::string Context::profileName(TopicKind kind, bool writer) {
+  const std::string base = kind == TopicKind::kSensor ? "storey_sensor_" : "storey_graph_";
+  return base + (writer ? "writer" : "reader");
+}
+
+std::string Context::ddsTopicName(const std::string& name) {
+  if (name.empty()) throw DdsError("empty topic name");
+  return "rt/" + (name.front() == '/' ? name.substr(1) : name);
+}
+
+Context::Context(const ContextOptions& options) {
+  domain_id_ = resolveDomainId(options.domain_id);
+  const std::string qos_file = resolveQosFile(options.qos_profiles_file);
+  loadQosProfiles(qos_file);
+  auto* factory = fdds::DomainParticipantFactory::get_instance();
+  // The default QoS, not PARTICIPANT_QOS_DEFAULT, so XML defaults apply.
+  fdds::DomainParticipantQos qos = factory->get_default_participant_qos();
+  qos.name(options.participant_name);
+  participant_ = factory->create_participant(domain_id_, qos);
+  if (!participant_) {
+    throw DdsError("cannot create a DomainParticipant on domain " + std::to_string(domain_id_));
+  }
+  publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
+  subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
+  if (!publisher_ || !subscriber_) {
+    participant_->delete_contained_entities();
+    factory->delete_participant(participant_);
+    throw DdsError("cannot create the DDS publisher/subscriber");
+  }
+  executor_ = std::make_unique<Executor>(options.executor_threads);
+}
+
+Context::~Context() {
+  // Callbacks first: no task may touch a reader while it is being deleted.
+  executor_->shutdown();
+  if (participant_) {
+    participant_->delete_contained_entities();
+    fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+  }
+}
+
+fdds::Topic* Context::topicFor(const std::string& name, const TypeFactory& factory) {
+  const std::string dds_name = ddsTopicName(name);
+  fdds::TypeSupport type(factory());
+  const std::string type_name = type.get_type_name();
+  auto it = topics_.find(dds_name);
+  if (it != topics_.end()) {
+    if (it->second->get_type_name() != type_name) {
+      throw DdsError("topic " + name + " already has type " + it->second->get_type_name() +
+                     ", not " + type_name);
+    }
+    return it->second;
+  }
+  if (participant_->find_type(type_name).empty() &&
+      type.register_type(participant_) != ReturnCode_t::RETCODE_OK) {
+    throw DdsError("cannot register type " + type_name);
+  }
+  fdds::Topic* topic = participant_->create_topic(dds_name, type_name, fdds::TOPIC_QOS_DEFAULT);
+  if (!topic) throw DdsError("cannot create topic " + dds_name + " of type " + type_name);
+  topics_[dds_name] = topic;
+  return topic;
+}
+
+fdds::DataWriter* Context::createWriter(const std::string& name, TopicKind kind,
+                                       const TypeFactory& factory) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  fdds::Topic* topic = topicFor(name, factory);
+  const std::string profile = profileName(kind, true);
+  fdds::DataWriter* writer = publisher_->create_datawriter_with_profile(topic, profile);
+  if (!writer) throw DdsError("cannot create a writer on " + name + " with profile " + profile);
+  return writer;
+}
+
+fdds::DataReader* Context::createReader(const std::string& name, TopicKind kind,
+                                       const TypeFactory& factory,
+                                       fdds::DataReaderListener* listener) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  fdds::Topic* topic = topicFor(name, factory);
+  const std::string profile = profileName(kind, false);
+  fdds::DataReader* reader = subscriber_->create_datareader_with_profile(
+      topic, profile, listener, fdds::StatusMask::data_available());
+  if (!reader) throw DdsError("cannot create a reader on " + name + " with profile " + profile);
+  return reader;
+}
+
+void Context::deleteWriter(fdds::DataWriter* writer) {
+  if (!writer) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (publisher_->delete_datawriter(writer) != ReturnCode_t::RETCODE_OK) {
+    common::logWarn("cannot delete a DDS writer");
+  }
+}
+
+void Context::deleteReader(fdds::DataReader* reader) {
+  if (!reader) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (subscriber_->delete_datareader(reader) != ReturnCode_t::RETCODE_OK) {
+    common::logWarn("cannot delete a DDS reader");
+  }
+}
+
+void Context::requestShutdown() {
+  {
+    std::lock_guard<std::mutex> lock(shutdown_mutex_);
+    shutdown_requested_ = true;
+  }
+  shutdown_cv_.notify_all();
+}
+
+bool Context::shutdownRequested() const {
+  std::lock_guard<std::mutex> lock(shutdown_mutex_);
+  return shutdown_requested_;
+}
+
+bool Context::waitForShutdownRequest(double timeout_s) {
+  std::unique_lock<std::mutex> lock(shutdown_mutex_);
+  return shutdown_cv_.wait_for(lock, std::chrono::duration<double>(timeout_s),
+                               [&] { return shutdown_requested_; });
+}
+
+}  // namespace storey::runtime

@@ -1,0 +1,151 @@
+#include "storey/runtime/executor.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "storey/common/log.h"
+
+namespace storey::runtime {
+
+Executor::Executor(int threads) {
+  if (threads < 1) throw std::invalid_argument("Executor needs at least one worker thread");
+  for (int i = 0; i < threads; ++i) workers_.emplace_back([this] { workerLoop(); });
+  timer_thread_ = std::thread([this] { timerLoop(); });
+}
+
+Executor::~Executor() { shutdown(); }
+
+void Executor::post(Task task) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_) return;
+    queue_.push_back(std::move(task));
+  }
+  work_cv_.notify_one();
+}
+
+Executor::TimerId Executor::addTimer(double period_s, Task callback) {
+  if (!(period_s > 0.0)) throw std::invalid_argument("timer period must be positive");
+  const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(period_s));
+  TimerId id;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    id = next_timer_id_++;
+    timers_[id] = Timer{period, std::chrono::steady_clock::now() + period,
+                        std::make_shared<Task>(std::move(callback)), std::make_shared<bool>(false)};
+  }
+  timer_cv_.notify_all();
+  return id;
+}
+
+void Executor::cancelTimer(TimerId id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  timers_.erase(id);
+}
+
+void Executor::shutdown() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_ && workers_.empty() && !timer_thread_.joinable()) return;
+    stopping_ = true;
+    queue_.clear();
+    timers_.clear();
+  }
+  work_cv_.notify_all();
+  timer_cv_.notify_all();
+  if (timer_thread_.joinable()) timer_thread_.join();
+  for (auto& worker : workers_) {
+    if (worker.joinable()) worker.join();
+  }
+  workers_.clear();
+}
+
+bool Executor::isShutDown() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stopping_;
+}
+
+bool Executor::onWorkerThread() const {
+  const auto self = std::this_thread::get_id();
+  return std::any_of(workers_.begin(), workers_.end(),
+                     [&](const std::thread& t) { return t.get_id() == self; });
+}
+
+void Executor::drain() {
+  std::mutex done_mutex;
+  std::condition_variable done_cv;
+  bool done = false;
+  // With several workers, one marker per worker guarantees all earlier tasks started;
+  // one worker (the usual case) gives the stronger "all finished".
+  post([&] {
+    std::lock_guard<std::mutex> lock(done_mutex);
+    done = true;
+    done_cv.notify_all();
+  });
+  std::unique_lock<std::mutex> lock(done_mutex);
+  done_cv.wait_for(lock, std::chrono::seconds(30), [&] { return done || isShutDown(); });
+}
+
+void Executor::runTask(const Task& task) {
+  try {
+    task();
+  } catch (const std::exception& e) {
+    common::logError(common::str("executor: callback failed: ", e.what()));
+  } catch (...) {
+    common::logError("executor: callback failed with an unknown exception");
+  }
+}
+
+void Executor::workerLoop() {
+  for (;;) {
+    Task task;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      work_cv_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+      if (stopping_) return;
+      task = std::move(queue_.front());
+      queue_.pop_front();
+    }
+    runTask(task);
+  }
+}
+
+void Executor::timerLoop() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (!stopping_) {
+    if (timers_.empty()) {
+      timer_cv_.wait(lock);
+      continue;
+    }
+    auto next = std::min_element(timers_.begin(), timers_.end(), [](const auto& a, const auto& b) {
+      return a.second.next < b.second.next;
+    });
+    const auto deadline = next->second.next;
+    if (std::chrono::steady_clock::now() < deadline) {
+      timer_cv_.wait_until(lock, deadline);
+      continue;  // timers may have changed while waiting
+    }
+    Timer& timer = next->second;
+    // Keep the schedule on the original grid; after a long stall, jump ahead.
+    timer.next += timer.period;
+    const auto now = std::chrono::steady_clock::now();
+    if (timer.next < now) timer.next = now + timer.period;
+    if (*timer.queued) continue;
+    *timer.queued = true;
+    const TimerId id = next->first;
+    std::shared_ptr<Task> callback = timer.callback;
+    std::shared_ptr<bool> queued = timer.queued;
+    queue_.push_back([this, id, callback, queued] {
+      {
+        std::lock_guard<std::mutex> guard(mutex_);
+        *queued = false;
+        if (timers_.find(id) == timers_.end()) return;  // cancelled while queued
+      }
+      (*callback)();
+    });
+    work_cv_.notify_one();
+  }
+}
+
+}  // namespace storey::runtime

@@ -1,0 +1,178 @@
+// Typed publishers and subscriptions through one Context: delivery, QoS by topic kind,
+// callbacks on the executor, and transient-local history for late subscribers.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "sensor_msgs/msg/LaserScan.h"
+#include "sensor_msgs/msg/LaserScanPubSubTypes.h"
+#include "storey/runtime/context.h"
+#include "storey/runtime/publisher.h"
+#include "storey/runtime/subscription.h"
+#include "storey_msgs/msg/FloorEvent.h"
+#include "storey_msgs/msg/FloorEventPubSubTypes.h"
+
+namespace storey::runtime {
+namespace {
+
+using FloorEventPub = Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>;
+using FloorEventSub =
+    Subscription<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>;
+using ScanPub = Publisher<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType>;
+using ScanSub = Subscription<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType>;
+
+template <typename Pred>
+bool waitFor(Pred pred, double timeout_s = 5.0) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!pred()) {
+    if (std::chrono::steady_clock::now() > end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return true;
+}
+
+ContextOptions optionsForDomain(int domain) {
+  ContextOptions options;
+  options.domain_id = domain;
+  return options;
+}
+
+TEST(RuntimePubSub, TopicNamesFollowRos2) {
+  EXPECT_EQ(Context::ddsTopicName("scan"), "rt/scan");
+  EXPECT_EQ(Context::ddsTopicName("/robot1/scan"), "rt/robot1/scan");
+  EXPECT_THROW(Context::ddsTopicName(""), DdsError);
+}
+
+TEST(RuntimePubSub, TypeNamesFollowRos2) {
+  sensor_msgs::msg::LaserScanPubSubType scan_type;
+  EXPECT_STREQ(scan_type.getName(), "sensor_msgs::msg::dds_::LaserScan_");
+  storey_msgs::msg::FloorEventPubSubType event_type;
+  EXPECT_STREQ(event_type.getName(), "storey_msgs::msg::dds_::FloorEvent_");
+}
+
+TEST(RuntimePubSub, ScanArrivesIntactOnTheExecutorThread) {
+  Context context(optionsForDomain(101));
+  std::mutex mutex;
+  std::vector<sensor_msgs::msg::LaserScan> received;
+  std::atomic<bool> on_executor{true};
+  ScanSub sub(context, "robot1/scan", TopicKind::kSensor, [&](const auto& scan) {
+    if (!context.executor().onWorkerThread()) on_executor = false;
+    std::lock_guard<std::mutex> lock(mutex);
+    received.push_back(scan);
+  });
+  ScanPub pub(context, "robot1/scan", TopicKind::kSensor);
+  ASSERT_TRUE(pub.waitForSubscribers(1, 5.0));
+  sensor_msgs::msg::LaserScan scan;
+  scan.header().frame_id("laser");
+  scan.header().stamp().sec(12);
+  scan.angle_min(-1.5f);
+  scan.angle_increment(0.01f);
+  for (int i = 0; i < 1080; ++i) scan.ranges().push_back(0.5f + 0.001f * i);
+  ASSERT_TRUE(pub.publish(scan));
+  ASSERT_TRUE(waitFor([&] {
+    std::lock_guard<std::mutex> lock(mutex);
+    return !received.empty();
+  }));
+  std::lock_guard<std::mutex> lock(mutex);
+  EXPECT_EQ(received[0].header().frame_id(), "laser");
+  EXPECT_EQ(received[0].header().stamp().sec(), 12);
+  EXPECT_FLOAT_EQ(received[0].angle_min(), -1.5f);
+  ASSERT_EQ(received[0].ranges().size(), 1080u);
+  EXPECT_FLOAT_EQ(received[0].ranges()[1079], 0.5f + 0.001f * 1079);
+  EXPECT_TRUE(on_executor);
+}
+
+TEST(RuntimePubSub, InactivePublisherSendsNothing) {
+  Context context(optionsForDomain(102));
+  std::atomic<int> count{0};
+  FloorEventSub sub(context, "floor_events", TopicKind::kGraph, [&](const auto&) { ++count; });
+  FloorEventPub pub(context, "floor_events", TopicKind::kGraph, /*active=*/false);
+  ASSERT_TRUE(pub.waitForSubscribers(1, 5.0));
+  storey_msgs::msg::FloorEvent event;
+  EXPECT_FALSE(pub.publish(event));
+  EXPECT_EQ(pub.droppedInactiveCount(), 1u);
+  pub.setActive(true);
+  EXPECT_TRUE(pub.publish(event));
+  ASSERT_TRUE(waitFor([&] { return count == 1; }));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ(count, 1);
+}
+
+TEST(RuntimePubSub, LateGraphSubscriberGetsHistoryInOrder) {
+  Context context(optionsForDomain(103));
+  FloorEventPub pub(context, "robot1/floor_events", TopicKind::kGraph);
+  for (int i = 0; i < 50; ++i) {
+    storey_msgs::msg::FloorEvent event;
+    event.robot("robot1");
+    event.floor_id(i);
+    ASSERT_TRUE(pub.publish(event));
+  }
+  std::mutex mutex;
+  std::vector<int> floors;
+  FloorEventSub sub(context, "robot1/floor_events", TopicKind::kGraph, [&](const auto& e) {
+    std::lock_guard<std::mutex> lock(mutex);
+    floors.push_back(e.floor_id());
+  });
+  ASSERT_TRUE(waitFor([&] {
+    std::lock_guard<std::mutex> lock(mutex);
+    return floors.size() >= 50;
+  }));
+  std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_EQ(floors.size(), 50u);
+  for (int i = 0; i < 50; ++i) EXPECT_EQ(floors[i], i);
+}
+
+TEST(RuntimePubSub, LateSensorSubscriberGetsNoHistory) {
+  Context context(optionsForDomain(104));
+  ScanPub pub(context, "robot1/scan", TopicKind::kSensor);
+  ASSERT_TRUE(pub.publish(sensor_msgs::msg::LaserScan()));
+  std::atomic<int> count{0};
+  ScanSub sub(context, "robot1/scan", TopicKind::kSensor, [&](const auto&) { ++count; });
+  ASSERT_TRUE(pub.waitForSubscribers(1, 5.0));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_EQ(count, 0);
+}
+
+TEST(RuntimePubSub, OneTopicNameHasOneType) {
+  Context context(optionsForDomain(105));
+  ScanPub pub(context, "things", TopicKind::kSensor);
+  EXPECT_THROW(FloorEventPub(context, "things", TopicKind::kGraph), DdsError);
+}
+
+TEST(RuntimeExecutor, TimersTickAndStopOnCancel) {
+  Executor executor;
+  std::atomic<int> ticks{0};
+  const auto id = executor.addTimer(0.01, [&] { ++ticks; });
+  ASSERT_TRUE(waitFor([&] { return ticks >= 5; }));
+  executor.cancelTimer(id);
+  executor.drain();
+  const int after_cancel = ticks;
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_EQ(ticks, after_cancel);
+  EXPECT_THROW(executor.addTimer(0.0, [] {}), std::invalid_argument);
+}
+
+TEST(RuntimeExecutor, RunsTasksInOrderAndSurvivesExceptions) {
+  Executor executor;
+  std::vector<int> order;
+  for (int i = 0; i < 100; ++i) {
+    executor.post([&order, i] {
+      if (i == 50) throw std::runtime_error("task 50 fails on purpose");
+      order.push_back(i);
+    });
+  }
+  executor.drain();
+  ASSERT_EQ(order.size(), 99u);
+  EXPECT_EQ(order.front(), 0);
+  EXPECT_EQ(order.back(), 99);
+  executor.shutdown();
+  executor.post([&order] { order.push_back(-1); });  // ignored after shutdown
+  EXPECT_EQ(order.size(), 99u);
+}
+
+}  // namespace
+}  // namespace storey::runtime
