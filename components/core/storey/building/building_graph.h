@@ -1,0 +1,95 @@
+// The building graph: every floor graph (one per robot and floor) and the inter-floor
+// constraints between them, optimised as one pose graph. Its result places each floor
+// graph in the building frame (a planar transform plus the floor's height).
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "storey/common/config.h"
+#include "storey/floor/floor_graph.h"
+#include "storey/graph/optimizer.h"
+#include "storey/graph/pose_graph.h"
+
+namespace storey::building {
+
+// A constraint between a node of one floor graph and a node of another:
+// `relative` is the pose of (graph_to, node_to) in the frame of (graph_from, node_from),
+// once both floors are stacked in the building frame; dz is the height difference.
+struct InterGraphConstraint {
+  int id = 0;
+  int graph_from = 0;
+  int node_from = 0;
+  int graph_to = 0;
+  int node_to = 0;
+  geometry::Pose2 relative;
+  double dz = 0.0;
+  Eigen::Matrix3d information = Eigen::Matrix3d::Identity();
+};
+
+struct BuildingGraphOptions {
+  graph::OptimizerOptions optimizer;
+};
+BuildingGraphOptions readBuildingGraphOptions(const common::ConfigNode& node);
+
+struct FloorPlacement {
+  int graph_id = 0;
+  int floor_id = 0;
+  std::string robot;
+  geometry::Pose2 transform;  // floor graph frame -> building frame
+  double height = 0.0;
+  bool aligned = false;  // connected to the reference floor graph by constraints
+};
+
+struct BuildingSolution {
+  std::vector<FloorPlacement> placements;  // by graph id order
+  // Optimised pose of every node in the building frame, keyed by (graph, node).
+  std::map<std::pair<int, int>, geometry::Pose2> poses;
+  double initial_chi2 = 0.0;
+  double final_chi2 = 0.0;
+  int iterations = 0;
+  int reference_graph = -1;
+  const FloorPlacement* placement(int graph_id) const;
+};
+
+class BuildingGraph {
+ public:
+  explicit BuildingGraph(const BuildingGraphOptions& options = {});
+
+  // Adds or replaces a floor graph (all its nodes, edges and local poses).
+  void upsertFloorGraph(const floor::FloorGraph& graph);
+  // Throws std::invalid_argument naming the constraint when it refers to an unknown
+  // graph or node, or its values are not finite.
+  void addConstraint(const InterGraphConstraint& constraint);
+
+  const std::map<int, floor::FloorGraph>& floorGraphs() const { return graphs_; }
+  const std::vector<InterGraphConstraint>& constraints() const { return constraints_; }
+  bool empty() const { return graphs_.empty(); }
+
+  // Optimises all floor graphs and constraints together. The reference (gauge) is the
+  // lowest graph id with constraints (or the lowest id); graphs that no constraint joins
+  // to the reference keep their own frame and are reported as not aligned.
+  BuildingSolution optimize();
+  const BuildingSolution& lastSolution() const { return solution_; }
+  // The pose graph of the last optimize() (e.g. for g2o export).
+  const graph::PoseGraph& poseGraph() const { return pose_graph_; }
+
+  static graph::NodeId globalId(int graph_id, int node_id) {
+    return static_cast<graph::NodeId>(graph_id) * 1000000 + node_id;
+  }
+
+ private:
+  BuildingGraphOptions options_;
+  std::map<int, floor::FloorGraph> graphs_;
+  std::vector<InterGraphConstraint> constraints_;
+  graph::PoseGraph pose_graph_;
+  BuildingSolution solution_;
+};
+
+// Least-squares rigid transform T with T * local[i] ≈ global[i] (positions and headings).
+geometry::Pose2 fitRigidTransform(const std::vector<geometry::Pose2>& local,
+                                  const std::vector<geometry::Pose2>& global);
+
+}  // namespace storey::building

@@ -1,0 +1,171 @@
+#include "storey/building/building_graph.h"
+
+#include <gtest/gtest.h>
+#include <octomap/OcTree.h>
+
+#include <random>
+
+#include "storey/building/building_outputs.h"
+#include "test_support.h"
+
+namespace storey::building {
+namespace {
+
+using geometry::Pose2;
+
+// A square loop of nodes in a floor graph's own frame, with exact odometry edges and a
+// ring scan at every node.
+floor::FloorGraph makeLoop(int graph_id, int floor_id, double height, const Pose2& frame_in_building,
+                           std::vector<Pose2>* truth) {
+  floor::FloorGraph g;
+  g.graph_id = graph_id;
+  g.floor_id = floor_id;
+  g.floor_height = height;
+  g.robot = "r" + std::to_string(graph_id);
+  sensor::LaserScan scan;
+  scan.angle_min = -M_PI;
+  scan.angle_increment = 2 * M_PI / 90;
+  scan.range_min = 0.1;
+  scan.range_max = 10;
+  scan.ranges.assign(90, 2.0f);
+  for (int i = 0; i < 12; ++i) {
+    floor::FloorNode n;
+    n.id = i;
+    n.stamp = i;
+    n.pose = Pose2(i % 4, (i / 4) * 1.0, 0.1 * i);
+    n.scan = scan;
+    g.nodes.push_back(n);
+    if (truth) truth->push_back(frame_in_building * n.pose);
+    if (i > 0) {
+      floor::FloorEdge e;
+      e.from = i - 1;
+      e.to = i;
+      e.measurement = g.nodes[i - 1].pose.between(n.pose);
+      e.information = Eigen::Vector3d(100, 100, 400).asDiagonal();
+      g.edges.push_back(e);
+    }
+  }
+  return g;
+}
+
+TEST(BuildingGraph, ConstraintsPlaceTheSecondFloor) {
+  const Pose2 frame0(0, 0, 0), frame1(3.0, -2.0, 0.4);
+  std::vector<Pose2> truth0, truth1;
+  BuildingGraph building;
+  building.upsertFloorGraph(makeLoop(0, 0, 0.0, frame0, &truth0));
+  building.upsertFloorGraph(makeLoop(1, 1, 3.0, frame1, &truth1));
+  // Three exact constraints (as the matcher would find them).
+  int id = 0;
+  for (int k : {1, 5, 9}) {
+    InterGraphConstraint c;
+    c.id = id++;
+    c.graph_from = 0;
+    c.node_from = k;
+    c.graph_to = 1;
+    c.node_to = k + 1;
+    c.relative = truth0[k].between(truth1[k + 1]);
+    c.dz = 3.0;
+    c.information = Eigen::Vector3d(50, 50, 200).asDiagonal();
+    building.addConstraint(c);
+  }
+  const BuildingSolution s = building.optimize();
+  ASSERT_EQ(s.placements.size(), 2u);
+  EXPECT_EQ(s.reference_graph, 0);
+  const FloorPlacement* p1 = s.placement(1);
+  ASSERT_NE(p1, nullptr);
+  EXPECT_TRUE(p1->aligned);
+  EXPECT_NEAR(p1->transform.x(), 3.0, 1e-6);
+  EXPECT_NEAR(p1->transform.y(), -2.0, 1e-6);
+  EXPECT_NEAR(p1->transform.theta(), 0.4, 1e-6);
+  EXPECT_DOUBLE_EQ(p1->height, 3.0);
+  EXPECT_LT(s.final_chi2, 1e-8);
+}
+
+TEST(BuildingGraph, UnconstrainedFloorIsNotAligned) {
+  BuildingGraph building;
+  building.upsertFloorGraph(makeLoop(0, 0, 0.0, Pose2(), nullptr));
+  building.upsertFloorGraph(makeLoop(4, 1, 3.0, Pose2(), nullptr));
+  const BuildingSolution s = building.optimize();
+  EXPECT_TRUE(s.placement(0)->aligned);
+  EXPECT_FALSE(s.placement(4)->aligned);
+}
+
+TEST(BuildingGraph, BadConstraintsAreRejectedWithTheirId) {
+  BuildingGraph building;
+  building.upsertFloorGraph(makeLoop(0, 0, 0.0, Pose2(), nullptr));
+  building.upsertFloorGraph(makeLoop(1, 1, 3.0, Pose2(), nullptr));
+  InterGraphConstraint c;
+  c.id = 17;
+  c.graph_from = 0;
+  c.graph_to = 9;
+  try {
+    building.addConstraint(c);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("constraint 17"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("unknown floor graph 9"), std::string::npos);
+  }
+  c.graph_to = 1;
+  c.node_to = 99;
+  EXPECT_THROW(building.addConstraint(c), std::invalid_argument);
+  c.node_to = 1;
+  c.information(0, 0) = -1;
+  EXPECT_THROW(building.addConstraint(c), std::invalid_argument);
+  c.information = Eigen::Matrix3d::Identity();
+  c.dz = std::nan("");
+  EXPECT_THROW(building.addConstraint(c), std::invalid_argument);
+  EXPECT_TRUE(building.constraints().empty());
+}
+
+TEST(FitRigidTransform, RecoversKnownTransform) {
+  std::mt19937_64 rng(1);
+  std::uniform_real_distribution<double> u(-5, 5);
+  const Pose2 t(1.5, -0.5, 2.5);
+  std::vector<Pose2> local, global;
+  for (int i = 0; i < 10; ++i) {
+    local.emplace_back(u(rng), u(rng), u(rng));
+    global.push_back(t * local.back());
+  }
+  const Pose2 fit = fitRigidTransform(local, global);
+  EXPECT_NEAR(fit.x(), t.x(), 1e-9);
+  EXPECT_NEAR(fit.y(), t.y(), 1e-9);
+  EXPECT_NEAR(geometry::angleDiff(fit.theta(), t.theta()), 0.0, 1e-9);
+  // One node: defined by its heading.
+  const Pose2 single = fitRigidTransform({local[0]}, {global[0]});
+  EXPECT_NEAR(single.x(), t.x(), 1e-9);
+}
+
+TEST(BuildingOutputs, OctomapHasOccupiedVoxelsOnEveryFloorAtTheRightHeight) {
+  BuildingGraph building;
+  building.upsertFloorGraph(makeLoop(0, 0, 0.0, Pose2(), nullptr));
+  building.upsertFloorGraph(makeLoop(1, 1, 3.0, Pose2(), nullptr));
+  const BuildingSolution s = building.optimize();
+  grid::OccupancyGridOptions grid_options;
+  grid_options.resolution = 0.05;
+  const auto floors = renderBuildingFloors(building, s, grid_options);
+  ASSERT_EQ(floors.size(), 2u);
+  OctomapOptions options;
+  options.resolution = 0.1;
+  options.wall_height = 2.0;
+  const std::string path = test::makeTempDir() + "/building.bt";
+  const std::size_t occupied = writeBuildingOctomap(path, floors, options);
+  EXPECT_GT(occupied, 100u);
+  octomap::OcTree tree(path);
+  ASSERT_GT(tree.size(), 0u);
+  int low = 0, high = 0, between = 0;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
+    const double z = it.getZ();
+    if (z > 0.0 && z < 2.0) ++low;
+    else if (z > 3.0 && z < 5.0) ++high;
+    else ++between;
+  }
+  EXPECT_GT(low, 50);
+  EXPECT_GT(high, 50);
+  EXPECT_EQ(between, 0);
+  const grid::Image overlay = renderFloorOverlay(floors);
+  EXPECT_GT(overlay.width, 10);
+}
+
+}  // namespace
+}  // namespace storey::building
