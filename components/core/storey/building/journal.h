@@ -1,0 +1,77 @@
+// The graph server's journal: every accepted floor-graph change and inter-floor
+// constraint is appended (length-prefixed, CRC-checked) before it is acknowledged, so a
+// restarted server rebuilds exactly what it had. A torn last record (a crash mid-write) is
+// detected, dropped with a warning and cut off; corruption before the end is an error.
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <map>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "storey/building/building_graph.h"
+#include "storey/floor/floor_graph.h"
+
+namespace storey::building {
+
+// What changed in one floor graph: new nodes and edges, and the current local poses of
+// (some or all) of its nodes.
+struct FloorGraphDelta {
+  std::string robot;
+  int graph_id = 0;
+  int floor_id = 0;
+  double floor_height = 0.0;
+  std::uint32_t sequence = 0;
+  std::vector<floor::FloorNode> new_nodes;
+  std::vector<floor::FloorEdge> new_edges;
+  std::map<int, geometry::Pose2> poses;
+};
+
+// Applies a delta to a building graph. Nodes already present are not duplicated (a
+// re-sent update is harmless); edges whose nodes are unknown are rejected with an
+// std::invalid_argument naming the graph and the edge.
+void applyDelta(BuildingGraph& building, const FloorGraphDelta& delta);
+
+using JournalRecord = std::variant<FloorGraphDelta, InterGraphConstraint>;
+
+struct JournalReadResult {
+  std::vector<JournalRecord> records;
+  bool torn_tail = false;        // a partial last record was found (and cut off)
+  std::uint64_t valid_bytes = 0;  // length of the intact prefix
+};
+
+// Reads every record. Throws std::runtime_error naming the file and offset for a corrupt
+// record that is not the last one, or for a file that is not a storey journal.
+JournalReadResult readJournal(const std::string& path);
+
+class JournalWriter {
+ public:
+  // Opens (creating if needed) for appending. An existing file is first read; a torn tail
+  // is truncated away. `sync` makes every append durable (fdatasync) before returning.
+  JournalWriter(const std::string& path, bool sync);
+  ~JournalWriter();
+  JournalWriter(const JournalWriter&) = delete;
+  JournalWriter& operator=(const JournalWriter&) = delete;
+
+  // Records that were already in the file when it was opened.
+  const std::vector<JournalRecord>& existing() const { return existing_; }
+  bool hadTornTail() const { return had_torn_tail_; }
+  void append(const JournalRecord& record);
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  bool sync_;
+  std::FILE* file_ = nullptr;
+  std::vector<JournalRecord> existing_;
+  bool had_torn_tail_ = false;
+};
+
+// Encoding, exposed for tests and fuzzing.
+std::vector<std::uint8_t> encodeRecord(const JournalRecord& record);
+// Decodes one record payload (without framing); throws std::runtime_error on bad bytes.
+JournalRecord decodeRecord(const std::uint8_t* data, std::size_t size);
+
+}  // namespace storey::building
