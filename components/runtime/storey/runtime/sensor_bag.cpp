@@ -1,0 +1,223 @@
+#include "storey/runtime/sensor_bag.h"
+
+#include <algorithm>
+#include <cctype>
+#include <set>
+#include <stdexcept>
+
+#include "storey/common/log.h"
+#include "tf2_msgs/msg/TFMessage.h"
+
+namespace storey::runtime {
+namespace {
+
+bool validRobotName(const std::string& robot) {
+  if (robot.empty()) return true;
+  std::size_t start = 0;
+  while (start <= robot.size()) {
+    const std::size_t end = std::min(robot.find('/', start), robot.size());
+    if (end == start) return false;  // empty token
+    if (std::isdigit(static_cast<unsigned char>(robot[start]))) return false;
+    for (std::size_t i = start; i < end; ++i) {
+      const char c = robot[i];
+      if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_')) return false;
+    }
+    start = end + 1;
+  }
+  return true;
+}
+
+void checkRobot(const std::string& robot) {
+  if (!validRobotName(robot)) {
+    throw std::invalid_argument("robot name '" + robot +
+                                "' is not a ROS 2 namespace (letters, digits, '_', '/')");
+  }
+}
+
+constexpr int kMaxWarnings = 5;
+
+}  // namespace
+
+std::string robotTopic(const std::string& robot, const std::string& leaf) {
+  checkRobot(robot);
+  return robot.empty() ? "/" + leaf : "/" + robot + "/" + leaf;
+}
+
+std::string robotFrame(const std::string& robot, const std::string& frame) {
+  checkRobot(robot);
+  return robot.empty() ? frame : robot + "/" + frame;
+}
+
+SensorBagWriter::SensorBagWriter(const std::string& folder, const bag::BagWriterOptions& options)
+    : bag_(folder, options) {}
+
+SensorBagWriter::~SensorBagWriter() {
+  try {
+    close();
+  } catch (const std::exception& e) {
+    common::logError(common::str("closing sensor bag: ", e.what()));
+  }
+}
+
+void SensorBagWriter::close() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  bag_.close();
+}
+
+void SensorBagWriter::declare(const std::string& topic, const std::string& type, bool reliable) {
+  if (!bag_.hasTopic(topic)) {
+    bag_.createTopic({topic, type, bag::kSerializationCdr, bag::qosProfileYaml(reliable, false)});
+  }
+}
+
+template <typename Msg>
+void SensorBagWriter::writeSensor(const std::string& topic, const char* type, double stamp,
+                                  const Msg& msg) {
+  const std::int64_t ns = stampToNanoseconds(stamp);
+  declare(topic, type, false);
+  serializeCdrInto(msg, buffer_);
+  bag_.write(topic, ns, buffer_);
+}
+
+void SensorBagWriter::write(const std::string& robot, const sensor::LaserScan& scan) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::string topic = robotTopic(robot, "scan");
+  const std::string laser_frame = robotFrame(robot, "laser");
+  // Publish the mounting once, and again whenever it changes (tf_static keeps the latest).
+  const auto known = laser_offsets_.find(robot);
+  const geometry::Pose2& offset = scan.sensor_offset;
+  if (known == laser_offsets_.end() || known->second.x() != offset.x() ||
+      known->second.y() != offset.y() || known->second.theta() != offset.theta()) {
+    tf2_msgs::msg::TFMessage tf;
+    tf.transforms().push_back(
+        toTransform(offset, scan.stamp, robotFrame(robot, "base_link"), laser_frame));
+    declare(kTfStaticTopic, kTfMessageType, true);
+    serializeCdrInto(tf, buffer_);
+    bag_.write(kTfStaticTopic, stampToNanoseconds(scan.stamp), buffer_);
+    laser_offsets_[robot] = offset;
+  }
+  writeSensor(topic, kLaserScanType, scan.stamp, toMessage(scan, laser_frame));
+}
+
+void SensorBagWriter::write(const std::string& robot, const sensor::OdometrySample& odom) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  writeSensor(robotTopic(robot, "odom"), kOdometryType, odom.stamp,
+              toMessage(odom, robotFrame(robot, "odom"), robotFrame(robot, "base_link")));
+}
+
+void SensorBagWriter::write(const std::string& robot, const sensor::PressureSample& pressure) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  writeSensor(robotTopic(robot, "pressure"), kFluidPressureType, pressure.stamp,
+              toMessage(pressure, robotFrame(robot, "base_link")));
+}
+
+void SensorBagWriter::write(const std::string& robot, const sensor::ImuSample& imu) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  writeSensor(robotTopic(robot, "imu"), kImuType, imu.stamp,
+              toMessage(imu, robotFrame(robot, "imu")));
+}
+
+SensorBagReader::SensorBagReader(const std::string& path) : bag_(path) {
+  std::set<std::string> skipped;
+  for (const bag::TopicInfo& info : bag_.topics()) {
+    TopicState state;
+    const std::size_t slash = info.name.rfind('/');
+    state.robot = slash == std::string::npos || slash == 0 ? "" : info.name.substr(1, slash - 1);
+    if (info.serialization_format != bag::kSerializationCdr) {
+      state.kind = Kind::kOther;
+    } else if (info.type == kLaserScanType) {
+      state.kind = Kind::kScan;
+    } else if (info.type == kOdometryType) {
+      state.kind = Kind::kOdometry;
+    } else if (info.type == kFluidPressureType) {
+      state.kind = Kind::kPressure;
+    } else if (info.type == kImuType) {
+      state.kind = Kind::kImu;
+    } else if (info.type == kTfMessageType && info.name == kTfStaticTopic) {
+      state.kind = Kind::kTfStatic;
+    }
+    if (state.kind == Kind::kOther) stats_.skipped_topics.push_back(info.name);
+    topics_.push_back(std::move(state));
+  }
+}
+
+std::vector<std::string> SensorBagReader::robots() const {
+  std::set<std::string> names;
+  for (const TopicState& t : topics_) {
+    if (t.kind != Kind::kOther && t.kind != Kind::kTfStatic) names.insert(t.robot);
+  }
+  return {names.begin(), names.end()};
+}
+
+bool SensorBagReader::next(SensorRecord& record) {
+  bag::BagMessage message;
+  while (bag_.next(message)) {
+    TopicState& topic = topics_[message.topic_index];
+    const std::string& name = bag_.topics()[message.topic_index].name;
+    if (topic.kind == Kind::kOther) {
+      ++stats_.skipped;
+      continue;
+    }
+    try {
+      const std::uint8_t* data = message.data.data();
+      const std::size_t size = message.data.size();
+      switch (topic.kind) {
+        case Kind::kTfStatic: {
+          tf2_msgs::msg::TFMessage tf;
+          deserializeCdr(data, size, tf, kTfMessageType);
+          for (const auto& t : tf.transforms())
+            frame_offsets_[t.child_frame_id()] = fromTransform(t);
+          continue;
+        }
+        case Kind::kScan: {
+          sensor_msgs::msg::LaserScan msg;
+          deserializeCdr(data, size, msg, kLaserScanType);
+          const auto offset = frame_offsets_.find(msg.header().frame_id());
+          record.data =
+              fromMessage(msg, offset == frame_offsets_.end() ? geometry::Pose2() : offset->second);
+          record.stamp = std::get<sensor::LaserScan>(record.data).stamp;
+          break;
+        }
+        case Kind::kOdometry: {
+          nav_msgs::msg::Odometry msg;
+          deserializeCdr(data, size, msg, kOdometryType);
+          record.data = fromMessage(msg);
+          record.stamp = std::get<sensor::OdometrySample>(record.data).stamp;
+          break;
+        }
+        case Kind::kPressure: {
+          sensor_msgs::msg::FluidPressure msg;
+          deserializeCdr(data, size, msg, kFluidPressureType);
+          record.data = fromMessage(msg);
+          record.stamp = std::get<sensor::PressureSample>(record.data).stamp;
+          break;
+        }
+        case Kind::kImu: {
+          sensor_msgs::msg::Imu msg;
+          deserializeCdr(data, size, msg, kImuType);
+          record.data = fromMessage(msg);
+          record.stamp = std::get<sensor::ImuSample>(record.data).stamp;
+          break;
+        }
+        case Kind::kOther:
+          break;
+      }
+    } catch (const CdrError& e) {
+      if (++stats_.malformed <= kMaxWarnings) {
+        common::logWarn(common::str(bag_.path(), ": topic ", name, " at ", message.stamp_ns,
+                                    " ns: skipped: ", e.what()));
+      }
+      continue;
+    }
+    if (topic.last_stamp && record.stamp < *topic.last_stamp) ++stats_.out_of_order;
+    topic.last_stamp = record.stamp;
+    record.robot = topic.robot;
+    record.topic = name;
+    record.bag_stamp_ns = message.stamp_ns;
+    ++stats_.yielded;
+    return true;
+  }
+  return false;
+}
+
+}  // namespace storey::runtime

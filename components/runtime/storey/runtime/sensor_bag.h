@@ -1,0 +1,127 @@
+// Core sensor samples of named robots <-> a rosbag2 bag with ROS 2 types, so ROS 2 can
+// play what storey records and storey can replay ROS 2 recordings.
+//
+// Topics per robot: /<robot>/scan (sensor_msgs/msg/LaserScan), /<robot>/odom
+// (nav_msgs/msg/Odometry), /<robot>/pressure (sensor_msgs/msg/FluidPressure),
+// /<robot>/imu (sensor_msgs/msg/Imu). Frames: <robot>/laser, <robot>/odom,
+// <robot>/base_link, <robot>/imu. A laser's mounting goes to /tf_static
+// (tf2_msgs/msg/TFMessage, <robot>/base_link -> <robot>/laser), as in ROS 2.
+// The bag timestamp of each message is its sample stamp.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "storey/bag/bag_reader.h"
+#include "storey/bag/bag_writer.h"
+#include "storey/geometry/pose2.h"
+#include "storey/runtime/bag_cdr.h"
+#include "storey/runtime/sensor_conversions.h"
+#include "storey/sensor/laser_scan.h"
+
+namespace storey::runtime {
+
+inline constexpr const char* kLaserScanType = "sensor_msgs/msg/LaserScan";
+inline constexpr const char* kOdometryType = "nav_msgs/msg/Odometry";
+inline constexpr const char* kFluidPressureType = "sensor_msgs/msg/FluidPressure";
+inline constexpr const char* kImuType = "sensor_msgs/msg/Imu";
+inline constexpr const char* kTfMessageType = "tf2_msgs/msg/TFMessage";
+inline constexpr const char* kTfStaticTopic = "/tf_static";
+
+// "/<robot>/<leaf>", or "/<leaf>" for robot "". Throws std::invalid_argument for a robot
+// name that is not a ROS 2 namespace (tokens of letters, digits, '_', joined by '/').
+std::string robotTopic(const std::string& robot, const std::string& leaf);
+std::string robotFrame(const std::string& robot, const std::string& frame);
+
+class SensorBagWriter {
+ public:
+  explicit SensorBagWriter(const std::string& folder, const bag::BagWriterOptions& options = {});
+  ~SensorBagWriter();  // closes (errors logged)
+  SensorBagWriter(const SensorBagWriter&) = delete;
+  SensorBagWriter& operator=(const SensorBagWriter&) = delete;
+
+  // Bad input (non-finite stamp, bad robot name) throws std::invalid_argument.
+  void write(const std::string& robot, const sensor::LaserScan& scan);
+  void write(const std::string& robot, const sensor::OdometrySample& odom);
+  void write(const std::string& robot, const sensor::PressureSample& pressure);
+  void write(const std::string& robot, const sensor::ImuSample& imu);
+
+  // Any generated message (ground truth, storey_msgs...) on a topic of the caller's choice.
+  template <typename T>
+  void writeMessage(const std::string& topic, const std::string& ros_type, double stamp,
+                    const T& message, bool reliable = true) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    declare(topic, ros_type, reliable);
+    serializeCdrInto(message, buffer_);
+    bag_.write(topic, stampToNanoseconds(stamp), buffer_);
+  }
+
+  void close();
+  std::uint64_t messageCount() const { return bag_.messageCount(); }
+  const std::string& folder() const { return bag_.folder(); }
+
+ private:
+  void declare(const std::string& topic, const std::string& type, bool reliable);
+  template <typename Msg>
+  void writeSensor(const std::string& topic, const char* type, double stamp, const Msg& msg);
+
+  std::mutex mutex_;
+  bag::BagWriter bag_;
+  std::vector<std::uint8_t> buffer_;
+  std::map<std::string, geometry::Pose2> laser_offsets_;  // robot -> offset last published
+};
+
+using SensorData = std::variant<sensor::LaserScan, sensor::OdometrySample, sensor::PressureSample,
+                                sensor::ImuSample>;
+
+struct SensorRecord {
+  std::string robot;  // the topic's namespace without the leading '/'
+  std::string topic;
+  double stamp = 0.0;             // the sample's own (header) stamp
+  std::int64_t bag_stamp_ns = 0;  // when the bag recorded it
+  SensorData data;
+};
+
+struct SensorBagStats {
+  std::uint64_t yielded = 0;
+  std::uint64_t skipped = 0;       // messages on topics of other types (/tf_static excluded)
+  std::uint64_t malformed = 0;     // messages that did not decode; skipped with a warning
+  std::uint64_t out_of_order = 0;  // header stamp earlier than the previous on its topic
+  std::vector<std::string> skipped_topics;
+};
+
+// Reads the sensor messages of every robot in a bag as one time-ordered stream (by bag
+// timestamp). Sensor topics are recognised by type; the robot is the topic's namespace,
+// so ROS 2 recordings with other topic names replay too. Scan sensor offsets come from
+// /tf_static when present (identity otherwise).
+class SensorBagReader {
+ public:
+  explicit SensorBagReader(const std::string& path);
+
+  // Robots with at least one sensor topic, sorted.
+  std::vector<std::string> robots() const;
+  // Throws bag::BagError for a corrupt database (records returned before stay valid).
+  bool next(SensorRecord& record);
+  const SensorBagStats& stats() const { return stats_; }
+  bag::BagReader& bag() { return bag_; }
+
+ private:
+  enum class Kind { kOther, kScan, kOdometry, kPressure, kImu, kTfStatic };
+  struct TopicState {
+    Kind kind = Kind::kOther;
+    std::string robot;
+    std::optional<double> last_stamp;
+  };
+
+  bag::BagReader bag_;
+  std::vector<TopicState> topics_;                        // by bag topic index
+  std::map<std::string, geometry::Pose2> frame_offsets_;  // child frame -> pose in parent
+  SensorBagStats stats_;
+};
+
+}  // namespace storey::runtime
