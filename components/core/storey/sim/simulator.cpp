@@ -1,0 +1,216 @@
+#include "storey/sim/simulator.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+
+#include "storey/sim/random.h"
+#include "storey/sim/ray_caster.h"
+
+namespace storey::sim {
+namespace {
+
+constexpr double kGravity = 9.80665;
+
+// Independent random streams per robot and sensor, so adding a sensor or a robot does not
+// change the others' noise.
+enum Stream : std::uint64_t { kLaserStream = 1, kOdometryStream, kPressureStream, kImuStream };
+constexpr std::uint64_t kWeatherStream = 0xA7;
+
+std::uint64_t streamSeed(std::uint64_t seed, std::size_t robot, Stream stream) {
+  return mixSeed(mixSeed(seed, 1000 + robot), stream);
+}
+
+// Sample times k / rate from the start to the end of the trajectory, inclusive.
+std::vector<double> sampleTimes(double start, double end, double rate) {
+  std::vector<double> times;
+  const auto count = static_cast<std::size_t>(std::floor((end - start) * rate + 1e-9)) + 1;
+  times.reserve(count);
+  for (std::size_t k = 0; k < count; ++k) times.push_back(start + static_cast<double>(k) / rate);
+  return times;
+}
+
+sensor::LaserScan emptyScan(const LaserOptions& laser) {
+  sensor::LaserScan scan;
+  const bool full_circle = laser.fov >= 2.0 * 3.14159265358979323846 - 1e-9;
+  // A full circle must not repeat its first beam at the end.
+  scan.angle_increment = laser.fov / (full_circle ? laser.beams : laser.beams - 1);
+  scan.angle_min = -laser.fov / 2.0;
+  scan.range_min = laser.min_range;
+  scan.range_max = laser.max_range;
+  scan.sensor_offset = laser.offset;
+  scan.ranges.assign(laser.beams, std::numeric_limits<float>::infinity());
+  return scan;
+}
+
+void fillRanges(const RayCaster& caster, const LaserOptions& laser, const geometry::Pose2& pose,
+                sensor::LaserScan* scan, Rng* noise) {
+  const geometry::Pose2 sensor = pose * laser.offset;
+  const Eigen::Vector2d origin = sensor.translation();
+  for (int i = 0; i < laser.beams; ++i) {
+    const double angle = sensor.theta() + scan->angle(i);
+    const Eigen::Vector2d dir(std::cos(angle), std::sin(angle));
+    double range = caster.cast(origin, dir, laser.max_range);
+    if (noise) {
+      // Draw both numbers for every beam so one beam's outcome never shifts the others'.
+      const double gaussian = noise->gaussian();
+      const bool dropped = noise->uniform() < laser.dropout;
+      if (std::isfinite(range)) range += gaussian * laser.range_sigma;
+      if (dropped) range = std::numeric_limits<double>::infinity();
+    }
+    if (!std::isfinite(range) || range >= laser.max_range || range < laser.min_range)
+      scan->ranges[i] = std::numeric_limits<float>::infinity();
+    else
+      scan->ranges[i] = static_cast<float>(range);
+  }
+}
+
+RobotRun simulateRobot(const Scenario& scenario, std::size_t index, std::uint64_t seed,
+                       double drift, double max_duration,
+                       std::vector<std::unique_ptr<RayCaster>>* casters,
+                       std::vector<SceneKey>* caster_keys) {
+  const Building& building = scenario.building;
+  const RobotSpec& spec = scenario.robots[index];
+  const RobotModel& model = spec.model;
+  RobotRun run;
+  run.name = spec.name;
+  run.trajectory = planMission(building, spec);
+  const Trajectory& trajectory = run.trajectory;
+  run.transits = trajectory.transits();
+  const double start = trajectory.startTime();
+  double end = trajectory.endTime();
+  if (max_duration > 0.0) end = std::min(end, start + max_duration);
+
+  // Ray casters are shared by robots that see the same scene.
+  std::vector<const RayCaster*> scene_casters;
+  for (const auto& key : trajectory.scenes()) {
+    std::size_t k = 0;
+    while (k < caster_keys->size() && !((*caster_keys)[k] == key)) ++k;
+    if (k == caster_keys->size()) {
+      caster_keys->push_back(key);
+      casters->push_back(std::make_unique<RayCaster>(sceneObstacles(building, key)));
+    }
+    scene_casters.push_back((*casters)[k].get());
+  }
+
+  // Laser and truth.
+  {
+    Rng noise(streamSeed(seed, index, kLaserStream));
+    const sensor::LaserScan blank = emptyScan(model.laser);
+    for (double t : sampleTimes(start, end, model.laser.rate)) {
+      const MotionState state = trajectory.at(t);
+      sensor::LaserScan scan = blank;
+      scan.stamp = t;
+      fillRanges(*scene_casters[state.scene], model.laser, state.pose, &scan, &noise);
+      run.scans.push_back(std::move(scan));
+      run.truth.push_back({t, state.floor, state.pose, state.z});
+    }
+  }
+
+  // Odometry: true increments in the robot frame with motion-proportional noise.
+  {
+    Rng noise(streamSeed(seed, index, kOdometryStream));
+    const OdometryOptions& o = model.odometry;
+    const auto& ride_ends = trajectory.rideEnds();
+    std::size_t next_ride = 0;
+    geometry::Pose2 estimate;
+    geometry::Pose2 previous = trajectory.at(start).pose;
+    for (double t : sampleTimes(start, end, o.rate)) {
+      const MotionState state = trajectory.at(t);
+      const geometry::Pose2 delta = previous.between(state.pose);
+      const double travelled = delta.translation().norm();
+      const double g1 = noise.gaussian(), g2 = noise.gaussian(), g3 = noise.gaussian();
+      const double scale = 1.0 + g1 * o.translation_sigma;
+      double dtheta = delta.theta() + g2 * o.rotation_sigma * std::abs(delta.theta()) +
+                      g3 * o.rotation_per_metre_sigma * travelled;
+      // Turning in a cabin while it moves makes wheel odometry slip.
+      while (next_ride < ride_ends.size() && ride_ends[next_ride] <= t) {
+        dtheta += noise.gaussian() * o.elevator_heading_sigma;
+        ++next_ride;
+      }
+      estimate = estimate * geometry::Pose2(delta.x() * scale, delta.y() * scale, dtheta);
+      sensor::OdometrySample sample;
+      sample.stamp = t;
+      sample.pose = estimate;
+      sample.linear_velocity = state.v * scale;
+      sample.angular_velocity = state.omega;
+      run.odometry.push_back(sample);
+      previous = state.pose;
+    }
+  }
+
+  // Barometer: standard atmosphere at the true height, weather drift, white noise.
+  {
+    Rng noise(streamSeed(seed, index, kPressureStream));
+    const double sigma = model.barometer.sigma;
+    for (double t : sampleTimes(start, end, model.barometer.rate)) {
+      const MotionState state = trajectory.at(t);
+      sensor::PressureSample sample;
+      sample.stamp = t;
+      sample.pascal = pressureAt(building.atmosphere, state.z) + drift * t + noise.gaussian() * sigma;
+      sample.variance = sigma * sigma;
+      run.pressure.push_back(sample);
+    }
+  }
+
+  // IMU: body-frame specific force (gravity included) and yaw rate.
+  {
+    Rng noise(streamSeed(seed, index, kImuStream));
+    const ImuOptions& o = model.imu;
+    for (double t : sampleTimes(start, end, o.rate)) {
+      const MotionState state = trajectory.at(t);
+      sensor::ImuSample sample;
+      sample.stamp = t;
+      const double n1 = noise.gaussian(), n2 = noise.gaussian(), n3 = noise.gaussian();
+      const double n4 = noise.gaussian(), n5 = noise.gaussian(), n6 = noise.gaussian();
+      sample.linear_acceleration = Eigen::Vector3d(state.a + n1 * o.accel_sigma,
+                                                   state.v * state.omega + n2 * o.accel_sigma,
+                                                   kGravity + state.az + n3 * o.accel_sigma);
+      sample.angular_velocity =
+          Eigen::Vector3d(n4 * o.gyro_sigma, n5 * o.gyro_sigma, state.omega + n6 * o.gyro_sigma);
+      run.imu.push_back(sample);
+    }
+  }
+  return run;
+}
+
+}  // namespace
+
+sensor::LaserScan castScan(const std::vector<Segment>& obstacles, const LaserOptions& laser,
+                           const geometry::Pose2& pose) {
+  RayCaster caster(obstacles);
+  sensor::LaserScan scan = emptyScan(laser);
+  fillRanges(caster, laser, pose, &scan, nullptr);
+  return scan;
+}
+
+Simulation simulate(const Scenario& scenario, const SimulateOptions& options) {
+  Simulation result;
+  result.scenario = scenario.name;
+  result.seed = options.seed;
+  result.building = scenario.building;
+  // The weather: one steady pressure trend per run, shared by every robot.
+  Rng weather(mixSeed(options.seed, kWeatherStream));
+  const double max_drift = scenario.building.atmosphere.max_drift_hpa_per_hour * 100.0 / 3600.0;
+  result.pressure_drift = weather.uniform(-max_drift, max_drift);
+  for (const auto& name : options.robots) {
+    bool found = false;
+    for (const auto& robot : scenario.robots) found = found || robot.name == name;
+    if (!found) throw std::invalid_argument("scenario " + scenario.name + " has no robot '" + name + "'");
+  }
+  std::vector<std::unique_ptr<RayCaster>> casters;
+  std::vector<SceneKey> keys;
+  for (std::size_t i = 0; i < scenario.robots.size(); ++i) {
+    const auto& name = scenario.robots[i].name;
+    if (!options.robots.empty() &&
+        std::find(options.robots.begin(), options.robots.end(), name) == options.robots.end())
+      continue;
+    result.robots.push_back(simulateRobot(scenario, i, options.seed, result.pressure_drift,
+                                          options.max_duration, &casters, &keys));
+  }
+  return result;
+}
+
+}  // namespace storey::sim
