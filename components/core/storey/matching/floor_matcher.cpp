@@ -1,0 +1,474 @@
+#include "storey/matching/floor_matcher.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <map>
+#include <mutex>
+#include <numeric>
+#include <ostream>
+#include <random>
+#include <set>
+#include <thread>
+
+#include "storey/common/log.h"
+
+namespace storey::matching {
+
+using geometry::normalizeAngle;
+using geometry::Pose2;
+
+FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
+  FloorMatcherOptions o;
+  if (node.has("filter")) o.filter = readParticleFilterOptions(node.child("filter"));
+  if (node.has("map")) o.map = grid::readOccupancyGridOptions(node.child("map"));
+  if (node.has("likelihood_field"))
+    o.likelihood_field = grid::readLikelihoodFieldOptions(node.child("likelihood_field"));
+  o.min_sequence = node.getInt("min_sequence", o.min_sequence, 1, 100000);
+  o.max_sequence = node.getInt("max_sequence", o.max_sequence, 1, 100000);
+  if (o.max_sequence < o.min_sequence) node.fail("max_sequence", "must be at least min_sequence");
+  o.restart_stride = node.getInt("restart_stride", o.restart_stride, 1, 100000);
+  o.likelihood_quantile = node.getDouble("likelihood_quantile", o.likelihood_quantile, 0.0, 1.0);
+  o.likelihood_scale = node.getDouble("likelihood_scale", o.likelihood_scale, 0.0, 10.0);
+  o.learning_particles = node.getInt("learning_particles", o.learning_particles, 10, 1000000);
+  o.refine_iterations = node.getInt("refine_iterations", o.refine_iterations, 0, 1000);
+  o.refine_beams = node.getInt("refine_beams", o.refine_beams, 1, 100000);
+  o.max_refine_correction =
+      node.getDouble("max_refine_correction", o.max_refine_correction, 0.0, 100.0);
+  o.min_fit = node.getDouble("min_fit", o.min_fit, 0.0, 1.0);
+  o.ransac_iterations = node.getInt("ransac_iterations", o.ransac_iterations, 1, 10000000);
+  o.ransac_translation_tolerance =
+      node.getDouble("ransac_translation_tolerance", o.ransac_translation_tolerance, 1e-4, 100.0);
+  o.ransac_rotation_tolerance =
+      node.getDouble("ransac_rotation_tolerance", o.ransac_rotation_tolerance, 1e-5, M_PI);
+  o.min_constraints = node.getInt("min_constraints", o.min_constraints, 1, 100000);
+  o.ambiguity_ratio = node.getDouble("ambiguity_ratio", o.ambiguity_ratio, 0.0, 1.0);
+  o.constraint_sigma_xy = node.getDouble("constraint_sigma_xy", o.constraint_sigma_xy, 1e-6, 100.0);
+  o.constraint_sigma_theta =
+      node.getDouble("constraint_sigma_theta", o.constraint_sigma_theta, 1e-6, M_PI);
+  o.threads = node.getInt("threads", o.threads, 1, 256);
+  o.seed = static_cast<std::uint64_t>(node.get<std::int64_t>("seed", 1));
+  node.finish();
+  return o;
+}
+
+const char* candidateStatusName(CandidateStatus status) {
+  switch (status) {
+    case CandidateStatus::kAccepted: return "accepted";
+    case CandidateStatus::kLowLikelihood: return "low_likelihood";
+    case CandidateStatus::kPoorFit: return "poor_fit";
+    case CandidateStatus::kOutlier: return "outlier";
+    case CandidateStatus::kTooFew: return "too_few";
+    case CandidateStatus::kAmbiguous: return "ambiguous";
+  }
+  return "unknown";
+}
+
+const PairResult* MatchResult::pairFor(int graph_id) const {
+  const PairResult* last = nullptr;
+  for (const auto& p : pairs) {
+    if (p.graph_id != graph_id) continue;
+    if (p.accepted) return &p;
+    last = &p;
+  }
+  return last;
+}
+
+namespace {
+
+// Deterministic per-job seeds, independent of thread scheduling.
+std::uint64_t mixSeed(std::uint64_t seed, std::uint64_t a, std::uint64_t b) {
+  std::uint64_t z = seed ^ (a * 0x9E3779B97F4A7C15ULL) ^ (b * 0xC2B2AE3D27D4EB4FULL);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  return z ^ (z >> 31);
+}
+
+double quantile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const double pos = q * static_cast<double>(values.size() - 1);
+  const std::size_t lo = static_cast<std::size_t>(std::floor(pos));
+  const std::size_t hi = std::min(values.size() - 1, lo + 1);
+  return values[lo] + (values[hi] - values[lo]) * (pos - static_cast<double>(lo));
+}
+
+Pose2 odometryIncrement(const floor::FloorGraph& g, int to) {
+  return g.nodes[to - 1].odometry.between(g.nodes[to].odometry);
+}
+
+// Does alignment `a` place node `node_pose` where alignment `b` does?
+bool agrees(const Pose2& a, const Pose2& b, const Pose2& node_pose, double tol_t, double tol_r) {
+  const Pose2 pa = a * node_pose, pb = b * node_pose;
+  return (pa.translation() - pb.translation()).norm() <= tol_t &&
+         std::abs(normalizeAngle(pa.theta() - pb.theta())) <= tol_r;
+}
+
+// Mean of alignments: translation averaged, heading by circular mean.
+Pose2 meanAlignment(const std::vector<Pose2>& poses) {
+  double x = 0, y = 0, c = 0, s = 0;
+  for (const auto& p : poses) {
+    x += p.x();
+    y += p.y();
+    c += std::cos(p.theta());
+    s += std::sin(p.theta());
+  }
+  const double n = static_cast<double>(poses.size());
+  return Pose2(x / n, y / n, std::atan2(s, c));
+}
+
+// Largest set of candidates (among `pool`) agreeing with one candidate's alignment.
+std::vector<std::size_t> largestConsistentSet(const std::vector<Candidate>& cands,
+                                              const std::vector<std::size_t>& pool,
+                                              const floor::FloorGraph& graph,
+                                              const FloorMatcherOptions& o, std::mt19937_64* rng) {
+  std::vector<std::size_t> hypotheses = pool;
+  if (hypotheses.size() > static_cast<std::size_t>(o.ransac_iterations)) {
+    std::shuffle(hypotheses.begin(), hypotheses.end(), *rng);
+    hypotheses.resize(static_cast<std::size_t>(o.ransac_iterations));
+  }
+  std::vector<std::size_t> best;
+  double best_score = -1.0;
+  for (std::size_t h : hypotheses) {
+    std::vector<std::size_t> set;
+    double score = 0.0;
+    for (std::size_t i : pool) {
+      const Pose2& pk = graph.nodes[cands[i].first_index].pose;
+      if (agrees(cands[h].alignment, cands[i].alignment, pk, o.ransac_translation_tolerance,
+                 o.ransac_rotation_tolerance)) {
+        set.push_back(i);
+        score += cands[i].likelihood;
+      }
+    }
+    if (set.size() > best.size() || (set.size() == best.size() && score > best_score)) {
+      best = std::move(set);
+      best_score = score;
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+double refineAlignment(const grid::LikelihoodField& field, const floor::FloorGraph& graph,
+                       const std::vector<std::pair<int, int>>& ranges, int beams, int iterations,
+                       Pose2* alignment) {
+  // Scan endpoints in g_i's frame.
+  std::vector<Eigen::Vector2d> points;
+  for (const auto& [first, last] : ranges) {
+    for (int n = first; n <= last; ++n) {
+      const auto& node = graph.nodes[n];
+      for (const auto& p : selectBeams(node.scan, beams)) points.push_back(node.pose.transformPoint(p));
+    }
+  }
+  if (points.empty()) return 0.0;
+  Pose2 t = *alignment;
+  auto meanScore = [&](const Pose2& a) {
+    double s = 0.0;
+    for (const auto& p : points) s += field.interpolatedScore(a.transformPoint(p));
+    return s / static_cast<double>(points.size());
+  };
+  double current = meanScore(t);
+  double lambda = 1e-3;
+  for (int it = 0; it < iterations; ++it) {
+    Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    for (const auto& p : points) {
+      const Eigen::Vector2d w = t.transformPoint(p);
+      Eigen::Vector2d grad;
+      const double s = field.interpolatedScore(w, &grad);
+      const double r = 1.0 - s;
+      // d w / d(tx, ty, theta) for w = R(theta) p + t.
+      Eigen::Matrix<double, 2, 3> dw;
+      dw << 1, 0, -(w.y() - t.y()), 0, 1, w.x() - t.x();
+      const Eigen::RowVector3d j = -grad.transpose() * dw;
+      h += j.transpose() * j;
+      g += j.transpose() * r;
+    }
+    Eigen::Matrix3d damped = h;
+    damped.diagonal() += lambda * (h.diagonal().array() + 1e-9).matrix();
+    const Eigen::Vector3d step = -damped.ldlt().solve(g);
+    if (!step.allFinite()) break;
+    const Pose2 trial(t.x() + step.x(), t.y() + step.y(), t.theta() + step.z());
+    const double trial_score = meanScore(trial);
+    if (trial_score >= current) {
+      t = trial;
+      current = trial_score;
+      lambda = std::max(1e-6, lambda * 0.3);
+      if (step.head<2>().norm() < 1e-5 && std::abs(step.z()) < 1e-6) break;
+    } else {
+      lambda *= 10.0;
+      if (lambda > 1e6) break;
+    }
+  }
+  *alignment = t;
+  return current;
+}
+
+PreparedFloor prepareFloor(const floor::FloorGraph& graph, const FloorMatcherOptions& options) {
+  PreparedFloor p;
+  p.graph = &graph;
+  const grid::OccupancyGrid grid = floor::renderFloorMap(graph, options.map);
+  p.map = std::make_unique<LocalizationMap>(grid, options.likelihood_field);
+  p.structure = p.map->occupiedCells();
+  p.l_min = learnLikelihoodThreshold(graph, options,
+                                     mixSeed(options.seed, 0x1EA2, static_cast<std::uint64_t>(graph.graph_id)));
+  return p;
+}
+
+double learnLikelihoodThreshold(const floor::FloorGraph& graph, const FloorMatcherOptions& options,
+                                std::uint64_t seed) {
+  if (graph.nodes.size() < 2) return 0.0;
+  floor::FloorGraph even;
+  for (std::size_t n = 0; n < graph.nodes.size(); n += 2) even.nodes.push_back(graph.nodes[n]);
+  const LocalizationMap map(floor::renderFloorMap(even, options.map), options.likelihood_field);
+  ParticleFilter filter(map, options.filter, seed);
+  const double sigma_xy = 0.05, sigma_theta = 0.02;
+  filter.initializeAround(graph.nodes.front().pose, sigma_xy, sigma_theta, options.learning_particles);
+  std::vector<double> values;
+  for (std::size_t n = 0; n < graph.nodes.size(); ++n) {
+    if (n > 0) filter.predict(odometryIncrement(graph, static_cast<int>(n)));
+    const double lt = filter.update(graph.nodes[n].scan);
+    if (n % 2 == 1) values.push_back(lt);
+    filter.resampleIfNeeded();
+  }
+  return quantile(values, options.likelihood_quantile);
+}
+
+PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_data,
+                     const FloorMatcherOptions& o, std::uint64_t seed) {
+  const auto start = std::chrono::steady_clock::now();
+  const floor::FloorGraph& ref = *reference.graph;
+  const floor::FloorGraph& g = *floor_data.graph;
+  PairResult result;
+  result.reference_graph_id = ref.graph_id;
+  result.graph_id = g.graph_id;
+  result.l_min = o.likelihood_scale * std::min(reference.l_min, floor_data.l_min);
+  const double dz = g.floor_height - ref.floor_height;
+  const int count = static_cast<int>(g.nodes.size());
+  std::mt19937_64 rng(seed);
+
+  ParticleFilter filter(*reference.map, o.filter, seed ^ 0x5EEDULL);
+  int k = 0;
+  while (k + o.min_sequence <= count && !ref.nodes.empty()) {
+    ++result.sequences;
+    filter.initializeUniform();
+    const int end = std::min(count, k + o.max_sequence);
+    int m = k;
+    bool converged = false;
+    double lt = 0.0;
+    FilterState st;
+    for (m = k; m < end; ++m) {
+      if (m > k) filter.predict(odometryIncrement(g, m));
+      lt = filter.update(g.nodes[m].scan);
+      st = filter.state();
+      if (m - k + 1 >= o.min_sequence && st.converged) {
+        converged = true;
+        break;
+      }
+      filter.resampleIfNeeded();
+    }
+    if (!converged) {
+      ++result.not_converged;
+      k += o.restart_stride;
+      continue;
+    }
+    Candidate c;
+    c.reference_graph_id = ref.graph_id;
+    c.graph_id = g.graph_id;
+    c.first_index = k;
+    c.last_index = m;
+    c.node_id = g.nodes[k].id;
+    c.estimate = st.mean;
+    c.likelihood = lt;
+    c.l_min = result.l_min;
+    c.particles = st.particles;
+    c.mass_within = st.mass_within;
+    c.dz = dz;
+    Pose2 alignment = st.mean * g.nodes[m].pose.inverse();
+    c.fit = refineAlignment(reference.map->field(), g, {{k, m}}, o.refine_beams, o.refine_iterations,
+                            &alignment);
+    c.alignment = alignment;
+    const Pose2 refined_m = alignment * g.nodes[m].pose;
+    c.refine_correction = (refined_m.translation() - st.mean.translation()).norm();
+    const Pose2 x_k = alignment * g.nodes[k].pose;
+    const int q = ref.nearestNodeIndex(x_k.translation());
+    c.reference_node_id = ref.nodes[q].id;
+    c.measurement = ref.nodes[q].pose.between(x_k);
+    if (lt < result.l_min) {
+      c.status = CandidateStatus::kLowLikelihood;
+      c.reason = common::str("l_t ", lt, " < l_min ", result.l_min);
+    } else if (c.refine_correction > o.max_refine_correction || c.fit < o.min_fit) {
+      c.status = CandidateStatus::kPoorFit;
+      c.reason = common::str("refinement moved ", c.refine_correction, " m, fit ", c.fit);
+    } else {
+      c.status = CandidateStatus::kOutlier;  // decided by RANSAC below
+    }
+    result.candidates.push_back(std::move(c));
+    k = m + 1;
+  }
+
+  // RANSAC over the candidates that passed the gate.
+  std::vector<std::size_t> pool;
+  for (std::size_t i = 0; i < result.candidates.size(); ++i)
+    if (result.candidates[i].status == CandidateStatus::kOutlier) pool.push_back(i);
+  const std::vector<std::size_t> best = largestConsistentSet(result.candidates, pool, g, o, &rng);
+  std::vector<std::size_t> rest;
+  for (std::size_t i : pool)
+    if (std::find(best.begin(), best.end(), i) == best.end()) rest.push_back(i);
+  const std::vector<std::size_t> second = largestConsistentSet(result.candidates, rest, g, o, &rng);
+  auto markAll = [&](const std::vector<std::size_t>& which, CandidateStatus s, const std::string& why) {
+    for (std::size_t i : which) {
+      result.candidates[i].status = s;
+      result.candidates[i].reason = why;
+    }
+  };
+  if (static_cast<int>(best.size()) < o.min_constraints) {
+    result.reason = common::str("largest consistent set has ", best.size(), " of ", pool.size(),
+                                " gated candidates (need ", o.min_constraints, ")");
+    markAll(pool, CandidateStatus::kTooFew, result.reason);
+  } else if (second.size() >= 2 &&
+             static_cast<double>(second.size()) >= o.ambiguity_ratio * static_cast<double>(best.size())) {
+    result.reason = common::str("ambiguous: two disjoint consistent sets of ", best.size(), " and ",
+                                second.size(), " candidates");
+    markAll(pool, CandidateStatus::kAmbiguous, result.reason);
+  } else {
+    result.accepted = true;
+    result.reason = common::str("accepted: ", best.size(), " consistent of ", pool.size(),
+                                " gated candidates");
+    markAll(rest, CandidateStatus::kOutlier, "disagrees with the largest consistent set");
+    markAll(best, CandidateStatus::kAccepted, "inlier of the largest consistent set");
+    std::vector<Pose2> alignments;
+    std::vector<std::pair<int, int>> ranges;
+    for (std::size_t i : best) {
+      alignments.push_back(result.candidates[i].alignment);
+      ranges.emplace_back(result.candidates[i].first_index, result.candidates[i].last_index);
+    }
+    Pose2 joint = meanAlignment(alignments);
+    refineAlignment(reference.map->field(), g, ranges, o.refine_beams, o.refine_iterations, &joint);
+    result.alignment = joint;
+  }
+  result.beam_evaluations = filter.beamEvaluations();
+  result.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+namespace {
+
+// Runs jobs 0..n-1 on up to `threads` threads.
+template <typename F>
+void parallelFor(int n, int threads, F job) {
+  std::atomic<int> next{0};
+  auto worker = [&] {
+    for (int i = next++; i < n; i = next++) job(i);
+  };
+  const int t = std::max(1, std::min(threads, n));
+  std::vector<std::thread> pool;
+  for (int i = 1; i < t; ++i) pool.emplace_back(worker);
+  worker();
+  for (auto& th : pool) th.join();
+}
+
+}  // namespace
+
+MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs, const FloorMatcherOptions& o) {
+  const auto start = std::chrono::steady_clock::now();
+  MatchResult result;
+  const int n = static_cast<int>(graphs.size());
+  if (n == 0) return result;
+  std::vector<PreparedFloor> prepared(graphs.size());
+  parallelFor(n, o.threads, [&](int i) { prepared[i] = prepareFloor(graphs[i], o); });
+
+  // Reference: the floor with the most structure (occupied cells), ties by graph id.
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    if (prepared[a].structure != prepared[b].structure)
+      return prepared[a].structure > prepared[b].structure;
+    return graphs[a].graph_id < graphs[b].graph_id;
+  });
+  const int ref = order.front();
+  result.reference_graph_id = graphs[ref].graph_id;
+  auto seedFor = [&](int r, int i) {
+    return mixSeed(o.seed, static_cast<std::uint64_t>(graphs[r].graph_id),
+                   static_cast<std::uint64_t>(graphs[i].graph_id));
+  };
+
+  std::vector<int> others(order.begin() + 1, order.end());
+  std::vector<PairResult> first(others.size());
+  parallelFor(static_cast<int>(others.size()), o.threads, [&](int j) {
+    first[j] = matchPair(prepared[ref], prepared[others[j]], o, seedFor(ref, others[j]));
+  });
+  std::vector<int> failed;
+  for (std::size_t j = 0; j < others.size(); ++j) {
+    if (!first[j].accepted) failed.push_back(others[j]);
+    result.pairs.push_back(std::move(first[j]));
+  }
+  // Floors that fail against the reference try the others, most structure first.
+  std::vector<std::vector<PairResult>> retries(failed.size());
+  parallelFor(static_cast<int>(failed.size()), o.threads, [&](int j) {
+    const int i = failed[j];
+    for (int r : order) {
+      if (r == ref || r == i) continue;
+      retries[j].push_back(matchPair(prepared[r], prepared[i], o, seedFor(r, i)));
+      if (retries[j].back().accepted) break;
+    }
+  });
+  for (auto& list : retries)
+    for (auto& p : list) result.pairs.push_back(std::move(p));
+
+  const Eigen::Matrix3d information =
+      Eigen::Vector3d(1.0 / (o.constraint_sigma_xy * o.constraint_sigma_xy),
+                      1.0 / (o.constraint_sigma_xy * o.constraint_sigma_xy),
+                      1.0 / (o.constraint_sigma_theta * o.constraint_sigma_theta))
+          .asDiagonal();
+  for (const auto& p : result.pairs) {
+    result.beam_evaluations += p.beam_evaluations;
+    if (!p.accepted) continue;
+    for (const auto& c : p.candidates) {
+      if (c.status != CandidateStatus::kAccepted) continue;
+      InterFloorConstraint ic;
+      ic.reference_graph_id = c.reference_graph_id;
+      ic.reference_node_id = c.reference_node_id;
+      ic.graph_id = c.graph_id;
+      ic.node_id = c.node_id;
+      ic.measurement = c.measurement;
+      ic.dz = c.dz;
+      ic.information = information;
+      ic.likelihood = c.likelihood;
+      ic.first_index = c.first_index;
+      ic.last_index = c.last_index;
+      result.constraints.push_back(ic);
+    }
+  }
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+void printMatchReport(std::ostream& out, const MatchResult& result) {
+  out << "reference floor graph: " << result.reference_graph_id << "\n";
+  for (const auto& p : result.pairs) {
+    out << "graph " << p.graph_id << " in reference " << p.reference_graph_id << ": " << p.reason
+        << " (" << p.sequences << " filters, " << p.not_converged << " not converged, l_min "
+        << std::setprecision(4) << p.l_min << ", " << std::setprecision(3) << p.seconds << " s)\n";
+    if (p.accepted)
+      out << "  alignment (graph frame in reference frame): " << p.alignment << "\n";
+    for (const auto& c : p.candidates) {
+      out << "  scans " << c.first_index << ".." << c.last_index << " node " << c.node_id
+          << " -> ref node " << c.reference_node_id << "  l_t " << std::setprecision(4)
+          << c.likelihood << "  fit " << std::setprecision(3) << c.fit << "  particles "
+          << c.particles << "  alignment " << c.alignment << "  c " << c.measurement << " dz "
+          << c.dz << "  " << candidateStatusName(c.status);
+      if (!c.reason.empty()) out << " (" << c.reason << ")";
+      out << "\n";
+    }
+  }
+  out << result.constraints.size() << " constraints accepted; " << result.beam_evaluations
+      << " particle-beam evaluations in " << result.seconds << " s\n";
+}
+
+}  // namespace storey::matching

@@ -1,0 +1,187 @@
+// Inter-floor constraints by global Monte Carlo localisation: the paper's Algorithm 1
+// (Karg et al., ICRA 2010, Sec. IV) with a learned likelihood gate, RANSAC over each
+// floor's candidates, a structured choice of the reference floor and provenance for
+// every candidate.
+//
+// Conventions (all poses are Pose2, "a in frame b" means b^-1 * a):
+// - A floor graph g_i has its own frame; node n has pose p_n in it. The reference floor
+//   g_ref likewise. The *alignment* T_i is the pose of g_i's frame in g_ref's frame, so
+//   a node of g_i sits at T_i * p_n in g_ref's frame.
+// - The scans z_k .. z_m (m = k + d, node indices in time order) are replayed from
+//   uniformly spread particles, moved between nodes by the odometry increments
+//   odometry_{n-1}^-1 * odometry_n. When the filter converges at z_m to pose x (in g_ref's
+//   frame), x is refined by fitting the scans z_k .. z_m, placed by the graph's poses,
+//   to the reference likelihood field; this gives T = x * p_m^-1. The pose of node k
+//   at the start of the sequence is back-propagated through the graph's relative poses:
+//   x_k = T * p_k (the graph's p_k^-1 * p_m is a better estimate of the motion than raw
+//   odometry).
+// - q is the reference node nearest x_k. The constraint is the pose of node k of g_i in
+//   the frame of node q of g_ref, c = q^-1 * x_k (the paper's c = q p_k^-1 written as a
+//   relative pose between the two nodes), plus dz = height(g_i) - height(g_ref). A graph
+//   optimiser adds it as an edge from q (reference) to k (floor i). The alignment it
+//   implies is q * c * p_k^-1.
+// - l_t is the mean over particles of each particle's observation likelihood, where a
+//   particle's likelihood is the geometric mean of its beams' p(endpoint) in the
+//   likelihood field (so it does not depend on the number of beams). l_min for a pair is
+//   likelihood_scale * min(l_min(g_ref), l_min(g_i)), where l_min(g) is the
+//   `likelihood_quantile` quantile (default 0.05, the 5th percentile) of l_t while
+//   tracking g's own scans in g's own map from its first node's pose. That map is
+//   rendered from g's even-indexed nodes and l_t is taken at the odd-indexed ones, so no
+//   scan is scored against a map built from itself (which would make l_min optimistic).
+#pragma once
+
+#include <cstdint>
+#include <iosfwd>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "storey/common/config.h"
+#include "storey/floor/floor_graph.h"
+#include "storey/geometry/pose2.h"
+#include "storey/grid/likelihood_field.h"
+#include "storey/grid/occupancy_grid.h"
+#include "storey/matching/particle_filter.h"
+
+namespace storey::matching {
+
+struct FloorMatcherOptions {
+  ParticleFilterOptions filter;
+  grid::OccupancyGridOptions map;                  // rendering each floor graph's map
+  grid::LikelihoodFieldOptions likelihood_field;  // its sensor model
+  // A sequence z_k..z_m needs at least `min_sequence` scans before convergence counts;
+  // a filter not converged after `max_sequence` scans is dropped and restarted
+  // `restart_stride` nodes later.
+  int min_sequence = 5;
+  int max_sequence = 40;
+  int restart_stride = 5;
+  // Likelihood gate (see the header comment).
+  double likelihood_quantile = 0.05;
+  double likelihood_scale = 1.0;
+  int learning_particles = 300;
+  // Refinement of each converged estimate against the reference likelihood field.
+  int refine_iterations = 30;
+  int refine_beams = 90;              // beams per scan used in refinement
+  double max_refine_correction = 0.5;  // metres; a larger correction rejects the candidate
+  double min_fit = 0.0;  // minimum mean score after refinement, [0, 1]
+  // RANSAC: the model is one planar alignment T_i; candidates agree when their
+  // alignments place node k within these tolerances.
+  int ransac_iterations = 500;
+  double ransac_translation_tolerance = 0.3;  // metres
+  double ransac_rotation_tolerance = 0.05;    // rad
+  int min_constraints = 3;
+  // A floor whose second-largest consistent set (disjoint from the largest) has at least
+  // max(2, ambiguity_ratio * largest) candidates is ambiguous: no constraint.
+  double ambiguity_ratio = 0.5;
+  // Information of each accepted constraint: diag(1/sigma_xy^2, 1/sigma_xy^2, 1/sigma_theta^2).
+  double constraint_sigma_xy = 0.05;
+  double constraint_sigma_theta = 0.01;
+  int threads = 2;
+  std::uint64_t seed = 1;
+};
+FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node);
+
+enum class CandidateStatus {
+  kAccepted,       // RANSAC inlier of an accepted floor
+  kLowLikelihood,  // l_t < l_min
+  kPoorFit,        // refinement moved too far or fit too low
+  kOutlier,        // not in the largest consistent set
+  kTooFew,         // the largest consistent set is below min_constraints
+  kAmbiguous,      // two disjoint consistent sets (symmetric floor)
+};
+const char* candidateStatusName(CandidateStatus status);
+
+// One hypothesis from a converged filter, with its provenance.
+struct Candidate {
+  int reference_graph_id = 0;
+  int graph_id = 0;
+  int first_index = 0;  // node indices (into graph.nodes) of the sequence z_k .. z_m
+  int last_index = 0;
+  int node_id = 0;            // id of node k in g_i
+  int reference_node_id = 0;  // id of node q in g_ref
+  geometry::Pose2 estimate;     // MCL mean at z_m, g_ref frame (before refinement)
+  geometry::Pose2 alignment;    // T_i implied by this candidate (refined)
+  geometry::Pose2 measurement;  // node k in the frame of node q
+  double dz = 0.0;
+  double likelihood = 0.0;  // l_t at convergence
+  double l_min = 0.0;
+  double fit = 0.0;              // mean likelihood-field score of the sequence after refinement
+  double refine_correction = 0.0;  // metres the refinement moved node m
+  std::size_t particles = 0;    // filter size at convergence
+  double mass_within = 0.0;
+  CandidateStatus status = CandidateStatus::kOutlier;
+  std::string reason;
+};
+
+struct InterFloorConstraint {
+  int reference_graph_id = 0;
+  int reference_node_id = 0;
+  int graph_id = 0;
+  int node_id = 0;
+  geometry::Pose2 measurement;  // node in the frame of the reference node
+  double dz = 0.0;
+  Eigen::Matrix3d information = Eigen::Matrix3d::Identity();
+  double likelihood = 0.0;
+  int first_index = 0, last_index = 0;
+};
+
+// Matching one floor graph against one reference.
+struct PairResult {
+  int reference_graph_id = 0;
+  int graph_id = 0;
+  bool accepted = false;
+  std::string reason;          // why not accepted (or "accepted")
+  geometry::Pose2 alignment;   // T_i from all inliers jointly (when accepted)
+  double l_min = 0.0;
+  int sequences = 0;       // filters started
+  int not_converged = 0;   // filters dropped without converging
+  std::vector<Candidate> candidates;
+  std::uint64_t beam_evaluations = 0;
+  double seconds = 0.0;
+};
+
+struct MatchResult {
+  int reference_graph_id = -1;
+  std::vector<PairResult> pairs;
+  std::vector<InterFloorConstraint> constraints;  // every accepted candidate
+  std::uint64_t beam_evaluations = 0;
+  double seconds = 0.0;
+  const PairResult* pairFor(int graph_id) const;  // the accepted pair, else the last tried
+};
+
+// A floor graph made ready for matching: its map, likelihood field, free space, l_min.
+struct PreparedFloor {
+  const floor::FloorGraph* graph = nullptr;
+  std::unique_ptr<LocalizationMap> map;
+  double l_min = 0.0;          // learned quantile (before likelihood_scale)
+  std::size_t structure = 0;   // occupied cells: how much there is to localise against
+};
+PreparedFloor prepareFloor(const floor::FloorGraph& graph, const FloorMatcherOptions& options);
+
+// l_min(g): tracks g's scans in g's own map (held out as above); the quantile of l_t.
+double learnLikelihoodThreshold(const floor::FloorGraph& graph, const FloorMatcherOptions& options,
+                                std::uint64_t seed);
+
+// Algorithm 1 for one pair: candidates, gate, refinement, RANSAC.
+PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor,
+                     const FloorMatcherOptions& options, std::uint64_t seed);
+
+// All floor graphs: the reference is the graph with most structure; every other graph
+// is matched to it (in parallel), and a graph that fails tries the others in order of
+// structure until one accepts.
+MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs, const FloorMatcherOptions& options);
+
+// Refines an alignment T (g_i frame in g_ref frame) so the scans of the node index
+// ranges [first, last], placed at T * pose, fit the field (Gauss-Newton on 1 - score).
+// Returns the mean score in [0, 1].
+double refineAlignment(const grid::LikelihoodField& field, const floor::FloorGraph& graph,
+                       const std::vector<std::pair<int, int>>& ranges, int beams, int iterations,
+                       geometry::Pose2* alignment);
+
+// The candidate-by-candidate provenance table.
+void printMatchReport(std::ostream& out, const MatchResult& result);
+
+}  // namespace storey::matching

@@ -1,0 +1,213 @@
+#include <gtest/gtest.h>
+
+#include <sstream>
+
+#include "storey/common/config.h"
+#include "storey/matching/floor_matcher.h"
+#include "storey/matching/particle_filter.h"
+#include "synthetic_floor.h"
+#include "test_support.h"
+
+namespace storey::matching {
+namespace {
+
+using geometry::Pose2;
+using test::driveFloor;
+using test::officeFloor;
+using test::officePath;
+
+double angleError(const Pose2& a, const Pose2& b) { return std::abs(geometry::angleDiff(a.theta(), b.theta())); }
+double translationError(const Pose2& a, const Pose2& b) { return (a.translation() - b.translation()).norm(); }
+
+FloorMatcherOptions fastOptions() {
+  FloorMatcherOptions o;
+  o.seed = 7;
+  return o;
+}
+
+TEST(ParticleFilter, UniformInitialisationIsInFreeSpaceAndSizedByArea) {
+  const auto g = driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 1);
+  const LocalizationMap map(floor::renderFloorMap(g, {}), {});
+  ParticleFilterOptions o;
+  o.initial_particles_per_m2 = 10.0;
+  ParticleFilter pf(map, o, 3);
+  pf.initializeUniform();
+  const double expected = std::clamp(map.freeArea() * 10.0, 300.0, 50000.0);
+  EXPECT_NEAR(static_cast<double>(pf.size()), expected, 1.0);
+  for (std::size_t j = 0; j < pf.size(); ++j) EXPECT_TRUE(map.isFree(pf.xs()[j], pf.ys()[j]));
+  EXPECT_FALSE(pf.state().converged);
+}
+
+TEST(ParticleFilter, GlobalLocalisationConvergesToTheTruePoseAndShrinks) {
+  const auto g = driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 2);
+  const LocalizationMap map(floor::renderFloorMap(g, {}), {});
+  ParticleFilter pf(map, {}, 11);
+  pf.initializeUniform();
+  const std::size_t initial = pf.size();
+  bool converged = false;
+  for (std::size_t n = 0; n < 40 && n < g.nodes.size(); ++n) {
+    if (n > 0) pf.predict(g.nodes[n - 1].odometry.between(g.nodes[n].odometry));
+    pf.update(g.nodes[n].scan);
+    const FilterState s = pf.state();
+    if (n >= 2 && s.converged) {
+      EXPECT_LT(translationError(s.mean, g.nodes[n].pose), 0.3) << "node " << n;
+      EXPECT_LT(angleError(s.mean, g.nodes[n].pose), 0.1);
+      converged = true;
+      break;
+    }
+    pf.resampleIfNeeded();
+  }
+  EXPECT_TRUE(converged);
+  EXPECT_LT(pf.size(), initial / 4) << "KLD-sampling should shrink a converged filter";
+}
+
+TEST(ParticleFilter, LikelihoodIsHigherAtTheTruePose) {
+  const auto g = driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 3);
+  const LocalizationMap map(floor::renderFloorMap(g, {}), {});
+  ParticleFilter right(map, {}, 1), wrong(map, {}, 1);
+  const Pose2 truth = g.nodes[10].pose;
+  right.initializeAround(truth, 0.0, 0.0, 10);
+  wrong.initializeAround(truth * Pose2(0.0, 0.0, 0.5), 0.0, 0.0, 10);
+  EXPECT_GT(right.update(g.nodes[10].scan), 2.0 * wrong.update(g.nodes[10].scan));
+  EXPECT_EQ(right.beamEvaluations(), 10u * 60u);
+}
+
+TEST(FloorMatcher, RefinementRecoversAPerturbedAlignment) {
+  const Pose2 frame(1.3, -0.7, 0.3);
+  const auto ref = driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 4);
+  const auto g = driveFloor(officeFloor(0), officePath(1), frame, 1, 3.0, 5);
+  const LocalizationMap map(floor::renderFloorMap(ref, {}), {});
+  Pose2 alignment = frame * Pose2(0.12, -0.08, 0.03);
+  const double fit = refineAlignment(map.field(), g, {{0, 15}}, 90, 50, &alignment);
+  EXPECT_LT(translationError(alignment, frame), 0.02);
+  EXPECT_LT(angleError(alignment, frame), 0.003);
+  EXPECT_GT(fit, 0.5);
+}
+
+TEST(FloorMatcher, LearnedThresholdSeparatesOwnFloorFromWrongPoses) {
+  const auto g = driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 6);
+  const LocalizationMap map(floor::renderFloorMap(g, {}), {});
+  const FloorMatcherOptions o = fastOptions();
+  const double l_min = learnLikelihoodThreshold(g, o, 1);
+  EXPECT_GT(l_min, 0.0);
+  ParticleFilter wrong(map, o.filter, 1);
+  wrong.initializeAround(g.nodes[20].pose * Pose2(1.0, 0.0, 1.0), 0.0, 0.0, 10);
+  EXPECT_LT(wrong.update(g.nodes[20].scan), l_min);
+}
+
+TEST(FloorMatcher, TwoFloorsWithSharedStructureAlign) {
+  const Pose2 frame(1.3, -0.7, 0.3);  // floor 1's graph frame in floor 0's
+  std::vector<floor::FloorGraph> graphs{
+      driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 8),
+      driveFloor(officeFloor(1), officePath(1), frame, 1, 3.2, 9)};
+  const MatchResult r = matchFloors(graphs, fastOptions());
+  std::ostringstream report;
+  printMatchReport(report, r);
+  ASSERT_GE(r.constraints.size(), 3u) << report.str();
+  for (const auto& c : r.constraints) {
+    // Express every constraint as the floor alignment it implies, in floor 0's frame.
+    const floor::FloorGraph& ref = graphs[c.reference_graph_id];
+    const floor::FloorGraph& g = graphs[c.graph_id];
+    const Pose2 implied = ref.findNode(c.reference_node_id)->pose * c.measurement *
+                          g.findNode(c.node_id)->pose.inverse();
+    const Pose2 truth = c.reference_graph_id == 0 ? frame : frame.inverse();
+    EXPECT_LT(translationError(implied * g.findNode(c.node_id)->pose,
+                               truth * g.findNode(c.node_id)->pose), 0.1) << report.str();
+    EXPECT_LT(angleError(implied, truth), 0.02);
+    EXPECT_NEAR(c.dz, c.reference_graph_id == 0 ? 3.2 : -3.2, 1e-9);
+  }
+  const PairResult* pair = r.pairFor(r.reference_graph_id == 0 ? 1 : 0);
+  ASSERT_NE(pair, nullptr);
+  ASSERT_TRUE(pair->accepted);
+  const Pose2 truth = r.reference_graph_id == 0 ? frame : frame.inverse();
+  EXPECT_LT(translationError(pair->alignment, truth), 0.05) << report.str();
+  EXPECT_LT(angleError(pair->alignment, truth), 0.0035);
+}
+
+TEST(FloorMatcher, SameSeedSameResult) {
+  std::vector<floor::FloorGraph> graphs{
+      driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 8),
+      driveFloor(officeFloor(1), officePath(1), Pose2(1.3, -0.7, 0.3), 1, 3.2, 9)};
+  const MatchResult a = matchFloors(graphs, fastOptions());
+  const MatchResult b = matchFloors(graphs, fastOptions());
+  ASSERT_EQ(a.pairs.size(), b.pairs.size());
+  EXPECT_EQ(a.beam_evaluations, b.beam_evaluations);
+  for (std::size_t p = 0; p < a.pairs.size(); ++p) {
+    ASSERT_EQ(a.pairs[p].candidates.size(), b.pairs[p].candidates.size());
+    for (std::size_t i = 0; i < a.pairs[p].candidates.size(); ++i) {
+      const Candidate &ca = a.pairs[p].candidates[i], &cb = b.pairs[p].candidates[i];
+      EXPECT_EQ(ca.first_index, cb.first_index);
+      EXPECT_EQ(ca.last_index, cb.last_index);
+      EXPECT_EQ(ca.reference_node_id, cb.reference_node_id);
+      EXPECT_EQ(ca.likelihood, cb.likelihood);
+      EXPECT_EQ(ca.measurement.vector(), cb.measurement.vector());
+      EXPECT_EQ(ca.status, cb.status);
+    }
+  }
+}
+
+// A floor with 180-degree rotational symmetry: every pose has a twin.
+test::Walls symmetricFloor() {
+  test::Walls w;
+  test::addBox(&w, 0, 0, 16, 8);
+  test::addBox(&w, 3, 3, 5, 5);
+  test::addBox(&w, 11, 3, 13, 5);
+  test::addWall(&w, 8, 0, 8, 2.5);
+  test::addWall(&w, 8, 5.5, 8, 8);
+  return w;
+}
+
+TEST(FloorMatcher, SymmetricFloorsGiveNoConstraint) {
+  // Both robots see the whole floor (a part seen by one robot only is not ambiguous to it:
+  // the data could not tell its twin apart).
+  const std::vector<Eigen::Vector2d> path0{{1, 1.5}, {1, 6.5}, {7, 6.5}, {7, 4}, {9, 4}, {9, 6.5},
+                                           {15, 6.5}, {15, 1.5}, {9, 1.5}, {9, 4}, {7, 4},
+                                           {7, 1.5}, {1.5, 1.5}};
+  const std::vector<Eigen::Vector2d> path1{{2, 6.5}, {2, 2}, {6.5, 2}, {6.5, 4}, {9.5, 4},
+                                           {9.5, 2}, {14, 2}, {14, 6}, {9.5, 6}, {9.5, 4.2}};
+  std::vector<floor::FloorGraph> graphs{
+      driveFloor(symmetricFloor(), path0, Pose2(), 0, 0.0, 12),
+      driveFloor(symmetricFloor(), path1, Pose2(0.5, 0.2, -0.2), 1, 3.0, 13)};
+  const MatchResult r = matchFloors(graphs, fastOptions());
+  std::ostringstream report;
+  printMatchReport(report, r);
+  EXPECT_TRUE(r.constraints.empty()) << report.str();
+}
+
+TEST(FloorMatcher, UnrelatedFloorsGiveNoConstraint) {
+  test::Walls other;
+  test::addBox(&other, 0, 0, 9, 30);
+  test::addWall(&other, 0, 10, 6, 10);
+  test::addWall(&other, 3, 20, 9, 20);
+  test::addBox(&other, 4, 4, 5, 6);
+  const std::vector<Eigen::Vector2d> path{{1.5, 1}, {1.5, 28}, {7.5, 28}, {7.5, 1}};
+  std::vector<floor::FloorGraph> graphs{
+      driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 14),
+      driveFloor(other, path, Pose2(), 1, 3.0, 15)};
+  const MatchResult r = matchFloors(graphs, fastOptions());
+  std::ostringstream report;
+  printMatchReport(report, r);
+  EXPECT_TRUE(r.constraints.empty()) << report.str();
+}
+
+TEST(FloorMatcherOptions, ReadsValuesAndRejectsUnknownKeys) {
+  const auto node = common::ConfigNode::loadString(
+      "min_sequence: 4\nseed: 9\nfilter:\n  beams: 30\n  motion:\n    rot_rot: 0.2\n");
+  const FloorMatcherOptions o = readFloorMatcherOptions(node);
+  EXPECT_EQ(o.min_sequence, 4);
+  EXPECT_EQ(o.seed, 9u);
+  EXPECT_EQ(o.filter.beams, 30);
+  EXPECT_DOUBLE_EQ(o.filter.motion.rot_rot, 0.2);
+  EXPECT_THROW(readFloorMatcherOptions(common::ConfigNode::loadString("min_sequense: 4\n")),
+               common::ConfigError);
+  EXPECT_THROW(readFloorMatcherOptions(common::ConfigNode::loadString("filter: {beams: 0}\n")),
+               common::ConfigError);
+}
+
+TEST(FloorMatcherOptions, ShippedConfigLoads) {
+  const auto node = common::ConfigNode::loadFile(storey::test::sourceDir() + "/config/floor_matcher.yaml");
+  EXPECT_NO_THROW(readFloorMatcherOptions(node.child("floor_matcher")));
+}
+
+}  // namespace
+}  // namespace storey::matching
