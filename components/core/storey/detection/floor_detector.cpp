@@ -15,6 +15,19 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::size_t kMaxScansKept = 200;
 constexpr std::size_t kMaxSamplesKept = 2000000;
+constexpr double kScanLag = 1.0;  // s between the scans compared
+
+constexpr double kHampelSigmas = 3.0;
+
+double medianOf(std::vector<double> values) {
+  const std::size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + mid, values.end());
+  double median = values[mid];
+  if (values.size() % 2 == 0) {
+    median = 0.5 * (median + *std::max_element(values.begin(), values.begin() + mid));
+  }
+  return median;
+}
 
 double sign(double v) { return v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0); }
 
@@ -80,7 +93,7 @@ std::vector<FloorEvent> FloorDetector::takeEvents() {
 }
 
 double FloorDetector::currentHeight() const {
-  const double floor_height = floors_[current_floor_].height;
+  const double floor_height = floors_[current_floor_].height + height_offset_;
   if (state_ == State::kOnFloor || !velocity_valid_) return floor_height;
   return floor_height + window_height_ - start_height_;
 }
@@ -122,18 +135,18 @@ bool FloorDetector::addPressure(const sensor::PressureSample& sample) {
   raw_.push_back({sample.stamp, h});
   while (raw_.size() > 1 && raw_.front().t < sample.stamp - b.median_window) raw_.pop_front();
 
+  // Hampel filter: the window's centre sample passes unless it lies more than three robust
+  // standard deviations from the window's median (a door slam), then the median replaces
+  // it. Gaussian noise keeps its full averaging power; short spikes are removed.
   std::vector<double> values;
   values.reserve(raw_.size());
   for (const auto& r : raw_) values.push_back(r.value);
-  const std::size_t mid = values.size() / 2;
-  std::nth_element(values.begin(), values.begin() + mid, values.end());
-  double median = values[mid];
-  if (values.size() % 2 == 0) {
-    const double lower = *std::max_element(values.begin(), values.begin() + mid);
-    median = 0.5 * (median + lower);
-  }
-  // Stamped at the centre of the window it summarises, so the series is not delayed.
-  filtered_.push_back({0.5 * (raw_.front().t + sample.stamp), median});
+  const double median = medianOf(values);
+  for (auto& v : values) v = std::abs(v - median);
+  const double mad = medianOf(values);
+  const TimedValue& centre = raw_[raw_.size() / 2];
+  const bool outlier = std::abs(centre.value - median) > kHampelSigmas * 1.4826 * mad;
+  filtered_.push_back({centre.t, outlier ? median : centre.value});
   processFiltered(sample.stamp);
   return true;
 }
@@ -183,9 +196,9 @@ void FloorDetector::trimHistories(double now) {
   while (!odom_.empty() && (odom_.front().t < keep_from || odom_.size() > kMaxSamplesKept)) {
     odom_.pop_front();
   }
-  while (!scans_.empty() && (scans_.front().stamp < now - historySeconds() ||
-                             scans_.size() > kMaxScansKept)) {
-    scans_.pop_front();
+  while (!scan_similarity_.empty() &&
+         (scan_similarity_.front().t < keep_from || scan_similarity_.size() > kMaxSamplesKept)) {
+    scan_similarity_.pop_front();
   }
 }
 
@@ -205,10 +218,7 @@ FloorDetector::Window FloorDetector::filteredWindow(double from, double to) cons
   w.mean = s / n;
   w.stddev = std::sqrt(std::max(0.0, ss / n - w.mean * w.mean));
   w.span = t1 - t0;
-  // Median-filtered values are correlated over the median window: count independent ones.
-  const double independent =
-      std::max(1.0, w.span / std::max(options_.barometer.median_window, 1e-3));
-  w.stddev /= std::sqrt(std::min(independent, n));
+  w.stddev /= std::sqrt(n);  // standard error of the mean (Hampel output is white)
   return w;
 }
 
@@ -238,20 +248,19 @@ void FloorDetector::onVelocity(double t_v, double v, double /*now*/) {
     case State::kTransit:
       transit_velocity_.push_back({t_v, v});
       peak_speed_ = std::max(peak_speed_, std::abs(v));
-      if (std::abs(v) < t.end_velocity) {
-        if (quiet_since_ < 0.0) quiet_since_ = t_v;
-        loud_since_ = -1.0;
-        maybeEndTransit(t_v);
-      } else if (quiet_since_ >= 0.0) {
-        // Noise pokes above end_velocity now and then; only clear or lasting motion
-        // ends the quiet period.
-        if (loud_since_ < 0.0) loud_since_ = t_v;
-        if (std::abs(v) >= t.start_velocity || t_v - loud_since_ >= t.min_duration) {
-          quiet_since_ = -1.0;
-          loud_since_ = -1.0;
-        } else {
+      if (quiet_since_ < 0.0) {
+        if (std::abs(v) < t.end_velocity) {
+          quiet_since_ = t_v;
+          quiet_height_ = window_height_;
           maybeEndTransit(t_v);
         }
+      } else if (std::abs(v) >= t.start_velocity &&
+                 std::abs(window_height_ - quiet_height_) >= t.min_start_change) {
+        // Moving on (the next flight of stairs). Noise makes the velocity poke above the
+        // thresholds now and then, but it does not move the height this far.
+        quiet_since_ = -1.0;
+      } else if (std::abs(v) < t.end_velocity) {
+        maybeEndTransit(t_v);  // only while truly still: the end window must be level
       }
       break;
   }
@@ -276,17 +285,13 @@ void FloorDetector::beginCandidate(double t_v, double v) {
   candidate_since_ = t_v;
   candidate_sign_ = sign(v);
   quiet_since_ = -1.0;
-  loud_since_ = -1.0;
   peak_speed_ = std::abs(v);
   transit_velocity_.assign(1, {t_v, v});
-  scan_similarity_.clear();
-  has_reference_scan_ = false;
 }
 
 void FloorDetector::confirmTransit() {
   state_ = State::kTransit;
   quiet_since_ = -1.0;
-  loud_since_ = -1.0;
   if (!silent_transit_) {
     FloorEvent e;
     e.type = FloorEventType::kTransitStarted;
@@ -300,18 +305,6 @@ void FloorDetector::confirmTransit() {
     common::logInfo(str("floor_detector: transit started at t=", onset_, " from floor ",
                         e.from_floor));
   }
-  // The last scan before the motion is the cabin (or stairwell) as the ride began.
-  has_reference_scan_ = false;
-  scan_similarity_.clear();
-  for (const auto& s : scans_) {
-    if (s.stamp <= onset_) {
-      reference_scan_ = s;
-      has_reference_scan_ = true;
-    } else if (has_reference_scan_) {
-      const double sim = scanSimilarity(reference_scan_, s, options_.corroboration.scan);
-      if (sim >= 0.0) scan_similarity_.push_back({s.stamp, sim});
-    }
-  }
 }
 
 void FloorDetector::maybeEndTransit(double t_v) {
@@ -323,7 +316,7 @@ void FloorDetector::maybeEndTransit(double t_v) {
   const Window end = filteredWindow(quiet_since_ + 0.5 * mw, kInf);
   if (end.count < 3) return;
   const double dh = end.mean - start_height_;
-  const double arrival = floors_[current_floor_].height + dh;
+  const double arrival = floors_[current_floor_].height + height_offset_ + dh;
   std::size_t nearest = 0;
   for (std::size_t i = 1; i < floors_.size(); ++i) {
     if (std::abs(floors_[i].height - arrival) < std::abs(floors_[nearest].height - arrival)) {
@@ -372,9 +365,19 @@ void FloorDetector::endTransit(int floor_index, bool changed, bool created, doub
   if (silent_transit_) e.log_odds -= 1.5;  // the ride fell in a gap of the barometer
   if (peak_speed_ >= c.elevator_min_speed) e.elevator_votes += 1.0;
   if (peak_speed_ <= c.stairs_max_speed) e.stairs_votes += 1.0;
+  // Odometry and scans are judged over the core of the motion (vertical speed above half
+  // its peak), not the padded interval that also holds the boarding.
+  double core_start = onset_, core_end = motion_end;
+  bool core_found = false;
+  for (const auto& p : transit_velocity_) {
+    if (std::abs(p.value) < 0.5 * peak_speed_) continue;
+    if (!core_found) core_start = p.t;
+    core_end = p.t;
+    core_found = true;
+  }
   if (c.use_imu) imuEvidence(onset_, motion_end, e);
-  if (c.use_odometry) odometryEvidence(onset_, motion_end, e);
-  if (c.use_scan) scanEvidence(onset_, motion_end, e);
+  if (c.use_odometry) odometryEvidence(core_start, core_end, e);
+  if (c.use_scan) scanEvidence(core_start, core_end, e);
 
   Floor& reached = floors_[floor_index];
   if (changed && !created && !reached.configured) {
@@ -418,13 +421,11 @@ void FloorDetector::endTransit(int floor_index, bool changed, bool created, doub
                         ", confidence ", ev.confidence));
   }
   current_floor_ = floor_index;
+  height_offset_ = changed ? 0.0 : arrival - floors_[floor_index].height;
   state_ = State::kOnFloor;
   silent_transit_ = false;
   quiet_since_ = -1.0;
-  loud_since_ = -1.0;
   transit_velocity_.clear();
-  scan_similarity_.clear();
-  has_reference_scan_ = false;
 }
 
 void FloorDetector::handleGap(double gap_start, double gap_end) {
@@ -445,14 +446,11 @@ void FloorDetector::handleGap(double gap_start, double gap_end) {
     silent_transit_ = true;
     peak_speed_ = 0.0;
     transit_velocity_.clear();
-    scan_similarity_.clear();
-    has_reference_scan_ = false;
   } else if (state_ == State::kCandidate) {
     silent_transit_ = true;
   }
   state_ = State::kTransit;
   quiet_since_ = -1.0;
-  loud_since_ = -1.0;
   filtered_.clear();
 }
 
@@ -609,14 +607,23 @@ bool FloorDetector::addScan(const sensor::LaserScan& scan) {
     return false;
   }
   last_scan_stamp_ = scan.stamp;
+  // Compare with the newest scan at least a second older: in a cabin nothing changes, on
+  // stairs the robot has moved a quarter metre or turned.
+  const sensor::LaserScan* previous = nullptr;
+  for (auto it = scans_.rbegin(); it != scans_.rend(); ++it) {
+    if (it->stamp <= scan.stamp - kScanLag) {
+      previous = &*it;
+      break;
+    }
+  }
+  if (previous && scan.stamp - previous->stamp < 3.0 * kScanLag) {
+    const double sim = scanSimilarity(*previous, scan, options_.corroboration.scan);
+    if (sim >= 0.0) scan_similarity_.push_back({scan.stamp, sim});
+  }
   scans_.push_back(scan);
-  while (scans_.size() > 1 && (scans_.front().stamp < scan.stamp - historySeconds() ||
+  while (scans_.size() > 1 && (scans_.front().stamp < scan.stamp - 3.0 * kScanLag ||
                                scans_.size() > kMaxScansKept)) {
     scans_.pop_front();
-  }
-  if (state_ == State::kTransit && has_reference_scan_) {
-    const double sim = scanSimilarity(reference_scan_, scan, options_.corroboration.scan);
-    if (sim >= 0.0) scan_similarity_.push_back({scan.stamp, sim});
   }
   return true;
 }

@@ -1,5 +1,5 @@
 // Floor-change detection for one robot: barometric height (hypsometric equation) with a
-// spike-rejecting median filter and a least-squares vertical velocity; a ride or stair
+// spike-rejecting Hampel (median) filter and a least-squares vertical velocity; a ride or stair
 // climb is sustained vertical motion, weather drift is not. IMU, odometry and scans, each
 // optional, corroborate a ride and tell an elevator from stairs. Arrival heights are
 // matched to known floors (seen before, or from the building's configuration).
@@ -127,7 +127,7 @@ class FloorDetector {
   // Barometer filter.
   double last_pressure_stamp_ = -1e300;
   std::deque<TimedValue> raw_;       // raw heights within the median window
-  std::deque<TimedValue> filtered_;  // median-filtered heights (stamped at window centre)
+  std::deque<TimedValue> filtered_;  // Hampel-filtered heights (delayed by half the window)
   double last_velocity_ = 0.0;
   double window_height_ = 0.0;  // mean filtered height over the velocity window
   bool velocity_valid_ = false;
@@ -139,7 +139,7 @@ class FloorDetector {
   double start_height_ = 0.0;    // filtered barometric height before the motion
   double start_height_stddev_ = 0.0;
   double quiet_since_ = -1.0;    // velocity time at which the robot became quiet, or < 0
-  double loud_since_ = -1.0;     // while quiet: velocity time it last rose above end_velocity
+  double quiet_height_ = 0.0;    // window height when the robot became quiet
   double candidate_since_ = 0.0;  // velocity time at which the candidate began
   double candidate_sign_ = 0.0;
   double last_pressure_ = kReferencePressure;
@@ -150,9 +150,9 @@ class FloorDetector {
   std::deque<TimedValue> imu_;  // vertical acceleration including gravity
   std::deque<OdomPoint> odom_;
   std::deque<sensor::LaserScan> scans_;
-  std::vector<TimedValue> scan_similarity_;  // during a ride, vs the last scan before it
-  sensor::LaserScan reference_scan_;
-  bool has_reference_scan_ = false;
+  // Similarity of each scan to the one about a second before it (trimmed like imu_).
+  std::deque<TimedValue> scan_similarity_;
+  double height_offset_ = 0.0;  // robot above its floor's height (a ramp, a landing), m
   double last_imu_stamp_ = -1e300;
   double last_odom_stamp_ = -1e300;
   double last_scan_stamp_ = -1e300;

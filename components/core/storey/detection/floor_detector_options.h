@@ -14,7 +14,7 @@ struct BarometerOptions {
   double temperature_uncertainty_kelvin = 5.0;  // scales the reported std-dev
   double min_pressure = 30000.0;   // Pa; readings outside are rejected
   double max_pressure = 110000.0;  // Pa
-  double median_window = 1.0;      // s; removes spikes (door slams) shorter than half of it
+  double median_window = 1.0;      // s; Hampel window: spikes (door slams) shorter than half of it go
   double velocity_window = 6.0;    // s; least-squares slope of the filtered height
   double max_gap = 1.0;            // s; a longer silence restarts the filter
   double max_drift_rate = 100.0;   // Pa/h of weather drift assumed for the std-dev
@@ -26,7 +26,7 @@ struct TransitOptions {
   double min_duration = 2.0;            // s; a candidate must last this long
   double min_start_change = 0.4;        // m; and have moved this far from the floor
   double settle_time = 3.0;             // s; quiet time to end a ride at a known floor
-  double new_floor_settle_time = 10.0;  // s; quiet time to create a floor (or stay)
+  double new_floor_settle_time = 15.0;  // s; quiet time to create a floor (or stay)
   double reference_window = 4.0;        // s; on-floor height averaged before a ride
 };
 
