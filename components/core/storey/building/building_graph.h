@@ -63,6 +63,7 @@ class BuildingGraph {
   // Throws std::invalid_argument naming the constraint when it refers to an unknown
   // graph or node, or its values are not finite.
   void addConstraint(const InterGraphConstraint& constraint);
+  void removeLastConstraint() { constraints_.pop_back(); }
 
   const std::map<int, floor::FloorGraph>& floorGraphs() const { return graphs_; }
   const std::vector<InterGraphConstraint>& constraints() const { return constraints_; }

@@ -1,0 +1,139 @@
+#include "storey/graph_server/conversions.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "storey/runtime/sensor_conversions.h"
+
+namespace storey::graph_server {
+namespace {
+
+Eigen::Matrix3d informationFrom(const std::array<double, 9>& values) {
+  Eigen::Matrix3d m;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) m(r, c) = values[r * 3 + c];
+  return m;
+}
+
+void requireFinite(double value, const std::string& field) {
+  if (!std::isfinite(value)) throw std::invalid_argument(field + " is not finite");
+}
+
+}  // namespace
+
+building::FloorGraphDelta fromMessage(const storey_msgs::msg::FloorGraphUpdate& m) {
+  building::FloorGraphDelta d;
+  d.robot = m.robot();
+  d.graph_id = static_cast<int>(m.floor_graph_id());
+  d.floor_id = m.floor_id();
+  d.floor_height = m.floor_height();
+  d.sequence = m.sequence_number();
+  const std::string where = "floor graph " + std::to_string(d.graph_id) + " update " + std::to_string(d.sequence);
+  requireFinite(d.floor_height, where + ": floor_height");
+  for (const auto& n : m.new_nodes()) {
+    floor::FloorNode node;
+    node.id = static_cast<int>(n.node_id());
+    node.stamp = runtime::fromTimeMessage(n.stamp());
+    const std::string at = where + ": node " + std::to_string(node.id);
+    requireFinite(n.x(), at + ".x");
+    requireFinite(n.y(), at + ".y");
+    requireFinite(n.theta(), at + ".theta");
+    node.pose = geometry::Pose2(n.x(), n.y(), n.theta());
+    node.odometry = node.pose;
+    node.scan.stamp = node.stamp;
+    node.scan.angle_min = n.angle_min();
+    node.scan.angle_increment = n.angle_increment();
+    node.scan.range_min = n.range_min();
+    node.scan.range_max = n.range_max();
+    node.scan.ranges = n.ranges();
+    const std::string problem = node.scan.validate();
+    if (!problem.empty()) throw std::invalid_argument(at + ": " + problem);
+    d.new_nodes.push_back(std::move(node));
+  }
+  for (const auto& e : m.new_edges()) {
+    floor::FloorEdge edge;
+    edge.from = static_cast<int>(e.from_node());
+    edge.to = static_cast<int>(e.to_node());
+    const std::string at = where + ": edge " + std::to_string(edge.from) + "->" + std::to_string(edge.to);
+    requireFinite(e.dx(), at + ".dx");
+    requireFinite(e.dy(), at + ".dy");
+    requireFinite(e.dtheta(), at + ".dtheta");
+    edge.measurement = geometry::Pose2(e.dx(), e.dy(), e.dtheta());
+    edge.information = informationFrom(e.information());
+    if (e.kind() > 2) throw std::invalid_argument(at + ": unknown edge kind " + std::to_string(e.kind()));
+    edge.kind = static_cast<floor::EdgeKind>(e.kind());
+    d.new_edges.push_back(edge);
+  }
+  for (const auto& p : m.optimized_poses()) {
+    if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.theta()))
+      throw std::invalid_argument(where + ": optimised pose of node " + std::to_string(p.node_id()) + " is not finite");
+    d.poses[static_cast<int>(p.node_id())] = geometry::Pose2(p.x(), p.y(), p.theta());
+  }
+  return d;
+}
+
+building::InterGraphConstraint fromMessage(const storey_msgs::msg::InterFloorConstraint& m) {
+  building::InterGraphConstraint c;
+  c.id = static_cast<int>(m.constraint_id());
+  c.graph_from = static_cast<int>(m.from_floor_graph());
+  c.node_from = static_cast<int>(m.from_node());
+  c.graph_to = static_cast<int>(m.to_floor_graph());
+  c.node_to = static_cast<int>(m.to_node());
+  c.relative = geometry::Pose2(m.dx(), m.dy(), m.dtheta());
+  c.dz = m.dz();
+  c.information = informationFrom(m.information());
+  return c;
+}
+
+storey_msgs::msg::BuildingState toMessage(const building::BuildingSolution& solution, std::uint32_t sequence,
+                                          double stamp) {
+  storey_msgs::msg::BuildingState state;
+  state.sequence_number(sequence);
+  state.stamp(runtime::toTimeMessage(stamp));
+  state.chi2(solution.final_chi2);
+  for (const auto& p : solution.placements) {
+    storey_msgs::msg::FloorTransform t;
+    t.floor_id(p.floor_id);
+    t.x(p.transform.x());
+    t.y(p.transform.y());
+    t.theta(p.transform.theta());
+    t.height(p.height);
+    state.floors().push_back(t);
+  }
+  for (const auto& [key, pose] : solution.poses) {
+    storey_msgs::msg::NodePose n;
+    n.floor_graph_id(static_cast<std::uint32_t>(key.first));
+    n.node_id(static_cast<std::uint32_t>(key.second));
+    n.x(pose.x());
+    n.y(pose.y());
+    n.theta(pose.theta());
+    state.node_poses().push_back(n);
+  }
+  return state;
+}
+
+nav_msgs::msg::OccupancyGrid toMessage(const building::FloorMap& floor, double stamp) {
+  nav_msgs::msg::OccupancyGrid msg;
+  const grid::GridFrame& f = floor.grid.frame();
+  msg.header().stamp(runtime::toTimeMessage(stamp));
+  msg.header().frame_id("building");
+  msg.info().map_load_time(runtime::toTimeMessage(stamp));
+  msg.info().resolution(static_cast<float>(f.resolution));
+  msg.info().width(static_cast<std::uint32_t>(f.width));
+  msg.info().height(static_cast<std::uint32_t>(f.height));
+  msg.info().origin().position().x(f.origin_x);
+  msg.info().origin().position().y(f.origin_y);
+  msg.info().origin().position().z(floor.height);
+  msg.info().origin().orientation().w(1.0);
+  msg.data().resize(f.cellCount());
+  for (int cy = 0; cy < f.height; ++cy)
+    for (int cx = 0; cx < f.width; ++cx) {
+      const float l = floor.grid.logOddsAt(cx, cy);
+      // ROS convention: -1 unknown, else occupancy probability in percent.
+      msg.data()[f.index(cx, cy)] =
+          l == 0.0f ? std::int8_t(-1) : static_cast<std::int8_t>(std::lround(100.0 * floor.grid.probabilityAt(cx, cy)));
+    }
+  return msg;
+}
+
+}  // namespace storey::graph_server

@@ -1,0 +1,220 @@
+#include "storey/graph_server/graph_server.h"
+
+#include <chrono>
+
+#include "storey/common/log.h"
+#include "storey/graph_server/conversions.h"
+
+namespace storey::graph_server {
+
+using common::logInfo;
+using common::logWarn;
+using common::str;
+
+GraphServerOptions readGraphServerOptions(const common::ConfigNode& node) {
+  GraphServerOptions o;
+  o.floor_graph_topic = node.get<std::string>("floor_graph_topic", o.floor_graph_topic);
+  o.constraint_topic = node.get<std::string>("constraint_topic", o.constraint_topic);
+  o.building_state_topic = node.get<std::string>("building_state_topic", o.building_state_topic);
+  o.floor_map_topic_prefix = node.get<std::string>("floor_map_topic_prefix", o.floor_map_topic_prefix);
+  o.journal_path = node.get<std::string>("journal", o.journal_path);
+  o.journal_sync = node.get<bool>("journal_sync", o.journal_sync);
+  o.optimize_min_period = node.getDouble("optimize_min_period", o.optimize_min_period, 0.0, 3600.0);
+  o.publish_maps = node.get<bool>("publish_maps", o.publish_maps);
+  if (node.has("map")) o.map = grid::readOccupancyGridOptions(node.child("map"));
+  if (node.has("building")) o.building = building::readBuildingGraphOptions(node.child("building"));
+  node.finish();
+  return o;
+}
+
+GraphServer::GraphServer(runtime::Context& context, const common::ConfigNode& parameters, std::string name)
+    : runtime::Component(context, parameters, std::move(name)) {}
+
+GraphServer::~GraphServer() { stopWorker(); }
+
+void GraphServer::onConfigure() {
+  options_ = readGraphServerOptions(parameters());
+  building_ = building::BuildingGraph(options_.building);
+  if (!options_.journal_path.empty()) {
+    journal_ = std::make_unique<building::JournalWriter>(options_.journal_path, options_.journal_sync);
+    for (const auto& record : journal_->existing()) {
+      try {
+        if (const auto* d = std::get_if<building::FloorGraphDelta>(&record)) {
+          building::applyDelta(building_, *d);
+        } else {
+          building_.addConstraint(std::get<building::InterGraphConstraint>(record));
+        }
+        ++stats_.replayed_from_journal;
+      } catch (const std::exception& e) {
+        logWarn(str(name(), ": journal record not applied: ", e.what()));
+      }
+    }
+    if (stats_.replayed_from_journal)
+      logInfo(str(name(), ": resumed ", stats_.replayed_from_journal, " records from ", options_.journal_path));
+    if (stats_.replayed_from_journal) ++accepted_generation_;
+  }
+  state_publisher_ =
+      createPublisher<storey_msgs::msg::BuildingState, storey_msgs::msg::BuildingStatePubSubType>(
+          options_.building_state_topic, runtime::TopicKind::kGraph);
+  createSubscription<storey_msgs::msg::FloorGraphUpdate, storey_msgs::msg::FloorGraphUpdatePubSubType>(
+      options_.floor_graph_topic, runtime::TopicKind::kGraph,
+      [this](const storey_msgs::msg::FloorGraphUpdate& m) { onFloorGraph(m); });
+  createSubscription<storey_msgs::msg::InterFloorConstraint, storey_msgs::msg::InterFloorConstraintPubSubType>(
+      options_.constraint_topic, runtime::TopicKind::kGraph,
+      [this](const storey_msgs::msg::InterFloorConstraint& m) { onConstraint(m); });
+}
+
+void GraphServer::onActivate() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = false;
+  }
+  worker_ = std::thread([this] { workerLoop(); });
+}
+
+void GraphServer::onDeactivate() { stopWorker(); }
+
+void GraphServer::onCleanup() {
+  stopWorker();
+  journal_.reset();
+  map_publishers_.clear();
+  state_publisher_.reset();
+}
+
+void GraphServer::stopWorker() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  changed_.notify_all();
+  if (worker_.joinable()) worker_.join();
+}
+
+void GraphServer::accept(const building::JournalRecord& record) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  // Validate against a copy first so a bad record changes nothing, then journal, then apply.
+  if (const auto* d = std::get_if<building::FloorGraphDelta>(&record)) {
+    building::BuildingGraph trial = building_;
+    building::applyDelta(trial, *d);
+    if (journal_) journal_->append(record);
+    building_ = std::move(trial);
+    ++stats_.updates_accepted;
+  } else {
+    const auto& constraint = std::get<building::InterGraphConstraint>(record);
+    building_.addConstraint(constraint);  // validates
+    if (journal_) {
+      try {
+        journal_->append(record);
+      } catch (...) {
+        building_.removeLastConstraint();  // not durable, so not accepted
+        throw;
+      }
+    }
+    ++stats_.constraints_accepted;
+  }
+  ++accepted_generation_;
+  changed_.notify_all();
+}
+
+void GraphServer::onFloorGraph(const storey_msgs::msg::FloorGraphUpdate& message) {
+  try {
+    accept(fromMessage(message));
+    // Constraints that arrived before their floor graphs.
+    std::vector<building::InterGraphConstraint> waiting;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      waiting.swap(pending_constraints_);
+    }
+    for (const auto& c : waiting) {
+      try {
+        accept(c);
+      } catch (const std::invalid_argument&) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        pending_constraints_.push_back(c);
+      }
+    }
+  } catch (const std::exception& e) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++stats_.rejected;
+    logWarn(str(name(), ": rejected a floor-graph update from robot '", message.robot(), "': ", e.what()));
+  }
+}
+
+void GraphServer::onConstraint(const storey_msgs::msg::InterFloorConstraint& message) {
+  const building::InterGraphConstraint c = fromMessage(message);
+  try {
+    accept(c);
+  } catch (const std::invalid_argument& e) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const bool graphs_known = building_.floorGraphs().count(c.graph_from) && building_.floorGraphs().count(c.graph_to);
+    if (graphs_known) {
+      ++stats_.rejected;
+      logWarn(str(name(), ": rejected ", e.what()));
+    } else {
+      pending_constraints_.push_back(c);  // its floor graph is still on its way
+    }
+  }
+}
+
+void GraphServer::workerLoop() {
+  auto last = std::chrono::steady_clock::now() - std::chrono::hours(1);
+  while (true) {
+    building::BuildingGraph work;
+    std::uint64_t generation;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      changed_.wait(lock, [&] { return stop_ || accepted_generation_ != optimized_generation_; });
+      if (stop_) return;
+      // Rate limit: gather what arrives within the period into one optimisation.
+      const auto next = last + std::chrono::duration<double>(options_.optimize_min_period);
+      if (changed_.wait_until(lock, next, [&] { return stop_; })) return;
+      work = building_;
+      generation = accepted_generation_;
+    }
+    last = std::chrono::steady_clock::now();
+    building::BuildingSolution solution;
+    try {
+      solution = work.optimize();
+    } catch (const std::exception& e) {
+      logWarn(str(name(), ": optimisation failed: ", e.what()));
+      std::lock_guard<std::mutex> lock(mutex_);
+      optimized_generation_ = generation;
+      changed_.notify_all();
+      continue;
+    }
+    const double stamp = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+    state_publisher_->publish(toMessage(solution, state_sequence_++, stamp));
+    if (options_.publish_maps) {
+      for (const auto& [floor_id, floor] : building::renderBuildingFloors(work, solution, options_.map)) {
+        auto& publisher = map_publishers_[floor_id];
+        if (!publisher)
+          publisher = createPublisher<nav_msgs::msg::OccupancyGrid, nav_msgs::msg::OccupancyGridPubSubType>(
+              options_.floor_map_topic_prefix + "/floor_" + std::to_string(floor_id), runtime::TopicKind::kGraph);
+        publisher->publish(toMessage(floor, stamp));
+      }
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    solution_ = solution;
+    optimized_generation_ = generation;
+    ++stats_.optimisations;
+    changed_.notify_all();
+  }
+}
+
+bool GraphServer::waitOptimized(double timeout_s) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  return changed_.wait_for(lock, std::chrono::duration<double>(timeout_s),
+                           [&] { return optimized_generation_ == accepted_generation_; });
+}
+
+std::pair<building::BuildingGraph, building::BuildingSolution> GraphServer::snapshot() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return {building_, solution_};
+}
+
+GraphServerStats GraphServer::stats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stats_;
+}
+
+}  // namespace storey::graph_server

@@ -1,0 +1,89 @@
+// graph_server: keeps the building graph (every floor graph and inter-floor constraint),
+// journals what it accepts, optimises on a worker thread (rate-limited, never on a DDS
+// or executor callback), and publishes the building state and per-floor occupancy grids.
+#pragma once
+
+#include <condition_variable>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include "nav_msgs/msg/OccupancyGridPubSubTypes.h"
+#include "storey/building/building_graph.h"
+#include "storey/building/building_outputs.h"
+#include "storey/building/journal.h"
+#include "storey/runtime/component.h"
+#include "storey_msgs/msg/BuildingStatePubSubTypes.h"
+#include "storey_msgs/msg/FloorGraphUpdatePubSubTypes.h"
+#include "storey_msgs/msg/InterFloorConstraintPubSubTypes.h"
+
+namespace storey::graph_server {
+
+struct GraphServerOptions {
+  std::string floor_graph_topic = "storey/floor_graphs";
+  std::string constraint_topic = "storey/inter_floor_constraints";
+  std::string building_state_topic = "storey/building_state";
+  std::string floor_map_topic_prefix = "storey/floor_maps";  // + "/floor_<id>"
+  std::string journal_path;  // empty: no journal
+  bool journal_sync = true;
+  double optimize_min_period = 0.5;  // seconds between optimisations
+  bool publish_maps = true;
+  grid::OccupancyGridOptions map;
+  building::BuildingGraphOptions building;
+};
+GraphServerOptions readGraphServerOptions(const common::ConfigNode& node);
+
+struct GraphServerStats {
+  std::uint64_t updates_accepted = 0;
+  std::uint64_t constraints_accepted = 0;
+  std::uint64_t rejected = 0;
+  std::uint64_t optimisations = 0;
+  std::uint64_t replayed_from_journal = 0;
+};
+
+class GraphServer : public runtime::Component {
+ public:
+  GraphServer(runtime::Context& context, const common::ConfigNode& parameters, std::string name);
+  ~GraphServer() override;
+
+  // Blocks until everything accepted so far is optimised and published (or timeout).
+  bool waitOptimized(double timeout_s);
+  // A copy of the building graph and its last solution (consistent with each other).
+  std::pair<building::BuildingGraph, building::BuildingSolution> snapshot() const;
+  GraphServerStats stats() const;
+
+ protected:
+  void onConfigure() override;
+  void onActivate() override;
+  void onDeactivate() override;
+  void onCleanup() override;
+
+ private:
+  void onFloorGraph(const storey_msgs::msg::FloorGraphUpdate& message);
+  void onConstraint(const storey_msgs::msg::InterFloorConstraint& message);
+  void accept(const building::JournalRecord& record);
+  void workerLoop();
+  void stopWorker();
+
+  GraphServerOptions options_;
+  std::unique_ptr<building::JournalWriter> journal_;
+  std::shared_ptr<runtime::Publisher<storey_msgs::msg::BuildingState, storey_msgs::msg::BuildingStatePubSubType>>
+      state_publisher_;
+  std::map<int, std::shared_ptr<runtime::Publisher<nav_msgs::msg::OccupancyGrid, nav_msgs::msg::OccupancyGridPubSubType>>>
+      map_publishers_;
+
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  building::BuildingGraph building_;
+  building::BuildingSolution solution_;
+  std::vector<building::InterGraphConstraint> pending_constraints_;  // waiting for their graphs
+  std::uint64_t accepted_generation_ = 0;
+  std::uint64_t optimized_generation_ = 0;
+  GraphServerStats stats_;
+  bool stop_ = false;
+  std::thread worker_;
+  std::uint32_t state_sequence_ = 0;
+};
+
+}  // namespace storey::graph_server

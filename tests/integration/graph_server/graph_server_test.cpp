@@ -1,0 +1,199 @@
+#include "storey/graph_server/graph_server.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <thread>
+
+#include "storey/runtime/context.h"
+#include "storey/runtime/publisher.h"
+#include "storey/runtime/sensor_conversions.h"
+#include "storey/runtime/subscription.h"
+#include "test_support.h"
+
+namespace storey::graph_server {
+namespace {
+
+using geometry::Pose2;
+
+runtime::ContextOptions onDomain(int domain) {
+  runtime::ContextOptions options;
+  options.domain_id = domain;
+  return options;
+}
+
+// A floor graph of `count` nodes along a line, in its own frame.
+storey_msgs::msg::FloorGraphUpdate makeUpdate(int graph_id, int floor_id, double height) {
+  storey_msgs::msg::FloorGraphUpdate u;
+  u.robot("robot_a");
+  u.floor_graph_id(graph_id);
+  u.floor_id(floor_id);
+  u.floor_height(height);
+  for (int i = 0; i < 5; ++i) {
+    storey_msgs::msg::FloorGraphNode n;
+    n.node_id(i);
+    n.floor_graph_id(graph_id);
+    n.stamp(runtime::toTimeMessage(10.0 + i));
+    n.x(i);
+    n.y(0.2 * i);
+    n.theta(0.05 * i);
+    n.angle_min(-1.5f);
+    n.angle_increment(0.1f);
+    n.range_min(0.1f);
+    n.range_max(20.f);
+    n.ranges(std::vector<float>(31, 3.0f));
+    u.new_nodes().push_back(n);
+    if (i > 0) {
+      storey_msgs::msg::FloorGraphEdge e;
+      e.from_node(i - 1);
+      e.to_node(i);
+      const Pose2 rel = Pose2(i - 1, 0.2 * (i - 1), 0.05 * (i - 1)).between(Pose2(i, 0.2 * i, 0.05 * i));
+      e.dx(rel.x());
+      e.dy(rel.y());
+      e.dtheta(rel.theta());
+      e.information({100, 0, 0, 0, 100, 0, 0, 0, 400});
+      u.new_edges().push_back(e);
+    }
+  }
+  return u;
+}
+
+storey_msgs::msg::InterFloorConstraint makeConstraint(int id, int node, const Pose2& offset) {
+  // Floor graph 1's frame sits at `offset` in floor graph 0's frame.
+  const Pose2 p0(node, 0.2 * node, 0.05 * node);
+  const Pose2 p1 = offset * p0;
+  const Pose2 rel = p0.between(p1);
+  storey_msgs::msg::InterFloorConstraint c;
+  c.constraint_id(id);
+  c.from_floor_graph(0);
+  c.from_node(node);
+  c.to_floor_graph(1);
+  c.to_node(node);
+  c.dx(rel.x());
+  c.dy(rel.y());
+  c.dtheta(rel.theta());
+  c.dz(3.0);
+  c.information({50, 0, 0, 0, 50, 0, 0, 0, 200});
+  return c;
+}
+
+class GraphServerTest : public ::testing::Test {
+ protected:
+  void publishBuilding(runtime::Context& context, const Pose2& offset, bool constraints_first) {
+    runtime::Publisher<storey_msgs::msg::FloorGraphUpdate, storey_msgs::msg::FloorGraphUpdatePubSubType> graphs(
+        context, "storey/floor_graphs", runtime::TopicKind::kGraph);
+    runtime::Publisher<storey_msgs::msg::InterFloorConstraint, storey_msgs::msg::InterFloorConstraintPubSubType>
+        constraints(context, "storey/inter_floor_constraints", runtime::TopicKind::kGraph);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
+    if (!constraints_first) {
+      graphs.publish(makeUpdate(0, 0, 0.0));
+      graphs.publish(makeUpdate(1, 1, 3.0));
+    }
+    for (int k : {1, 2, 3}) constraints.publish(makeConstraint(k, k, offset));
+    if (constraints_first) {
+      graphs.publish(makeUpdate(0, 0, 0.0));
+      graphs.publish(makeUpdate(1, 1, 3.0));
+    }
+  }
+};
+
+TEST_F(GraphServerTest, OptimisesAndPublishesTheBuilding) {
+  runtime::Context context(onDomain(200));
+  std::atomic<int> states{0};
+  std::mutex mutex;
+  storey_msgs::msg::BuildingState last;
+  runtime::Subscription<storey_msgs::msg::BuildingState, storey_msgs::msg::BuildingStatePubSubType> state_sub(
+      context, "storey/building_state", runtime::TopicKind::kGraph, [&](const storey_msgs::msg::BuildingState& s) {
+        std::lock_guard<std::mutex> lock(mutex);
+        last = s;
+        ++states;
+      });
+  GraphServer server(context, common::ConfigNode::loadString("{optimize_min_period: 0.05}"), "graph_server");
+  server.configure();
+  server.activate();
+  const Pose2 offset(1.0, -0.5, 0.3);
+  publishBuilding(context, offset, /*constraints_first=*/true);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (server.stats().constraints_accepted == 3 && server.waitOptimized(0.1)) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_EQ(server.stats().updates_accepted, 2u);
+  ASSERT_EQ(server.stats().constraints_accepted, 3u);
+  const auto [graph, solution] = server.snapshot();
+  const auto* placement = solution.placement(1);
+  ASSERT_NE(placement, nullptr);
+  EXPECT_TRUE(placement->aligned);
+  EXPECT_NEAR(placement->transform.x(), offset.x(), 1e-6);
+  EXPECT_NEAR(placement->transform.y(), offset.y(), 1e-6);
+  EXPECT_NEAR(placement->transform.theta(), offset.theta(), 1e-6);
+  while (std::chrono::steady_clock::now() < deadline && states == 0)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_GT(states.load(), 0);
+  server.deactivate();
+  server.cleanup();
+}
+
+TEST_F(GraphServerTest, RestartFromJournalLosesNothing) {
+  const std::string journal = test::makeTempDir() + "/graph.journal";
+  const std::string params = "{optimize_min_period: 0.05, journal: '" + journal + "', publish_maps: false}";
+  const Pose2 offset(-2.0, 1.0, -0.2);
+  building::BuildingSolution before;
+  {
+    runtime::Context context(onDomain(201));
+    GraphServer server(context, common::ConfigNode::loadString(params), "graph_server");
+    server.configure();
+    server.activate();
+    publishBuilding(context, offset, false);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (std::chrono::steady_clock::now() < deadline && server.stats().constraints_accepted < 3)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    ASSERT_TRUE(server.waitOptimized(5.0));
+    before = server.snapshot().second;
+  }  // the server goes away as if it died: nothing but the journal survives
+  runtime::Context context(onDomain(202));
+  GraphServer restarted(context, common::ConfigNode::loadString(params), "graph_server");
+  restarted.configure();
+  restarted.activate();
+  EXPECT_EQ(restarted.stats().replayed_from_journal, 5u);
+  ASSERT_TRUE(restarted.waitOptimized(5.0));
+  const auto after = restarted.snapshot().second;
+  ASSERT_NE(after.placement(1), nullptr);
+  EXPECT_NEAR(after.placement(1)->transform.x(), before.placement(1)->transform.x(), 1e-9);
+  EXPECT_NEAR(after.final_chi2, before.final_chi2, 1e-9);
+}
+
+TEST_F(GraphServerTest, BadUpdatesAreRejectedAndCounted) {
+  runtime::Context context(onDomain(203));
+  GraphServer server(context, common::ConfigNode::loadString("{optimize_min_period: 0.05}"), "graph_server");
+  server.configure();
+  server.activate();
+  runtime::Publisher<storey_msgs::msg::FloorGraphUpdate, storey_msgs::msg::FloorGraphUpdatePubSubType> graphs(
+      context, "storey/floor_graphs", runtime::TopicKind::kGraph);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  auto bad = makeUpdate(0, 0, 0.0);
+  bad.new_nodes()[2].x(std::nan(""));
+  graphs.publish(bad);
+  auto dangling = makeUpdate(1, 0, 0.0);
+  dangling.new_edges()[0].to_node(77);
+  graphs.publish(dangling);
+  graphs.publish(makeUpdate(2, 0, 0.0));
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (std::chrono::steady_clock::now() < deadline &&
+         server.stats().rejected + server.stats().updates_accepted < 3)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_EQ(server.stats().rejected, 2u);
+  EXPECT_EQ(server.stats().updates_accepted, 1u);
+  EXPECT_EQ(server.snapshot().first.floorGraphs().size(), 1u);
+}
+
+TEST(GraphServerOptions, UnknownKeyIsAnError) {
+  EXPECT_THROW(readGraphServerOptions(common::ConfigNode::loadString("{optimise_period: 1}", "gs.yaml")),
+               common::ConfigError);
+  EXPECT_THROW(readGraphServerOptions(common::ConfigNode::loadString("{optimize_min_period: -1}", "gs.yaml")),
+               common::ConfigError);
+}
+
+}  // namespace
+}  // namespace storey::graph_server
