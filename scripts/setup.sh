@@ -10,7 +10,7 @@ packages=(
   libfastrtps-dev libfastcdr-dev fastddsgen fastdds-tools
   libeigen3-dev liboctomap-dev libsuitesparse-dev libyaml-cpp-dev
   libsqlite3-dev zlib1g-dev
-  libgtest-dev libgmock-dev libbenchmark-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libceres-dev
   iproute2 openssl
 )
 missing=()

@@ -1,0 +1,133 @@
+// CHOLMOD backend: supernodal Cholesky (simplicial where CHOLMOD judges it cheaper). The fill-reducing ordering is computed by AMD on
+// the block (pose) pattern, which is 9× smaller than the scalar one, and expanded to the
+// scalar variables; the symbolic factor is kept until the next analyze().
+#include <cholmod.h>
+
+#include <cstring>
+#include <stdexcept>
+
+#include "storey/graph/linear_solver.h"
+
+namespace storey::graph {
+
+namespace {
+
+class CholmodSolver : public LinearSolver {
+ public:
+  CholmodSolver() {
+    cholmod_start(&common_);
+    // Supernodal (dense BLAS kernels on column groups) wherever CHOLMOD's flop-per-entry
+    // test says it pays; on small, chain-like graphs (intel) simplicial was 2× faster.
+    common_.supernodal = CHOLMOD_AUTO;
+    common_.print = 0;
+    common_.error_handler = nullptr;
+    started_ = true;
+  }
+
+  ~CholmodSolver() override {
+    if (factor_) cholmod_free_factor(&factor_, &common_);
+    if (started_) cholmod_finish(&common_);
+  }
+
+  CholmodSolver(const CholmodSolver&) = delete;
+  CholmodSolver& operator=(const CholmodSolver&) = delete;
+
+  const char* name() const override { return "cholmod"; }
+
+  void analyze(const SparseUpper& matrix) override {
+    if (factor_) cholmod_free_factor(&factor_, &common_);
+    cholmod_sparse a = view(matrix);
+    std::vector<int> perm;
+    if (!matrix.block_col_ptr.empty() && matrix.block_size > 1) {
+      perm = blockOrdering(matrix);
+    }
+    if (!perm.empty()) {
+      common_.nmethods = 1;
+      common_.method[0].ordering = CHOLMOD_GIVEN;
+      common_.postorder = 1;
+      factor_ = cholmod_analyze_p(&a, perm.data(), nullptr, 0, &common_);
+    } else {
+      common_.nmethods = 1;
+      common_.method[0].ordering = CHOLMOD_AMD;
+      factor_ = cholmod_analyze(&a, &common_);
+    }
+    if (!factor_) throw std::runtime_error("CHOLMOD symbolic analysis failed");
+    n_ = matrix.n;
+  }
+
+  bool factorize(const SparseUpper& matrix) override {
+    if (!factor_ || n_ != matrix.n) analyze(matrix);
+    cholmod_sparse a = view(matrix);
+    common_.status = CHOLMOD_OK;
+    cholmod_factorize(&a, factor_, &common_);
+    return common_.status == CHOLMOD_OK && factor_->minor == factor_->n;
+  }
+
+  void solve(const Eigen::MatrixXd& b, Eigen::MatrixXd* x) override {
+    if (!factor_) throw std::logic_error("CHOLMOD solve before factorisation");
+    cholmod_dense rhs;
+    std::memset(&rhs, 0, sizeof(rhs));
+    rhs.nrow = b.rows();
+    rhs.ncol = b.cols();
+    rhs.nzmax = b.size();
+    rhs.d = b.rows();
+    rhs.x = const_cast<double*>(b.data());
+    rhs.xtype = CHOLMOD_REAL;
+    rhs.dtype = CHOLMOD_DOUBLE;
+    cholmod_dense* result = cholmod_solve(CHOLMOD_A, factor_, &rhs, &common_);
+    if (!result) throw std::runtime_error("CHOLMOD solve failed");
+    x->resize(b.rows(), b.cols());
+    std::memcpy(x->data(), result->x, sizeof(double) * b.size());
+    cholmod_free_dense(&result, &common_);
+  }
+
+ private:
+  // A non-owning CHOLMOD view of the matrix (CHOLMOD reads it, never frees it).
+  static cholmod_sparse view(const SparseUpper& m) {
+    cholmod_sparse a;
+    std::memset(&a, 0, sizeof(a));
+    a.nrow = m.n;
+    a.ncol = m.n;
+    a.nzmax = m.values.size();
+    a.p = const_cast<int*>(m.col_ptr.data());
+    a.i = const_cast<int*>(m.row_idx.data());
+    a.x = const_cast<double*>(m.values.data());
+    a.stype = 1;  // upper triangle holds the matrix
+    a.itype = CHOLMOD_INT;
+    a.xtype = m.values.empty() ? CHOLMOD_PATTERN : CHOLMOD_REAL;
+    a.dtype = CHOLMOD_DOUBLE;
+    a.sorted = 1;
+    a.packed = 1;
+    return a;
+  }
+
+  std::vector<int> blockOrdering(const SparseUpper& m) {
+    const int blocks = static_cast<int>(m.block_col_ptr.size()) - 1;
+    if (blocks <= 0 || blocks * m.block_size != m.n) return {};
+    SparseUpper pattern;
+    pattern.n = blocks;
+    pattern.col_ptr = m.block_col_ptr;
+    pattern.row_idx = m.block_row_idx;
+    cholmod_sparse b = view(pattern);
+    std::vector<int> block_perm(blocks);
+    if (!cholmod_amd(&b, nullptr, 0, block_perm.data(), &common_)) return {};
+    std::vector<int> perm(m.n);
+    for (int k = 0; k < blocks; ++k) {
+      for (int d = 0; d < m.block_size; ++d) {
+        perm[k * m.block_size + d] = block_perm[k] * m.block_size + d;
+      }
+    }
+    return perm;
+  }
+
+  cholmod_common common_;
+  cholmod_factor* factor_ = nullptr;
+  bool started_ = false;
+  int n_ = -1;
+};
+
+}  // namespace
+
+std::unique_ptr<LinearSolver> makeCholmodSolver() { return std::make_unique<CholmodSolver>(); }
+
+}  // namespace storey::graph

@@ -1,0 +1,601 @@
+#include "storey/graph/optimizer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+
+#include "storey/common/log.h"
+
+namespace storey::graph {
+
+using common::str;
+using geometry::Pose2;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+}  // namespace
+
+const char* robustKernelName(RobustKernelType type) {
+  switch (type) {
+    case RobustKernelType::kNone:
+      return "none";
+    case RobustKernelType::kHuber:
+      return "huber";
+    case RobustKernelType::kCauchy:
+      return "cauchy";
+    case RobustKernelType::kDcs:
+      return "dcs";
+  }
+  return "unknown";
+}
+
+RobustKernelType parseRobustKernel(const std::string& name) {
+  for (RobustKernelType t : {RobustKernelType::kNone, RobustKernelType::kHuber,
+                             RobustKernelType::kCauchy, RobustKernelType::kDcs}) {
+    if (name == robustKernelName(t)) return t;
+  }
+  throw std::invalid_argument("unknown robust kernel '" + name + "' (none, huber, cauchy, dcs)");
+}
+
+void robustKernel(const RobustKernel& kernel, double s, double* rho, double* weight) {
+  const double d = kernel.delta;
+  switch (kernel.type) {
+    case RobustKernelType::kNone:
+      *rho = s;
+      *weight = 1.0;
+      return;
+    case RobustKernelType::kHuber:
+      // Quadratic within δ, linear in √s beyond.
+      if (s <= d * d) {
+        *rho = s;
+        *weight = 1.0;
+      } else {
+        const double r = std::sqrt(s);
+        *rho = 2.0 * d * r - d * d;
+        *weight = d / r;
+      }
+      return;
+    case RobustKernelType::kCauchy: {
+      const double d2 = d * d;
+      *rho = d2 * std::log1p(s / d2);
+      *weight = 1.0 / (1.0 + s / d2);
+      return;
+    }
+    case RobustKernelType::kDcs:
+      // Dynamic covariance scaling (Agarwal et al. 2013): the error is scaled by
+      // min(1, 2Φ / (Φ + s)), i.e. its information by the square of that.
+      if (s <= d) {
+        *rho = s;
+        *weight = 1.0;
+      } else {
+        const double scale = 2.0 * d / (d + s);
+        *weight = scale * scale;
+        *rho = *weight * s;
+      }
+      return;
+  }
+  *rho = s;
+  *weight = 1.0;
+}
+
+OptimizerOptions readOptimizerOptions(const common::ConfigNode& config) {
+  OptimizerOptions o;
+  const std::string algorithm = config.getChoice("algorithm", "lm", {"gn", "lm"});
+  o.algorithm = algorithm == "gn" ? Algorithm::kGaussNewton : Algorithm::kLevenbergMarquardt;
+  o.linear_solver = config.getChoice("linear_solver", o.linear_solver, {"cholmod", "eigen"});
+  o.max_iterations = config.getInt("max_iterations", o.max_iterations, 1, 1000000);
+  o.relative_chi2_tolerance =
+      config.getDouble("relative_chi2_tolerance", o.relative_chi2_tolerance, 0.0, 1.0);
+  o.step_tolerance = config.getDouble("step_tolerance", o.step_tolerance, 0.0, 1.0);
+  o.initial_lambda = config.getDouble("initial_lambda", o.initial_lambda, 1e-20, 1e10);
+  o.max_lambda = config.getDouble("max_lambda", o.max_lambda, 1e-10, 1e30);
+  const std::string gauge =
+      config.getChoice("gauge", "first_node", {"first_node", "per_component"});
+  o.gauge = gauge == "first_node" ? GaugeMode::kFirstNode : GaugeMode::kPerComponent;
+  o.downweight_threshold =
+      config.getDouble("downweight_threshold", o.downweight_threshold, 0.0, 1.0);
+  o.verbose = config.get<bool>("verbose", o.verbose);
+  if (config.has("robust")) {
+    const common::ConfigNode robust = config.child("robust");
+    for (const std::string& kind_name : robust.keys()) {
+      EdgeKind kind;
+      try {
+        kind = parseEdgeKind(kind_name);
+      } catch (const std::invalid_argument& error) {
+        robust.fail(kind_name, error.what());
+      }
+      const common::ConfigNode entry = robust.child(kind_name);
+      RobustKernel& kernel = o.robust[static_cast<int>(kind)];
+      kernel.type = parseRobustKernel(
+          entry.getChoice("kernel", {"none", "huber", "cauchy", "dcs"}));
+      kernel.delta = entry.getDouble("delta", 1.0, 1e-12, 1e12);
+      entry.finish();
+    }
+  }
+  config.finish();
+  return o;
+}
+
+// The assembled system for one graph structure: which nodes are variables, the CSC pattern
+// of H's upper triangle and where each edge and node writes into it.
+struct Optimizer::Structure {
+  std::uint64_t graph_version = 0;
+  std::vector<char> fixed;  // effective fixed flag per node index (graph's + gauge's)
+  std::vector<NodeId> auto_fixed;
+  int components = 0;
+  std::vector<int> var_of_node;  // -1 for fixed nodes
+  std::vector<std::size_t> node_of_var;
+  SparseUpper h;
+  std::vector<std::array<int, 3>> diag;     // per variable: start of rows 3k.. in column 3k+a
+  std::vector<std::array<int, 3>> offdiag;  // per edge: block start in column 3·max+a, or -1
+  std::vector<int> diag_entry;              // position of H(i, i) per scalar variable
+  std::vector<double> diag_saved;
+  bool analysed = false;
+};
+
+Optimizer::Optimizer(OptimizerOptions options) : options_(std::move(options)) {}
+Optimizer::~Optimizer() = default;
+Optimizer::Optimizer(Optimizer&&) noexcept = default;
+Optimizer& Optimizer::operator=(Optimizer&&) noexcept = default;
+
+void Optimizer::setOptions(const OptimizerOptions& options) {
+  if (options.linear_solver != options_.linear_solver) {
+    solver_.reset();
+    structure_.reset();
+  }
+  options_ = options;
+}
+
+namespace {
+
+// The gauge: which nodes are held constant. Throws when a component has none and the
+// mode does not allow fixing one.
+void chooseGauge(const PoseGraph& graph, GaugeMode mode, std::vector<char>* fixed,
+                 std::vector<NodeId>* auto_fixed, int* components) {
+  const std::size_t n = graph.numNodes();
+  fixed->assign(n, 0);
+  auto_fixed->clear();
+  bool any_fixed = false;
+  for (std::size_t i = 0; i < n; ++i) {
+    (*fixed)[i] = graph.nodes()[i].fixed ? 1 : 0;
+    any_fixed = any_fixed || graph.nodes()[i].fixed;
+  }
+  int count = 0;
+  const std::vector<int> component = graph.connectedComponents(&count);
+  *components = count;
+  if (mode == GaugeMode::kFirstNode && !any_fixed && n > 0) {
+    (*fixed)[0] = 1;
+    auto_fixed->push_back(graph.nodes()[0].id);
+  }
+  std::vector<char> anchored(count, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    if ((*fixed)[i]) anchored[component[i]] = 1;
+  }
+  int missing = 0;
+  NodeId example = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const int c = component[i];
+    if (anchored[c]) continue;
+    if (mode == GaugeMode::kPerComponent) {
+      (*fixed)[i] = 1;
+      auto_fixed->push_back(graph.nodes()[i].id);
+    } else {
+      if (missing == 0) example = graph.nodes()[i].id;
+      ++missing;
+    }
+    anchored[c] = 1;
+  }
+  if (missing > 0) {
+    throw GraphError(str("the graph has ", count, " connected components and ", missing,
+                         " of them have no fixed node (e.g. the one containing node ", example,
+                         "): fix a node in each, or use gauge per_component"));
+  }
+}
+
+}  // namespace
+
+OptimizerResult Optimizer::optimize(PoseGraph& graph) {
+  const Clock::time_point start = Clock::now();
+  OptimizerResult result;
+  if (graph.numNodes() == 0) throw GraphError("cannot optimise an empty graph");
+  if (!solver_) solver_ = makeLinearSolver(options_.linear_solver);
+
+  // --- Structure (only when it changed).
+  Clock::time_point phase = Clock::now();
+  std::vector<char> fixed;
+  std::vector<NodeId> auto_fixed;
+  int components = 0;
+  chooseGauge(graph, options_.gauge, &fixed, &auto_fixed, &components);
+  result.components = components;
+  result.auto_fixed = auto_fixed;
+  if (!structure_ || structure_->graph_version != graph.structureVersion() ||
+      structure_->fixed != fixed) {
+    auto s = std::make_unique<Structure>();
+    s->graph_version = graph.structureVersion();
+    s->fixed = fixed;
+    s->auto_fixed = auto_fixed;
+    s->components = components;
+    const std::size_t n = graph.numNodes();
+    s->var_of_node.assign(n, -1);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!fixed[i]) {
+        s->var_of_node[i] = static_cast<int>(s->node_of_var.size());
+        s->node_of_var.push_back(i);
+      }
+    }
+    const int vars = static_cast<int>(s->node_of_var.size());
+    std::vector<std::vector<int>> lower(vars);  // block rows above the diagonal per column
+    for (std::size_t e = 0; e < graph.numEdges(); ++e) {
+      const int a = s->var_of_node[graph.edgeFromIndex(e)];
+      const int b = s->var_of_node[graph.edgeToIndex(e)];
+      if (a >= 0 && b >= 0) lower[std::max(a, b)].push_back(std::min(a, b));
+    }
+    for (auto& rows : lower) {
+      std::sort(rows.begin(), rows.end());
+      rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
+    }
+    SparseUpper& h = s->h;
+    h.n = 3 * vars;
+    h.block_size = 3;
+    h.col_ptr.assign(h.n + 1, 0);
+    h.block_col_ptr.assign(vars + 1, 0);
+    s->diag.resize(vars);
+    for (int k = 0; k < vars; ++k) {
+      h.block_col_ptr[k + 1] = h.block_col_ptr[k] + static_cast<int>(lower[k].size()) + 1;
+      for (int m : lower[k]) h.block_row_idx.push_back(m);
+      h.block_row_idx.push_back(k);
+      for (int a = 0; a < 3; ++a) {
+        const int col = 3 * k + a;
+        for (int m : lower[k]) {
+          for (int p = 0; p < 3; ++p) h.row_idx.push_back(3 * m + p);
+        }
+        s->diag[k][a] = static_cast<int>(h.row_idx.size());
+        for (int p = 0; p <= a; ++p) h.row_idx.push_back(3 * k + p);
+        h.col_ptr[col + 1] = static_cast<int>(h.row_idx.size());
+      }
+    }
+    h.values.assign(h.row_idx.size(), 0.0);
+    s->diag_entry.resize(h.n);
+    for (int k = 0; k < vars; ++k) {
+      for (int a = 0; a < 3; ++a) s->diag_entry[3 * k + a] = s->diag[k][a] + a;
+    }
+    s->offdiag.assign(graph.numEdges(), {-1, -1, -1});
+    for (std::size_t e = 0; e < graph.numEdges(); ++e) {
+      const int a = s->var_of_node[graph.edgeFromIndex(e)];
+      const int b = s->var_of_node[graph.edgeToIndex(e)];
+      if (a < 0 || b < 0) continue;
+      const int k = std::max(a, b), m = std::min(a, b);
+      const int pos = static_cast<int>(
+          std::lower_bound(lower[k].begin(), lower[k].end(), m) - lower[k].begin());
+      for (int c = 0; c < 3; ++c) s->offdiag[e][c] = h.col_ptr[3 * k + c] + 3 * pos;
+    }
+    structure_ = std::move(s);
+    result.reanalysed = true;
+  }
+  Structure& s = *structure_;
+  const int n_vars = static_cast<int>(s.node_of_var.size());
+  if (result.reanalysed && n_vars > 0) {
+    solver_->analyze(s.h);
+    s.analysed = true;
+  }
+  result.time.symbolic = secondsSince(phase);
+
+  std::array<RobustKernel, kEdgeKindCount> kernels = options_.robust;
+  const auto& edges = graph.edges();
+
+  // Σ ρ(s) and Σ s at the current poses.
+  auto evaluate = [&](double* chi2) {
+    double cost = 0.0, sum = 0.0;
+    for (std::size_t e = 0; e < edges.size(); ++e) {
+      const Edge& edge = edges[e];
+      if (!edge.enabled) continue;
+      const Eigen::Vector3d r =
+          edgeResidual(graph.nodes()[graph.edgeFromIndex(e)].pose,
+                       graph.nodes()[graph.edgeToIndex(e)].pose, edge.measurement);
+      const double sq = r.dot(edge.information * r);
+      double rho, w;
+      robustKernel(kernels[static_cast<int>(edge.kind)], sq, &rho, &w);
+      sum += sq;
+      cost += rho;
+    }
+    if (chi2) *chi2 = sum;
+    return cost;
+  };
+
+  Eigen::VectorXd b(3 * n_vars);
+  // Fills H (upper triangle, in s.h.values) and b at the current poses; returns Σ ρ.
+  auto assemble = [&](double* chi2) {
+    std::fill(s.h.values.begin(), s.h.values.end(), 0.0);
+    b.setZero();
+    double cost = 0.0, sum = 0.0;
+    double* values = s.h.values.data();
+    Eigen::Matrix3d ji, jj;
+    for (std::size_t e = 0; e < edges.size(); ++e) {
+      const Edge& edge = edges[e];
+      if (!edge.enabled) continue;
+      const int vi = s.var_of_node[graph.edgeFromIndex(e)];
+      const int vj = s.var_of_node[graph.edgeToIndex(e)];
+      const Eigen::Vector3d r =
+          edgeResidual(graph.nodes()[graph.edgeFromIndex(e)].pose,
+                       graph.nodes()[graph.edgeToIndex(e)].pose, edge.measurement, &ji, &jj);
+      const Eigen::Vector3d omega_r = edge.information * r;
+      const double sq = r.dot(omega_r);
+      double rho, w;
+      robustKernel(kernels[static_cast<int>(edge.kind)], sq, &rho, &w);
+      sum += sq;
+      cost += rho;
+      const Eigen::Matrix3d omega = w * edge.information;
+      Eigen::Matrix3d jti, jtj;
+      if (vi >= 0) {
+        jti.noalias() = ji.transpose() * omega;
+        const Eigen::Matrix3d hii = jti * ji;
+        for (int a = 0; a < 3; ++a) {
+          for (int p = 0; p <= a; ++p) values[s.diag[vi][a] + p] += hii(p, a);
+        }
+        b.segment<3>(3 * vi) += jti * r;
+      }
+      if (vj >= 0) {
+        jtj.noalias() = jj.transpose() * omega;
+        const Eigen::Matrix3d hjj = jtj * jj;
+        for (int a = 0; a < 3; ++a) {
+          for (int p = 0; p <= a; ++p) values[s.diag[vj][a] + p] += hjj(p, a);
+        }
+        b.segment<3>(3 * vj) += jtj * r;
+      }
+      if (vi >= 0 && vj >= 0) {
+        // Stored block is H(min, max): rows of the lower-numbered variable.
+        const Eigen::Matrix3d block = vi < vj ? Eigen::Matrix3d(jti * jj) : Eigen::Matrix3d(jtj * ji);
+        for (int a = 0; a < 3; ++a) {
+          double* column = values + s.offdiag[e][a];
+          for (int p = 0; p < 3; ++p) column[p] += block(p, a);
+        }
+      }
+    }
+    if (chi2) *chi2 = sum;
+    return cost;
+  };
+
+  auto statePoses = [&]() {
+    std::vector<Pose2> poses(n_vars);
+    for (int k = 0; k < n_vars; ++k) poses[k] = graph.nodes()[s.node_of_var[k]].pose;
+    return poses;
+  };
+  auto stateNorm = [&]() {
+    double sq = 0.0;
+    for (int k = 0; k < n_vars; ++k) sq += graph.nodes()[s.node_of_var[k]].pose.vector().squaredNorm();
+    return std::sqrt(sq);
+  };
+  auto applyStep = [&](const Eigen::VectorXd& dx) {
+    for (int k = 0; k < n_vars; ++k) {
+      const Pose2& p = graph.nodes()[s.node_of_var[k]].pose;
+      graph.setPoseAt(s.node_of_var[k], Pose2(p.x() + dx[3 * k], p.y() + dx[3 * k + 1],
+                                              p.theta() + dx[3 * k + 2]));
+    }
+  };
+
+  phase = Clock::now();
+  double chi2 = 0.0;
+  double cost = n_vars > 0 ? assemble(&chi2) : evaluate(&chi2);
+  result.time.assembly += secondsSince(phase);
+  result.initial_chi2 = chi2;
+  result.initial_cost = cost;
+
+  const bool lm = options_.algorithm == Algorithm::kLevenbergMarquardt;
+  double lambda = lm ? options_.initial_lambda : 0.0;
+  double nu = 2.0;
+  Eigen::MatrixXd dx_mat;
+  Eigen::MatrixXd rhs;
+  if (n_vars == 0) {
+    result.converged = true;
+    result.termination = "no free nodes";
+  }
+  while (n_vars > 0 && result.iterations < options_.max_iterations) {
+    ++result.iterations;
+    if (cost <= std::numeric_limits<double>::min()) {
+      result.converged = true;
+      result.termination = "zero cost";
+      break;
+    }
+    // Damped diagonal: H_ii + λ·max(H_ii, ε); the undamped values are restored after.
+    s.diag_saved.resize(s.diag_entry.size());
+    for (std::size_t i = 0; i < s.diag_entry.size(); ++i) {
+      double& d = s.h.values[s.diag_entry[i]];
+      s.diag_saved[i] = d;
+      if (lm) d += lambda * std::max(d, 1e-6);
+    }
+    phase = Clock::now();
+    const bool ok = solver_->factorize(s.h);
+    ++result.factorizations;
+    result.time.numeric += secondsSince(phase);
+    for (std::size_t i = 0; i < s.diag_entry.size(); ++i) {
+      s.h.values[s.diag_entry[i]] = s.diag_saved[i];
+    }
+    if (!ok) {
+      if (!lm) {
+        result.termination =
+            "H is not positive definite (an under-constrained node?); try lm";
+        break;
+      }
+      lambda *= nu;
+      nu *= 2.0;
+      if (lambda > options_.max_lambda) {
+        result.termination = "damping limit reached (H not positive definite)";
+        break;
+      }
+      continue;
+    }
+    phase = Clock::now();
+    rhs = -b;
+    solver_->solve(rhs, &dx_mat);
+    result.time.solve += secondsSince(phase);
+    const Eigen::VectorXd dx = dx_mat.col(0);
+    if (!dx.allFinite()) {
+      result.termination = "the linear solve produced a non-finite step";
+      break;
+    }
+    if (dx.norm() <= options_.step_tolerance * (stateNorm() + options_.step_tolerance)) {
+      result.converged = true;
+      result.termination = "step below tolerance";
+      break;
+    }
+    const std::vector<Pose2> saved = statePoses();
+    applyStep(dx);
+    if (!lm) {
+      phase = Clock::now();
+      double new_chi2 = 0.0;
+      const double new_cost = assemble(&new_chi2);
+      result.time.assembly += secondsSince(phase);
+      ++result.accepted_steps;
+      const double change = std::abs(cost - new_cost) / cost;
+      if (options_.verbose) {
+        common::logInfo(str("gn ", result.iterations, ": cost ", new_cost, " chi2 ", new_chi2));
+      }
+      cost = new_cost;
+      chi2 = new_chi2;
+      if (change < options_.relative_chi2_tolerance) {
+        result.converged = true;
+        result.termination = "relative chi2 change below tolerance";
+        break;
+      }
+      continue;
+    }
+    phase = Clock::now();
+    double trial_chi2 = 0.0;
+    const double trial_cost = evaluate(&trial_chi2);
+    result.time.evaluate += secondsSince(phase);
+    // Gain ratio against the damped quadratic model: L(0) − L(Δ) = −bᵀΔ + λ Δᵀ D Δ.
+    double predicted = -b.dot(dx);
+    for (std::size_t i = 0; i < s.diag_entry.size(); ++i) {
+      predicted += lambda * std::max(s.diag_saved[i], 1e-6) * dx[i] * dx[i];
+    }
+    const double rho = (cost - trial_cost) / std::max(predicted, 1e-300);
+    if (options_.verbose) {
+      common::logInfo(str("lm ", result.iterations, ": cost ", std::setprecision(12), cost, " -> ", trial_cost,
+                          " lambda ", lambda, " rho ", rho));
+    }
+    if (std::isfinite(trial_cost) && trial_cost < cost && rho > 0.0) {
+      ++result.accepted_steps;
+      const double change = (cost - trial_cost) / cost;
+      lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+      lambda = std::max(lambda, 1e-15);
+      nu = 2.0;
+      phase = Clock::now();
+      cost = assemble(&chi2);
+      result.time.assembly += secondsSince(phase);
+      if (change < options_.relative_chi2_tolerance) {
+        result.converged = true;
+        result.termination = "relative chi2 change below tolerance";
+        break;
+      }
+    } else {
+      for (int k = 0; k < n_vars; ++k) graph.setPoseAt(s.node_of_var[k], saved[k]);
+      lambda *= nu;
+      nu *= 2.0;
+      if (lambda > options_.max_lambda) {
+        result.converged = true;
+        result.termination = "no further decrease (damping limit reached)";
+        break;
+      }
+    }
+  }
+  if (result.termination.empty()) result.termination = "iteration limit";
+
+  result.final_cost = evaluate(&result.final_chi2);
+  result.final_lambda = lambda;
+  for (std::size_t e = 0; e < edges.size(); ++e) {
+    const Edge& edge = edges[e];
+    const RobustKernel& kernel = kernels[static_cast<int>(edge.kind)];
+    if (!edge.enabled || kernel.type == RobustKernelType::kNone) continue;
+    double rho, w;
+    robustKernel(kernel, graph.edgeChi2(e), &rho, &w);
+    if (w < options_.downweight_threshold) result.downweighted.push_back(e);
+  }
+  result.time.total = secondsSince(start);
+  return result;
+}
+
+std::map<NodeId, Eigen::Matrix3d> Optimizer::marginalCovariances(const PoseGraph& graph,
+                                                                 const std::vector<NodeId>& ids) {
+  std::map<NodeId, Eigen::Matrix3d> out;
+  for (NodeId id : ids) graph.nodeIndex(id);  // throws for unknown ids
+  if (!structure_ || structure_->graph_version != graph.structureVersion()) {
+    // Needs the structure of this graph: a zero-iteration optimisation builds it without
+    // moving any pose.
+    OptimizerOptions saved = options_;
+    options_.max_iterations = 0;
+    PoseGraph& mutable_graph = const_cast<PoseGraph&>(graph);
+    optimize(mutable_graph);
+    options_ = saved;
+  }
+  Structure& s = *structure_;
+  const int n_vars = static_cast<int>(s.node_of_var.size());
+  // Undamped H (with the robust weights) at the current poses.
+  std::fill(s.h.values.begin(), s.h.values.end(), 0.0);
+  Eigen::Matrix3d ji, jj;
+  for (std::size_t e = 0; e < graph.numEdges(); ++e) {
+    const Edge& edge = graph.edges()[e];
+    if (!edge.enabled) continue;
+    const int vi = s.var_of_node[graph.edgeFromIndex(e)];
+    const int vj = s.var_of_node[graph.edgeToIndex(e)];
+    const Eigen::Vector3d r =
+        edgeResidual(graph.nodes()[graph.edgeFromIndex(e)].pose,
+                     graph.nodes()[graph.edgeToIndex(e)].pose, edge.measurement, &ji, &jj);
+    double rho, w;
+    robustKernel(options_.robust[static_cast<int>(edge.kind)], r.dot(edge.information * r), &rho,
+                 &w);
+    const Eigen::Matrix3d omega = w * edge.information;
+    const Eigen::Matrix3d hii = ji.transpose() * omega * ji, hjj = jj.transpose() * omega * jj;
+    for (int a = 0; a < 3; ++a) {
+      for (int p = 0; p <= a; ++p) {
+        if (vi >= 0) s.h.values[s.diag[vi][a] + p] += hii(p, a);
+        if (vj >= 0) s.h.values[s.diag[vj][a] + p] += hjj(p, a);
+      }
+    }
+    if (vi >= 0 && vj >= 0) {
+      const Eigen::Matrix3d block = vi < vj ? Eigen::Matrix3d(ji.transpose() * omega * jj)
+                                            : Eigen::Matrix3d(jj.transpose() * omega * ji);
+      for (int a = 0; a < 3; ++a) {
+        for (int p = 0; p < 3; ++p) s.h.values[s.offdiag[e][a] + p] += block(p, a);
+      }
+    }
+  }
+  std::vector<std::pair<NodeId, int>> wanted;
+  for (NodeId id : ids) {
+    const int v = s.var_of_node[graph.nodeIndex(id)];
+    if (v < 0) {
+      out[id] = Eigen::Matrix3d::Zero();
+    } else {
+      wanted.emplace_back(id, v);
+    }
+  }
+  if (wanted.empty()) return out;
+  if (!solver_->factorize(s.h)) {
+    throw GraphError("marginal covariances: H is not positive definite at the current poses");
+  }
+  // Solve H X = E for the wanted nodes' unit columns, a bounded number at a time.
+  constexpr std::size_t kChunk = 64;
+  Eigen::MatrixXd e, x;
+  for (std::size_t begin = 0; begin < wanted.size(); begin += kChunk) {
+    const std::size_t end = std::min(wanted.size(), begin + kChunk);
+    e.setZero(3 * n_vars, 3 * (end - begin));
+    for (std::size_t k = begin; k < end; ++k) {
+      for (int a = 0; a < 3; ++a) e(3 * wanted[k].second + a, 3 * (k - begin) + a) = 1.0;
+    }
+    solver_->solve(e, &x);
+    for (std::size_t k = begin; k < end; ++k) {
+      Eigen::Matrix3d cov = x.block<3, 3>(3 * wanted[k].second, 3 * (k - begin));
+      out[wanted[k].first] = 0.5 * (cov + cov.transpose());
+    }
+  }
+  return out;
+}
+
+}  // namespace storey::graph

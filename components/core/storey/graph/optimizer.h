@@ -1,0 +1,132 @@
+// Sparse Gauss-Newton / Levenberg-Marquardt for PoseGraph.
+//
+// The normal equations H Δ = −b are assembled straight into the upper triangle of a
+// compressed sparse column matrix whose pattern and per-edge write positions are computed
+// once per graph structure (PoseGraph::structureVersion()); the linear solver analyses the
+// pattern once and then only refactorises numerically. Adding nodes/edges or changing a
+// fixed flag re-analyses; moving poses or enabling/disabling edges does not.
+//
+// Gauge: fixed nodes are constants. With gauge "first_node", a graph with no fixed node
+// gets its first node fixed, and any connected component still without a fixed node is an
+// error naming it; with gauge "per_component" each such component gets its first node
+// fixed (reported in OptimizerResult::auto_fixed).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "storey/common/config.h"
+#include "storey/graph/linear_solver.h"
+#include "storey/graph/pose_graph.h"
+
+namespace storey::graph {
+
+enum class Algorithm { kGaussNewton, kLevenbergMarquardt };
+enum class RobustKernelType { kNone, kHuber, kCauchy, kDcs };
+enum class GaugeMode { kFirstNode, kPerComponent };
+
+// A kernel ρ applied to an edge's squared error s = eᵀΩe. `delta` is the Huber/Cauchy
+// width (in units of √s) or the DCS Φ.
+struct RobustKernel {
+  RobustKernelType type = RobustKernelType::kNone;
+  double delta = 1.0;
+};
+const char* robustKernelName(RobustKernelType type);  // "none", "huber", "cauchy", "dcs"
+RobustKernelType parseRobustKernel(const std::string& name);  // throws std::invalid_argument
+// ρ(s) and the IRLS weight w = ρ'(s) (for DCS: the squared scaling factor).
+void robustKernel(const RobustKernel& kernel, double s, double* rho, double* weight);
+
+struct OptimizerOptions {
+  Algorithm algorithm = Algorithm::kLevenbergMarquardt;
+  std::string linear_solver = "cholmod";  // "cholmod" or "eigen"
+  int max_iterations = 100;               // accepted + rejected steps
+  // Stop when |Δχ²| / χ² of an accepted step falls below this.
+  double relative_chi2_tolerance = 1e-10;
+  // Stop when ‖Δ‖ < step_tolerance · (‖x‖ + step_tolerance).
+  double step_tolerance = 1e-10;
+  // LM damping: (H + λ·diag(H)) Δ = −b, λ adapted by the gain ratio (Nielsen).
+  double initial_lambda = 1e-5;
+  double max_lambda = 1e10;
+  GaugeMode gauge = GaugeMode::kFirstNode;
+  std::array<RobustKernel, kEdgeKindCount> robust{};  // indexed by EdgeKind
+  // Edges whose final robust weight is below this are reported as down-weighted.
+  double downweight_threshold = 0.5;
+  bool verbose = false;  // log every iteration
+};
+
+// Reads, strictly (unknown keys fail), e.g.
+//   algorithm: lm            # gn | lm
+//   linear_solver: cholmod   # cholmod | eigen
+//   max_iterations: 100
+//   relative_chi2_tolerance: 1e-10
+//   step_tolerance: 1e-10
+//   initial_lambda: 1e-5
+//   max_lambda: 1e10
+//   gauge: first_node        # first_node | per_component
+//   downweight_threshold: 0.5
+//   verbose: false
+//   robust:                  # per edge kind; absent kinds use none
+//     loop_closure: {kernel: dcs, delta: 1.0}
+// Every key is optional; defaults are those of OptimizerOptions.
+OptimizerOptions readOptimizerOptions(const common::ConfigNode& config);
+
+struct PhaseTimes {
+  double assembly = 0.0;   // residuals, Jacobians, H and b (seconds)
+  double symbolic = 0.0;   // structure, ordering, symbolic factorisation
+  double numeric = 0.0;    // numeric factorisations
+  double solve = 0.0;      // triangular solves
+  double evaluate = 0.0;   // χ² of trial steps (LM)
+  double total = 0.0;
+};
+
+struct OptimizerResult {
+  bool converged = false;
+  std::string termination;  // why it stopped
+  double initial_chi2 = 0.0;  // Σ eᵀΩe of enabled edges (no kernel)
+  double final_chi2 = 0.0;
+  double initial_cost = 0.0;  // Σ ρ(eᵀΩe): the robust objective actually minimised
+  double final_cost = 0.0;
+  int iterations = 0;         // steps tried
+  int accepted_steps = 0;
+  int factorizations = 0;
+  bool reanalysed = false;    // the structure was (re)analysed in this call
+  double final_lambda = 0.0;
+  PhaseTimes time;
+  int components = 0;                      // connected components over enabled edges
+  std::vector<NodeId> auto_fixed;          // nodes fixed by the gauge rule
+  std::vector<std::size_t> downweighted;   // edge indices with weight < threshold
+};
+
+class Optimizer {
+ public:
+  explicit Optimizer(OptimizerOptions options = {});
+  ~Optimizer();
+  Optimizer(Optimizer&&) noexcept;
+  Optimizer& operator=(Optimizer&&) noexcept;
+
+  // Optimises the graph in place from its current poses. Throws GraphError for a gauge
+  // problem (a component with no fixed node under gauge first_node) or an empty graph.
+  OptimizerResult optimize(PoseGraph& graph);
+
+  // Marginal covariances (3×3, of x, y, θ) of the given nodes at the graph's current poses,
+  // from a factorisation of H at those poses (solving for the nodes' columns only; no dense
+  // inverse). Fixed nodes get zero. Call after optimize() on the same graph (reuses its
+  // analysed structure). Throws GraphError for unknown ids or a singular H.
+  std::map<NodeId, Eigen::Matrix3d> marginalCovariances(const PoseGraph& graph,
+                                                        const std::vector<NodeId>& ids);
+
+  const OptimizerOptions& options() const { return options_; }
+  void setOptions(const OptimizerOptions& options);
+
+ private:
+  struct Structure;
+  OptimizerOptions options_;
+  std::unique_ptr<Structure> structure_;
+  std::unique_ptr<LinearSolver> solver_;
+};
+
+}  // namespace storey::graph
