@@ -1,0 +1,16 @@
+#include "storey/catalog/all_components.h"
+
+// One include and one line per component kind, e.g.
+//   #include "storey/floor_detector/floor_detector_component.h"
+//   registry.add<floor_detector::FloorDetectorComponent>("floor_detector", "...");
+
+#include "storey/graph_server/graph_server.h"
+
+namespace storey::catalog {
+
+void registerStoreyComponents(runtime::ComponentRegistry& registry) {
+  registry.add<graph_server::GraphServer>(
+      "graph_server", "building graph: merges floor graphs and inter-floor constraints, optimises, journals");
+}
+
+}  // namespace storey::catalog

@@ -1,0 +1,26 @@
+// SIGINT/SIGTERM handling without asynchronous handlers: the signals are blocked (in the
+// calling thread and every thread started afterwards) and taken with sigtimedwait.
+#pragma once
+
+#include <csignal>
+
+namespace storey::runtime {
+
+class BlockedTerminationSignals {
+ public:
+  BlockedTerminationSignals();   // blocks SIGINT and SIGTERM in the calling thread
+  ~BlockedTerminationSignals();  // restores the previous mask
+  BlockedTerminationSignals(const BlockedTerminationSignals&) = delete;
+  BlockedTerminationSignals& operator=(const BlockedTerminationSignals&) = delete;
+
+  // Waits up to timeout_s for SIGINT or SIGTERM; returns the signal, or 0.
+  int wait(double timeout_s);
+  // The mask that was in force before (for child processes to restore after fork).
+  const sigset_t& previousMask() const { return previous_; }
+
+ private:
+  sigset_t set_;
+  sigset_t previous_;
+};
+
+}  // namespace storey::runtime
