@@ -1,0 +1,187 @@
+#include "storey/tools/replay.h"
+
+#include <chrono>
+#include <filesystem>
+#include <sstream>
+#include <thread>
+
+#include "nav_msgs/msg/OdometryPubSubTypes.h"
+#include "sensor_msgs/msg/FluidPressurePubSubTypes.h"
+#include "sensor_msgs/msg/ImuPubSubTypes.h"
+#include "sensor_msgs/msg/LaserScanPubSubTypes.h"
+#include "storey/io/carmen.h"
+#include "storey/runtime/publisher.h"
+#include "storey/runtime/sensor_conversions.h"
+
+namespace storey::tools {
+namespace fs = std::filesystem;
+
+std::string ReplaySummary::text() const {
+  std::ostringstream out;
+  out << "replayed " << total << " messages covering " << (last_stamp - first_stamp) << " s of recording in "
+      << wall_seconds << " s";
+  if (wall_seconds > 0) out << " (" << (last_stamp - first_stamp) / wall_seconds << "x real time)";
+  out << "\n";
+  for (const auto& [topic, count] : published) out << "  " << topic << ": " << count << "\n";
+  if (skipped) out << "  skipped: " << skipped << " (other types or unreadable)\n";
+  if (out_of_order) out << "  stamps going backwards: " << out_of_order << "\n";
+  if (stopped) out << "  interrupted before the end\n";
+  return out.str();
+}
+
+bool isBag(const std::string& path) {
+  if (fs::is_directory(path)) return fs::exists(fs::path(path) / "metadata.yaml") || !fs::is_empty(path);
+  return fs::path(path).extension() == ".db3";
+}
+
+bool isCarmenLog(const std::string& path) {
+  const std::string name = fs::path(path).filename().string();
+  auto ends = [&](const std::string& s) { return name.size() >= s.size() && name.compare(name.size() - s.size(), s.size(), s) == 0; };
+  return fs::is_regular_file(path) && (ends(".log") || ends(".log.gz") || ends(".gfs") || ends(".gfs.gz") ||
+                                       ends(".clf") || ends(".clf.gz"));
+}
+
+namespace {
+
+class BagSource : public SensorSource {
+ public:
+  explicit BagSource(const std::string& path) : reader_(path) {}
+  bool next(runtime::SensorRecord& record) override { return reader_.next(record); }
+  std::uint64_t skipped() const override { return reader_.stats().skipped + reader_.stats().malformed; }
+  std::uint64_t outOfOrder() const override { return reader_.stats().out_of_order; }
+
+ private:
+  runtime::SensorBagReader reader_;
+};
+
+// A CARMEN log as one robot: each laser reading gives an odometry sample (its odometry
+// pose) followed by the scan; ODOM lines between readings are published as odometry too.
+class CarmenSource : public SensorSource {
+ public:
+  CarmenSource(const std::string& path, const std::string& robot) : robot_(robot) {
+    io::CarmenReaderOptions options;
+    options.strict = false;
+    reader_ = std::make_unique<io::CarmenReader>(path, options);
+  }
+  bool next(runtime::SensorRecord& out) override {
+    if (pending_) {
+      out = std::move(*pending_);
+      pending_.reset();
+      return true;
+    }
+    io::CarmenRecord record;
+    while (reader_->next(&record)) {
+      if (record.kind != io::CarmenRecordKind::kLaser || !record.laser.has_pose || record.laser.laser_id != 1)
+        continue;  // raw ODOM lines are noisy duplicates in corrected logs; rear lasers unused
+      sensor::OdometrySample odom;
+      odom.stamp = record.laser.scan.stamp;
+      odom.pose = record.laser.odom_pose;
+      if (odom.stamp < last_stamp_) ++out_of_order_;
+      last_stamp_ = odom.stamp;
+      out = runtime::SensorRecord{robot_, robot_ + "/odom", odom.stamp, 0, odom};
+      pending_ = runtime::SensorRecord{robot_, robot_ + "/scan", odom.stamp, 0, record.laser.scan};
+      return true;
+    }
+    return false;
+  }
+  std::uint64_t skipped() const override { return reader_->stats().skipped + reader_->stats().unknownCount(); }
+  std::uint64_t outOfOrder() const override { return out_of_order_; }
+
+ private:
+  std::string robot_;
+  std::unique_ptr<io::CarmenReader> reader_;
+  std::optional<runtime::SensorRecord> pending_;
+  double last_stamp_ = -std::numeric_limits<double>::infinity();
+  std::uint64_t out_of_order_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<SensorSource> openSensorSource(const std::string& path, const ReplayOptions& options) {
+  if (!fs::exists(path)) throw std::runtime_error(path + ": no such file or folder");
+  if (isCarmenLog(path)) return std::make_unique<CarmenSource>(path, options.log_robot);
+  if (isBag(path)) return std::make_unique<BagSource>(path);
+  throw std::runtime_error(path + ": neither a rosbag2 bag nor a CARMEN log (.log, .log.gz, .gfs)");
+}
+
+struct SensorReplayer::Publishers {
+  Publishers(runtime::Context& context, const std::string& prefix)
+      : scan(context, prefix + "/scan", runtime::TopicKind::kSensor),
+        odom(context, prefix + "/odom", runtime::TopicKind::kSensor),
+        pressure(context, prefix + "/pressure", runtime::TopicKind::kSensor),
+        imu(context, prefix + "/imu", runtime::TopicKind::kSensor) {}
+  runtime::Publisher<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType> scan;
+  runtime::Publisher<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType> odom;
+  runtime::Publisher<sensor_msgs::msg::FluidPressure, sensor_msgs::msg::FluidPressurePubSubType> pressure;
+  runtime::Publisher<sensor_msgs::msg::Imu, sensor_msgs::msg::ImuPubSubType> imu;
+};
+
+SensorReplayer::SensorReplayer(runtime::Context& context, const ReplayOptions& options)
+    : context_(context), options_(options) {}
+
+SensorReplayer::~SensorReplayer() = default;
+
+SensorReplayer::Publishers& SensorReplayer::publishersFor(const std::string& robot) {
+  auto& slot = publishers_[robot];
+  if (!slot) {
+    slot = std::make_unique<Publishers>(context_, options_.topic_prefix + robot);
+    if (options_.settle_seconds > 0)
+      std::this_thread::sleep_for(std::chrono::duration<double>(options_.settle_seconds));
+  }
+  return *slot;
+}
+
+void SensorReplayer::publish(const runtime::SensorRecord& record) {
+  Publishers& p = publishersFor(record.robot);
+  std::visit(
+      [&](const auto& sample) {
+        using T = std::decay_t<decltype(sample)>;
+        if constexpr (std::is_same_v<T, sensor::LaserScan>) {
+          p.scan.publish(runtime::toMessage(sample, runtime::robotFrame(record.robot, "laser")));
+        } else if constexpr (std::is_same_v<T, sensor::OdometrySample>) {
+          p.odom.publish(runtime::toMessage(sample, runtime::robotFrame(record.robot, "odom"),
+                                            runtime::robotFrame(record.robot, "base_link")));
+        } else if constexpr (std::is_same_v<T, sensor::PressureSample>) {
+          p.pressure.publish(runtime::toMessage(sample, runtime::robotFrame(record.robot, "base_link")));
+        } else {
+          p.imu.publish(runtime::toMessage(sample, runtime::robotFrame(record.robot, "imu")));
+        }
+      },
+      record.data);
+}
+
+ReplaySummary SensorReplayer::replay(SensorSource& source, const std::atomic<bool>* stop,
+                                     const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
+  ReplaySummary summary;
+  const auto wall_start = std::chrono::steady_clock::now();
+  runtime::SensorRecord record;
+  bool first = true;
+  double recording_start = 0.0;
+  while (source.next(record)) {
+    if (stop && stop->load()) {
+      summary.stopped = true;
+      break;
+    }
+    if (first) {
+      summary.first_stamp = recording_start = record.stamp;
+      first = false;
+    }
+    if (options_.rate > 0.0) {
+      const auto due = wall_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                        std::chrono::duration<double>((record.stamp - recording_start) / options_.rate));
+      std::this_thread::sleep_until(due);
+    }
+    publish(record);
+    ++summary.published[options_.topic_prefix + record.topic.substr(record.topic.front() == '/' ? 1 : 0)];
+    ++summary.total;
+    summary.last_stamp = std::max(summary.last_stamp, record.stamp);
+    if (progress && summary.total % 200 == 0) progress(summary.total, source.expectedCount());
+  }
+  summary.skipped = source.skipped();
+  summary.out_of_order = source.outOfOrder();
+  summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  if (progress) progress(summary.total, summary.total);
+  return summary;
+}
+
+}  // namespace storey::tools

@@ -1,0 +1,70 @@
+// Replays a recording over DDS: the sensor messages of a rosbag2 bag (every robot), or of
+// a CARMEN log (one robot), published on <robot>/scan, odom, pressure, imu in recorded
+// order, at the recorded rate, a multiple of it, or as fast as possible.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "storey/runtime/context.h"
+#include "storey/runtime/sensor_bag.h"
+
+namespace storey::tools {
+
+struct ReplayOptions {
+  double rate = 0.0;                 // 0: as fast as possible; 1: recorded rate; k: k times faster
+  std::string log_robot = "robot";   // CARMEN logs carry no robot name
+  std::string topic_prefix;          // prepended to every topic ("" -> "<robot>/scan")
+  double settle_seconds = 0.3;       // wait after creating publishers, for discovery
+};
+
+struct ReplaySummary {
+  std::map<std::string, std::uint64_t> published;  // per topic
+  std::uint64_t total = 0;
+  double first_stamp = 0.0;
+  double last_stamp = 0.0;
+  double wall_seconds = 0.0;
+  std::uint64_t skipped = 0;       // records of other types, or unreadable
+  std::uint64_t out_of_order = 0;  // stamps going backwards (published anyway)
+  bool stopped = false;            // interrupted before the end
+  std::string text() const;        // a readable summary
+};
+
+// A stream of sensor records from a bag folder or a CARMEN log (by what the path is).
+class SensorSource {
+ public:
+  virtual ~SensorSource() = default;
+  virtual bool next(runtime::SensorRecord& record) = 0;
+  virtual std::uint64_t skipped() const = 0;
+  virtual std::uint64_t outOfOrder() const = 0;
+  // Best-effort estimate of the number of records (for progress), 0 when unknown.
+  virtual std::uint64_t expectedCount() const { return 0; }
+};
+// Throws std::runtime_error naming the path when it is neither a bag nor a log.
+std::unique_ptr<SensorSource> openSensorSource(const std::string& path, const ReplayOptions& options);
+bool isCarmenLog(const std::string& path);
+bool isBag(const std::string& path);
+
+class SensorReplayer {
+ public:
+  SensorReplayer(runtime::Context& context, const ReplayOptions& options);
+  ~SensorReplayer();
+  // Publishes one record on its robot's topic (publishers are created on first use).
+  void publish(const runtime::SensorRecord& record);
+  // Replays a whole source; `stop` (may be null) interrupts; `progress` (may be empty) is
+  // called now and then with (records done, expected or 0).
+  ReplaySummary replay(SensorSource& source, const std::atomic<bool>* stop = nullptr,
+                       const std::function<void(std::uint64_t, std::uint64_t)>& progress = {});
+
+ private:
+  struct Publishers;
+  Publishers& publishersFor(const std::string& robot);
+  runtime::Context& context_;
+  ReplayOptions options_;
+  std::map<std::string, std::unique_ptr<Publishers>> publishers_;
+};
+
+}  // namespace storey::tools
