@@ -49,6 +49,7 @@ class GraphServer : public runtime::Component {
 
   // Blocks until everything accepted so far is optimised and published (or timeout).
   bool waitOptimized(double timeout_s);
+  bool flush(double timeout_s) override { return waitOptimized(timeout_s); }
   // A copy of the building graph and its last solution (consistent with each other).
   std::pair<building::BuildingGraph, building::BuildingSolution> snapshot() const;
   GraphServerStats stats() const;

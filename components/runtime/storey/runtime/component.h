@@ -46,6 +46,16 @@ class Component {
   LifecycleState state() const;
   const std::string& name() const { return name_; }
 
+  // Finishes the work on everything this component has received so far and publishes the
+  // results (e.g. the mapper's last optimisation, the matcher's pending matching), then
+  // returns true; false if that took longer than `timeout_s`. The caller drains the
+  // executor first. Used to end a replay deterministically (`storey map`); components
+  // without background work keep the default.
+  virtual bool flush(double timeout_s) {
+    (void)timeout_s;
+    return true;
+  }
+
  protected:
   // Read options in onConfigure (from parameters()) and create publishers,
   // subscriptions and timers there.
