@@ -60,7 +60,7 @@ struct FloorMatcherOptions {
   int restart_stride = 5;
   // Likelihood gate (see the header comment).
   double likelihood_quantile = 0.05;
-  double likelihood_scale = 1.0;
+  double likelihood_scale = 0.6;  // scans of another floor see furniture the reference lacks
   int learning_particles = 300;
   // Refinement of each converged estimate against the reference likelihood field.
   int refine_iterations = 30;

@@ -36,7 +36,7 @@ struct MotionNoiseOptions {
 
 struct ParticleFilterOptions {
   // Initial particles: density over the map's free space, clamped to [min, max].
-  double initial_particles_per_m2 = 40.0;
+  double initial_particles_per_m2 = 100.0;
   int max_particles = 50000;
   int min_particles = 300;
   // KLD-sampling: bound on the Kullback-Leibler error (epsilon) with probability 1-delta
