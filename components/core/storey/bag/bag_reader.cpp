@@ -66,7 +66,13 @@ BagReader::~BagReader() {
 void BagReader::openFile(const std::string& file) {
   auto db = std::make_unique<detail::Database>(file, detail::Database::Mode::kReadOnly);
   // The first query reads the header: a garbage file fails here, naming the file.
-  if (!db->hasTable("messages") || !db->hasTable("topics")) {
+  bool has_tables = false;
+  try {
+    has_tables = db->hasTable("messages") && db->hasTable("topics");
+  } catch (const BagError&) {
+    throw BagError(file, "not a readable sqlite3 database: " + db->errorMessage());
+  }
+  if (!has_tables) {
     throw BagError(file, "not a rosbag2 database (no topics/messages tables)");
   }
   if (db->hasTable("schema")) {

@@ -28,6 +28,8 @@ void Database::fail(const std::string& what) const {
   throw BagError(file_, what + ": " + sqlite3_errmsg(db_));
 }
 
+std::string Database::errorMessage() const { return sqlite3_errmsg(db_); }
+
 void Database::exec(const std::string& sql) {
   char* message = nullptr;
   if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &message) != SQLITE_OK) {

@@ -52,6 +52,7 @@ class Database {
   const std::string& file() const { return file_; }
   sqlite3* handle() { return db_; }
   [[noreturn]] void fail(const std::string& what) const;
+  std::string errorMessage() const;  // sqlite's message for the last failure
 
  private:
   std::string file_;

@@ -1,0 +1,204 @@
+#include "storey/runtime/bag_recorder.h"
+
+#include <chrono>
+#include <functional>
+#include <sstream>
+#include <stdexcept>
+
+#include "geometry_msgs/msg/PoseStampedPubSubTypes.h"
+#include "geometry_msgs/msg/PoseWithCovarianceStampedPubSubTypes.h"
+#include "geometry_msgs/msg/TransformStampedPubSubTypes.h"
+#include "nav_msgs/msg/OccupancyGridPubSubTypes.h"
+#include "nav_msgs/msg/OdometryPubSubTypes.h"
+#include "sensor_msgs/msg/FluidPressurePubSubTypes.h"
+#include "sensor_msgs/msg/ImuPubSubTypes.h"
+#include "sensor_msgs/msg/LaserScanPubSubTypes.h"
+#include "storey/bag/metadata.h"
+#include "storey/runtime/bag_cdr.h"
+#include "storey_msgs/msg/BuildingStatePubSubTypes.h"
+#include "storey_msgs/msg/FloorEventPubSubTypes.h"
+#include "storey_msgs/msg/FloorGraphUpdatePubSubTypes.h"
+#include "storey_msgs/msg/InterFloorConstraintPubSubTypes.h"
+#include "tf2_msgs/msg/TFMessagePubSubTypes.h"
+
+namespace storey::runtime {
+namespace {
+
+using Sink = std::function<void(std::vector<std::uint8_t>&&)>;
+using Subscriber =
+    std::function<std::unique_ptr<SubscriptionBase>(Context&, const std::string&, TopicKind, Sink)>;
+
+template <typename MsgT, typename PubSubT>
+Subscriber subscriber() {
+  return [](Context& context, const std::string& topic, TopicKind kind, Sink sink) {
+    return std::make_unique<Subscription<MsgT, PubSubT>>(
+        context, topic, kind, [sink](const MsgT& msg) { sink(serializeCdr(msg)); });
+  };
+}
+
+struct KnownType {
+  TopicKind kind;
+  Subscriber subscribe;
+};
+
+// Sensor streams are recorded best effort (matches best-effort and reliable writers);
+// storey's graph topics and maps reliable and transient local, to get their history.
+const std::map<std::string, KnownType>& knownTypeTable() {
+  static const std::map<std::string, KnownType> table = {
+      {"sensor_msgs/msg/LaserScan",
+       {TopicKind::kSensor,
+        subscriber<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType>()}},
+      {"sensor_msgs/msg/FluidPressure",
+       {TopicKind::kSensor,
+        subscriber<sensor_msgs::msg::FluidPressure, sensor_msgs::msg::FluidPressurePubSubType>()}},
+      {"sensor_msgs/msg/Imu",
+       {TopicKind::kSensor, subscriber<sensor_msgs::msg::Imu, sensor_msgs::msg::ImuPubSubType>()}},
+      {"nav_msgs/msg/Odometry",
+       {TopicKind::kSensor,
+        subscriber<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType>()}},
+      {"tf2_msgs/msg/TFMessage",
+       {TopicKind::kSensor,
+        subscriber<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType>()}},
+      {"geometry_msgs/msg/PoseStamped",
+       {TopicKind::kSensor,
+        subscriber<geometry_msgs::msg::PoseStamped, geometry_msgs::msg::PoseStampedPubSubType>()}},
+      {"geometry_msgs/msg/PoseWithCovarianceStamped",
+       {TopicKind::kSensor, subscriber<geometry_msgs::msg::PoseWithCovarianceStamped,
+                                       geometry_msgs::msg::PoseWithCovarianceStampedPubSubType>()}},
+      {"geometry_msgs/msg/TransformStamped",
+       {TopicKind::kSensor, subscriber<geometry_msgs::msg::TransformStamped,
+                                       geometry_msgs::msg::TransformStampedPubSubType>()}},
+      {"nav_msgs/msg/OccupancyGrid",
+       {TopicKind::kGraph,
+        subscriber<nav_msgs::msg::OccupancyGrid, nav_msgs::msg::OccupancyGridPubSubType>()}},
+      {"storey_msgs/msg/FloorEvent",
+       {TopicKind::kGraph,
+        subscriber<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>()}},
+      {"storey_msgs/msg/FloorGraphUpdate",
+       {TopicKind::kGraph, subscriber<storey_msgs::msg::FloorGraphUpdate,
+                                      storey_msgs::msg::FloorGraphUpdatePubSubType>()}},
+      {"storey_msgs/msg/InterFloorConstraint",
+       {TopicKind::kGraph, subscriber<storey_msgs::msg::InterFloorConstraint,
+                                      storey_msgs::msg::InterFloorConstraintPubSubType>()}},
+      {"storey_msgs/msg/BuildingState",
+       {TopicKind::kGraph,
+        subscriber<storey_msgs::msg::BuildingState, storey_msgs::msg::BuildingStatePubSubType>()}},
+  };
+  return table;
+}
+
+std::string joinedKnownTypes() {
+  std::string out;
+  for (const auto& [name, type] : knownTypeTable()) out += (out.empty() ? "" : ", ") + name;
+  return out;
+}
+
+std::int64_t nowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
+
+std::vector<std::string> BagRecorder::knownTypes() {
+  std::vector<std::string> names;
+  for (const auto& [name, type] : knownTypeTable()) names.push_back(name);
+  return names;
+}
+
+std::string BagRecorder::inferType(const std::string& topic_name) {
+  const std::string leaf = topic_name.substr(topic_name.rfind('/') + 1);
+  if (leaf == "scan") return "sensor_msgs/msg/LaserScan";
+  if (leaf == "odom") return "nav_msgs/msg/Odometry";
+  if (leaf == "pressure") return "sensor_msgs/msg/FluidPressure";
+  if (leaf == "imu") return "sensor_msgs/msg/Imu";
+  if (leaf == "tf" || leaf == "tf_static") return "tf2_msgs/msg/TFMessage";
+  return "";
+}
+
+std::vector<RecordTopic> parseRecordTopics(const std::string& list) {
+  std::vector<RecordTopic> topics;
+  std::stringstream in(list);
+  std::string entry;
+  while (std::getline(in, entry, ',')) {
+    if (entry.empty()) continue;
+    RecordTopic topic;
+    const auto colon = entry.find(':');
+    topic.name = entry.substr(0, colon);
+    if (!topic.name.empty() && topic.name.front() != '/') topic.name = "/" + topic.name;
+    topic.type =
+        colon == std::string::npos ? BagRecorder::inferType(topic.name) : entry.substr(colon + 1);
+    if (topic.name.size() < 2)
+      throw std::invalid_argument("topic entry '" + entry + "' has no name");
+    if (topic.type.empty()) {
+      throw std::invalid_argument("cannot tell the type of topic '" + topic.name +
+                                  "': write it as " + topic.name + ":<type>, one of " +
+                                  joinedKnownTypes());
+    }
+    if (!knownTypeTable().count(topic.type)) {
+      throw std::invalid_argument("topic '" + topic.name + "': type '" + topic.type +
+                                  "' is not one storey can record; known: " + joinedKnownTypes());
+    }
+    for (const RecordTopic& other : topics) {
+      if (other.name == topic.name) {
+        throw std::invalid_argument("topic '" + topic.name + "' is listed twice");
+      }
+    }
+    topics.push_back(std::move(topic));
+  }
+  if (topics.empty()) throw std::invalid_argument("no topics to record");
+  return topics;
+}
+
+BagRecorder::BagRecorder(Context& context, const std::string& output_folder,
+                         const std::vector<RecordTopic>& topics)
+    : bag_(output_folder) {
+  for (const RecordTopic& topic : topics) {
+    const auto known = knownTypeTable().find(topic.type);
+    if (known == knownTypeTable().end()) {
+      throw std::invalid_argument("topic '" + topic.name + "': type '" + topic.type +
+                                  "' is not one storey can record");
+    }
+    const bool reliable = known->second.kind == TopicKind::kGraph;
+    bag_.createTopic(
+        {topic.name, topic.type, bag::kSerializationCdr, bag::qosProfileYaml(reliable, reliable)});
+    const std::string name = topic.name;
+    subscriptions_.push_back(known->second.subscribe(
+        context, name, known->second.kind,
+        [this, name](std::vector<std::uint8_t>&& bytes) { store(name, std::move(bytes)); }));
+  }
+}
+
+BagRecorder::~BagRecorder() {
+  try {
+    close();
+  } catch (const std::exception& e) {
+    common::logError(common::str("closing the recording: ", e.what()));
+  }
+}
+
+void BagRecorder::store(const std::string& topic, std::vector<std::uint8_t>&& bytes) {
+  bag_.write(topic, nowNs(), bytes);
+  ++count_;
+  std::lock_guard<std::mutex> lock(counts_mutex_);
+  ++counts_[topic];
+}
+
+std::map<std::string, std::uint64_t> BagRecorder::countsByTopic() const {
+  std::lock_guard<std::mutex> lock(counts_mutex_);
+  return counts_;
+}
+
+int BagRecorder::matchedPublishers() const {
+  int matched = 0;
+  for (const auto& s : subscriptions_) matched += s->matchedCount();
+  return matched;
+}
+
+void BagRecorder::close() {
+  subscriptions_.clear();  // no callback runs after this
+  bag_.close();
+}
+
+}  // namespace storey::runtime

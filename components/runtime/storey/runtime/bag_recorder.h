@@ -1,0 +1,57 @@
+// Records DDS topics into a rosbag2 bag: one typed subscription per topic for the message
+// types storey knows (ROS 2 standard types and storey_msgs); each sample is serialized back
+// to CDR and stored with its receive time, as `ros2 bag record` does.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "storey/bag/bag_writer.h"
+#include "storey/runtime/context.h"
+#include "storey/runtime/subscription.h"
+
+namespace storey::runtime {
+
+struct RecordTopic {
+  std::string name;  // ROS 2 name, "/robot1/scan"
+  std::string type;  // "sensor_msgs/msg/LaserScan"; "" to infer it from the name
+};
+
+// Parses "a,b:pkg/msg/T" into topics; types left empty are inferred from the last name
+// token (scan, odom, pressure, imu, tf, tf_static). Throws std::invalid_argument naming
+// the entry when the type is unknown or cannot be inferred.
+std::vector<RecordTopic> parseRecordTopics(const std::string& list);
+
+class BagRecorder {
+ public:
+  // Opens the bag (a new folder) and subscribes to every topic.
+  BagRecorder(Context& context, const std::string& output_folder,
+              const std::vector<RecordTopic>& topics);
+  ~BagRecorder();  // unsubscribes, then closes the bag
+  BagRecorder(const BagRecorder&) = delete;
+  BagRecorder& operator=(const BagRecorder&) = delete;
+
+  static std::vector<std::string> knownTypes();
+  static std::string inferType(const std::string& topic_name);  // "" when not inferable
+
+  std::uint64_t messageCount() const { return count_; }
+  std::map<std::string, std::uint64_t> countsByTopic() const;
+  int matchedPublishers() const;  // summed over the topics
+  // Unsubscribes and writes metadata.yaml. Idempotent.
+  void close();
+
+ private:
+  void store(const std::string& topic, std::vector<std::uint8_t>&& bytes);
+
+  bag::BagWriter bag_;
+  std::vector<std::unique_ptr<SubscriptionBase>> subscriptions_;
+  std::atomic<std::uint64_t> count_{0};
+  mutable std::mutex counts_mutex_;
+  std::map<std::string, std::uint64_t> counts_;
+};
+
+}  // namespace storey::runtime

@@ -1,0 +1,121 @@
+// `storey record` as a separate process, recording messages published over DDS here.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <thread>
+
+#include "nav_msgs/msg/OdometryPubSubTypes.h"
+#include "sensor_msgs/msg/FluidPressurePubSubTypes.h"
+#include "sensor_msgs/msg/LaserScanPubSubTypes.h"
+#include "storey/bag/bag_reader.h"
+#include "storey/runtime/context.h"
+#include "storey/runtime/publisher.h"
+#include "storey/runtime/sensor_bag.h"
+#include "test_support.h"
+
+namespace storey::runtime {
+namespace {
+
+constexpr int kDomain = 147;  // distinct from every other DDS test
+
+pid_t spawn(const std::vector<std::string>& argv) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    execv(args[0], args.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+// Exit status, or -1 after the timeout (the child is then killed).
+int waitFor(pid_t pid, double timeout_s) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  int status = 0;
+  while (std::chrono::steady_clock::now() < end) {
+    if (waitpid(pid, &status, WNOHANG) == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : -2;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  kill(pid, SIGKILL);
+  waitpid(pid, &status, 0);
+  return -1;
+}
+
+TEST(Record, RecordsMessagesPublishedOverDds) {
+  const std::string output = test::makeTempDir("record") + "/rec";
+  constexpr int kEach = 4;
+  const pid_t pid =
+      spawn({STOREY_COMMAND, "record", "--topics", "/rob/scan,/rob/pressure,/rob/odom", "--output",
+             output, "--count", std::to_string(3 * kEach), "--duration", "30", "--domain",
+             std::to_string(kDomain)});
+  ASSERT_GT(pid, 0);
+  {
+    ContextOptions options;
+    options.domain_id = kDomain;
+    Context context(options);
+    Publisher<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType> scans(
+        context, "/rob/scan", TopicKind::kSensor);
+    Publisher<sensor_msgs::msg::FluidPressure, sensor_msgs::msg::FluidPressurePubSubType> pressures(
+        context, "/rob/pressure", TopicKind::kSensor);
+    Publisher<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType> odoms(
+        context, "/rob/odom", TopicKind::kSensor);
+    ASSERT_TRUE(scans.waitForSubscribers(1, 20.0)) << "storey record did not subscribe";
+    ASSERT_TRUE(pressures.waitForSubscribers(1, 5.0));
+    ASSERT_TRUE(odoms.waitForSubscribers(1, 5.0));
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));  // both sides matched
+    for (int i = 0; i < kEach; ++i) {
+      sensor::LaserScan scan;
+      scan.stamp = 10.0 + i;
+      scan.angle_min = -1.0;
+      scan.angle_increment = 0.01;
+      scan.range_max = 20.0;
+      scan.ranges.assign(50, 1.0f + i);
+      EXPECT_TRUE(scans.publish(toMessage(scan, "rob/laser")));
+      EXPECT_TRUE(pressures.publish(toMessage(sensor::PressureSample{10.0 + i, 1000.0 + i, 0.0})));
+      sensor::OdometrySample odom;
+      odom.stamp = 10.0 + i;
+      odom.pose = geometry::Pose2(i, 0.0, 0.0);
+      EXPECT_TRUE(odoms.publish(toMessage(odom)));
+      std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    }
+    ASSERT_EQ(waitFor(pid, 30.0), 0) << "storey record failed or did not stop";
+  }
+
+  bag::BagReader bag(output);
+  EXPECT_EQ(bag.messageCount(), 3u * kEach);
+  ASSERT_EQ(bag.topics().size(), 3u);
+  EXPECT_EQ(bag.topics()[0].type, "sensor_msgs/msg/LaserScan");
+  SensorBagReader reader(output);
+  std::vector<double> scan_stamps, pressures, odom_x;
+  SensorRecord record;
+  while (reader.next(record)) {
+    EXPECT_EQ(record.robot, "rob");
+    if (const auto* scan = std::get_if<sensor::LaserScan>(&record.data)) {
+      scan_stamps.push_back(scan->stamp);
+      ASSERT_EQ(scan->ranges.size(), 50u);
+      EXPECT_EQ(scan->ranges[7], static_cast<float>(scan->stamp - 9.0));
+    } else if (const auto* p = std::get_if<sensor::PressureSample>(&record.data)) {
+      pressures.push_back(p->pascal);
+    } else if (const auto* o = std::get_if<sensor::OdometrySample>(&record.data)) {
+      odom_x.push_back(o->pose.x());
+    }
+  }
+  EXPECT_EQ(scan_stamps, (std::vector<double>{10, 11, 12, 13}));
+  EXPECT_EQ(pressures, (std::vector<double>{1000, 1001, 1002, 1003}));
+  EXPECT_EQ(odom_x, (std::vector<double>{0, 1, 2, 3}));
+  EXPECT_EQ(reader.stats().out_of_order, 0u);
+}
+
+TEST(Record, RejectsUnknownTopicTypes) {
+  const std::string output = test::makeTempDir("record") + "/bad";
+  const pid_t pid = spawn({STOREY_COMMAND, "record", "--topics", "/x/unknown", "--output", output,
+                           "--duration", "1", "--domain", std::to_string(kDomain)});
+  EXPECT_EQ(waitFor(pid, 20.0), 2);  // a usage error
+}
+
+}  // namespace
+}  // namespace storey::runtime
