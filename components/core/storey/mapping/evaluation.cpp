@@ -1,0 +1,108 @@
+#include "storey/mapping/evaluation.h"
+
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <stdexcept>
+
+namespace storey::mapping {
+
+using geometry::Pose2;
+
+std::vector<Pose2> simulateOdometry(const std::vector<Pose2>& reference, const OdometryNoise& noise,
+                                    std::uint64_t seed) {
+  std::vector<Pose2> out;
+  if (reference.empty()) return out;
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  out.push_back(reference.front());
+  for (std::size_t i = 1; i < reference.size(); ++i) {
+    const Pose2 step = reference[i - 1].between(reference[i]);
+    const double d = step.translation().norm();
+    const double st = noise.translation_fraction * d;
+    const double sr = noise.rotation_per_meter * d + noise.rotation_fraction * std::abs(step.theta());
+    const Pose2 noisy(step.x() + st * normal(rng), step.y() + st * normal(rng),
+                      step.theta() + sr * normal(rng));
+    out.push_back(out.back() * noisy);
+  }
+  return out;
+}
+
+OfflineRun runOffline(FloorSlam& slam, const std::vector<sensor::LaserScan>& scans,
+                      const std::vector<Pose2>& odometry) {
+  if (scans.size() != odometry.size()) throw std::invalid_argument("runOffline: scans and odometry differ in count");
+  OfflineRun run;
+  // Each scan is remembered as (node id it followed, its pose relative to that node).
+  std::vector<std::pair<int, Pose2>> anchors;
+  anchors.reserve(scans.size());
+  const auto start = std::chrono::steady_clock::now();
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    const ScanResult r = slam.addScan(scans[i], odometry[i]);
+    run.status.push_back(r.status);
+    const auto& nodes = slam.floorGraph().nodes;
+    if (nodes.empty()) {
+      anchors.emplace_back(-1, r.pose);
+      continue;
+    }
+    const auto& last = nodes.back();
+    if (r.status == ScanStatus::kNode) anchors.emplace_back(r.node_id, Pose2());
+    else anchors.emplace_back(last.id, last.pose.between(r.pose));
+  }
+  slam.optimize();
+  run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const auto& graph = slam.floorGraph();
+  for (const auto& [id, offset] : anchors) {
+    const floor::FloorNode* node = id >= 0 ? graph.findNode(id) : nullptr;
+    run.trajectory.push_back(node ? node->pose * offset : offset);
+  }
+  return run;
+}
+
+namespace {
+struct Accumulator {
+  double t = 0, t2 = 0, r = 0, r2 = 0;
+  std::size_t n = 0;
+  void add(const Pose2& e) {
+    const double et = e.translation().norm(), er = std::abs(e.theta());
+    t += et;
+    t2 += et * et;
+    r += er;
+    r2 += er * er;
+    ++n;
+  }
+  ErrorStats stats() const {
+    ErrorStats s;
+    s.count = n;
+    if (n == 0) return s;
+    s.translation_mean = t / n;
+    s.rotation_mean = r / n;
+    s.translation_std = std::sqrt(std::max(0.0, t2 / n - s.translation_mean * s.translation_mean));
+    s.rotation_std = std::sqrt(std::max(0.0, r2 / n - s.rotation_mean * s.rotation_mean));
+    return s;
+  }
+};
+}  // namespace
+
+RelationErrors relationErrors(const std::vector<Pose2>& estimate, const std::vector<Pose2>& reference,
+                              double far_distance, std::size_t far_pairs, std::uint64_t seed) {
+  if (estimate.size() != reference.size())
+    throw std::invalid_argument("relationErrors: estimate and reference differ in count");
+  Accumulator nearby, far;
+  auto error = [&](std::size_t i, std::size_t j) {
+    return reference[i].between(reference[j]).between(estimate[i].between(estimate[j]));
+  };
+  for (std::size_t i = 0; i + 1 < estimate.size(); ++i) nearby.add(error(i, i + 1));
+  if (estimate.size() >= 2) {
+    std::mt19937_64 rng(seed);
+    std::uniform_int_distribution<std::size_t> pick(0, estimate.size() - 1);
+    // Bounded tries: a small log may have few far pairs.
+    for (std::size_t tries = 0; tries < far_pairs * 20 && far.n < far_pairs; ++tries) {
+      const std::size_t i = pick(rng), j = pick(rng);
+      if ((reference[i].translation() - reference[j].translation()).norm() <= far_distance) continue;
+      far.add(error(i, j));
+    }
+  }
+  return {nearby.stats(), far.stats()};
+}
+
+}  // namespace storey::mapping

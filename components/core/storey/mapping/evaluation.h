@@ -1,0 +1,55 @@
+// Offline runs of the front end and their evaluation against reference poses: seeded
+// odometry noise on a reference trajectory, the per-scan trajectory of a run, and the
+// relation-based error of Kümmerle et al. 2009 (relative poses between scan pairs).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "storey/geometry/pose2.h"
+#include "storey/mapping/floor_slam.h"
+#include "storey/sensor/laser_scan.h"
+
+namespace storey::mapping {
+
+// Odometry noise per step between consecutive poses: each translation component gets
+// N(0, (translation_fraction·d)²), the heading N(0, (rotation_per_meter·d +
+// rotation_fraction·|Δθ|)²), d the step's length.
+struct OdometryNoise {
+  double translation_fraction = 0.05;
+  double rotation_per_meter = 2.0 * M_PI / 180.0;
+  double rotation_fraction = 0.02;
+};
+
+// Odometry poses chained from the reference's steps with seeded noise (first pose kept).
+std::vector<geometry::Pose2> simulateOdometry(const std::vector<geometry::Pose2>& reference,
+                                              const OdometryNoise& noise, std::uint64_t seed);
+
+struct OfflineRun {
+  std::vector<geometry::Pose2> trajectory;  // per scan, at the final graph's poses
+  std::vector<ScanStatus> status;           // per scan
+  double seconds = 0.0;                     // processing time (wall clock)
+};
+
+// Feeds every scan with its odometry to `slam`, optimises at the end, and returns each
+// scan's pose: a node's pose, or the pose of the node it followed composed with the
+// odometry motion since (re-expressed after the final optimisation).
+OfflineRun runOffline(FloorSlam& slam, const std::vector<sensor::LaserScan>& scans,
+                      const std::vector<geometry::Pose2>& odometry);
+
+struct ErrorStats {
+  std::size_t count = 0;
+  double translation_mean = 0.0, translation_std = 0.0;  // m
+  double rotation_mean = 0.0, rotation_std = 0.0;        // rad
+};
+struct RelationErrors {
+  ErrorStats nearby;  // consecutive scans
+  ErrorStats far;     // random pairs more than far_distance apart in the reference
+};
+// Relative pose error |(x_i⁻¹ x_j) ⊖ (r_i⁻¹ r_j)| per pair, translation and rotation.
+RelationErrors relationErrors(const std::vector<geometry::Pose2>& estimate,
+                              const std::vector<geometry::Pose2>& reference,
+                              double far_distance = 10.0, std::size_t far_pairs = 5000,
+                              std::uint64_t seed = 1);
+
+}  // namespace storey::mapping

@@ -1,0 +1,537 @@
+#include "storey/mapping/floor_slam.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "storey/common/log.h"
+
+namespace storey::mapping {
+
+using common::str;
+using geometry::Pose2;
+
+namespace {
+
+ScanMatcherOptions readMatcherOrDefault(const common::ConfigNode& node, const std::string& key,
+                                        const ScanMatcherOptions& fallback) {
+  if (!node.has(key)) return fallback;
+  return readScanMatcherOptions(node.child(key));
+}
+
+graph::EdgeKind toGraphKind(floor::EdgeKind kind) {
+  switch (kind) {
+    case floor::EdgeKind::kOdometry: return graph::EdgeKind::kOdometry;
+    case floor::EdgeKind::kScanMatch: return graph::EdgeKind::kScanMatch;
+    case floor::EdgeKind::kLoopClosure: return graph::EdgeKind::kLoopClosure;
+  }
+  return graph::EdgeKind::kOdometry;
+}
+
+Eigen::Matrix3d safeInformation(const Eigen::Matrix3d& covariance) {
+  Eigen::Matrix3d info = covariance.inverse();
+  info = 0.5 * (info + info.transpose());
+  if (!graph::informationProblem(info).empty()) {
+    // Fall back to the diagonal: never hand the optimiser an indefinite matrix.
+    info = Eigen::Matrix3d::Zero();
+    for (int i = 0; i < 3; ++i) info(i, i) = 1.0 / std::max(covariance(i, i), 1e-12);
+  }
+  return info;
+}
+
+}  // namespace
+
+FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
+  FloorSlamOptions o;
+  o.matcher = readMatcherOrDefault(node, "scan_matcher", o.matcher);
+  if (node.has("node_creation")) {
+    const auto n = node.child("node_creation");
+    o.node.min_translation = n.getDouble("min_translation", o.node.min_translation, 0.0, 100.0);
+    o.node.min_rotation = n.getDouble("min_rotation", o.node.min_rotation, 0.0, M_PI);
+    n.finish();
+  }
+  if (node.has("local_map")) {
+    const auto n = node.child("local_map");
+    auto& m = o.local_map;
+    m.max_nodes = n.getInt("max_nodes", m.max_nodes, 1, 10000);
+    m.resolution = n.getDouble("resolution", m.resolution, 0.005, 1.0);
+    m.max_insert_range = n.getDouble("max_insert_range", m.max_insert_range, 0.5, 1000.0);
+    m.pyramid_levels = n.getInt("pyramid_levels", m.pyramid_levels, 1, 16);
+    if (n.has("likelihood_field")) m.field = grid::readLikelihoodFieldOptions(n.child("likelihood_field"));
+    n.finish();
+  }
+  if (node.has("odometry_noise")) {
+    const auto n = node.child("odometry_noise");
+    auto& m = o.odometry;
+    m.translation_per_meter = n.getDouble("translation_per_meter", m.translation_per_meter, 0.0, 10.0);
+    m.rotation_per_meter = n.getDouble("rotation_per_meter", m.rotation_per_meter, 0.0, 10.0);
+    m.rotation_per_radian = n.getDouble("rotation_per_radian", m.rotation_per_radian, 0.0, 10.0);
+    m.min_translation_stddev = n.getDouble("min_translation_stddev", m.min_translation_stddev, 1e-6, 10.0);
+    m.min_rotation_stddev = n.getDouble("min_rotation_stddev", m.min_rotation_stddev, 1e-6, 10.0);
+    n.finish();
+  }
+  if (node.has("loop_closure")) {
+    const auto n = node.child("loop_closure");
+    auto& l = o.loop_closure;
+    l.enabled = n.get<bool>("enabled", l.enabled);
+    l.every_n_nodes = n.getInt("every_n_nodes", l.every_n_nodes, 1, 100000);
+    l.min_node_gap = n.getInt("min_node_gap", l.min_node_gap, 1, 1000000);
+    l.search_radius = n.getDouble("search_radius", l.search_radius, 0.0, 1000.0);
+    l.sigma_factor = n.getDouble("sigma_factor", l.sigma_factor, 0.0, 100.0);
+    l.max_search_radius = n.getDouble("max_search_radius", l.max_search_radius, 0.0, 1000.0);
+    l.linear_window = n.getDouble("linear_window", l.linear_window, 0.0, 100.0);
+    l.max_linear_window = n.getDouble("max_linear_window", l.max_linear_window, 0.0, 100.0);
+    l.angular_window = n.getDouble("angular_window", l.angular_window, 0.0, M_PI);
+    l.max_angular_window = n.getDouble("max_angular_window", l.max_angular_window, 0.0, M_PI);
+    l.submap_half_nodes = n.getInt("submap_half_nodes", l.submap_half_nodes, 0, 10000);
+    l.min_score = n.getDouble("min_score", l.min_score, 0.0, 1.0);
+    l.max_chi2 = n.getDouble("max_chi2", l.max_chi2, 0.0, 1e12);
+    l.matcher = readMatcherOrDefault(n, "scan_matcher", l.matcher);
+    n.finish();
+  }
+  if (node.has("relocalization")) {
+    const auto n = node.child("relocalization");
+    auto& r = o.relocalization;
+    r.linear_window = n.getDouble("linear_window", r.linear_window, 0.0, 1000.0);
+    r.angular_window = n.getDouble("angular_window", r.angular_window, 0.0, M_PI);
+    r.angular_step = n.getDouble("angular_step", r.angular_step, 1e-4, 0.5);
+    r.min_score = n.getDouble("min_score", r.min_score, 0.0, 1.0);
+    r.max_attempts = n.getInt("max_attempts", r.max_attempts, 1, 100000);
+    n.finish();
+  }
+  if (node.has("optimizer")) o.optimizer = graph::readOptimizerOptions(node.child("optimizer"));
+  o.max_odometry_step = node.getDouble("max_odometry_step", o.max_odometry_step, 0.0, 1000.0);
+  o.max_odometry_rotation_step =
+      node.getDouble("max_odometry_rotation_step", o.max_odometry_rotation_step, 0.0, 2 * M_PI);
+  o.jump_linear_window = node.getDouble("jump_linear_window", o.jump_linear_window, 0.0, 100.0);
+  o.jump_angular_window = node.getDouble("jump_angular_window", o.jump_angular_window, 0.0, M_PI);
+  node.finish();
+  return o;
+}
+
+const char* scanStatusName(ScanStatus status) {
+  switch (status) {
+    case ScanStatus::kNode: return "node";
+    case ScanStatus::kSkipped: return "skipped";
+    case ScanStatus::kRejected: return "rejected";
+  }
+  return "unknown";
+}
+
+Eigen::Matrix3d odometryInformation(const Pose2& delta, const OdometryNoiseModel& m) {
+  const double d = delta.translation().norm();
+  const double st = std::max(m.min_translation_stddev, m.translation_per_meter * d);
+  const double sr = std::max(m.min_rotation_stddev,
+                             m.rotation_per_meter * d + m.rotation_per_radian * std::abs(delta.theta()));
+  return Eigen::Vector3d(1.0 / (st * st), 1.0 / (st * st), 1.0 / (sr * sr)).asDiagonal();
+}
+
+Eigen::Matrix3d rotateCovariance(const Eigen::Matrix3d& covariance, double theta) {
+  Eigen::Matrix3d j = Eigen::Matrix3d::Identity();
+  const double c = std::cos(theta), s = std::sin(theta);
+  j(0, 0) = c;
+  j(0, 1) = s;
+  j(1, 0) = -s;
+  j(1, 1) = c;
+  return j * covariance * j.transpose();
+}
+
+struct FloorSlam::Impl {
+  explicit Impl(const FloorSlamOptions& o)
+      : matcher(o.matcher), loop_matcher(o.loop_closure.matcher), optimizer(o.optimizer) {
+    ScanMatcherOptions reloc = o.loop_closure.matcher;
+    reloc.angular_step = o.relocalization.angular_step;
+    reloc.min_score = o.relocalization.min_score;
+    reloc.translation_penalty = 0.0;
+    reloc.rotation_penalty = 0.0;
+    reloc_matcher = ScanMatcher(reloc);
+    ScanMatcherOptions loop = o.loop_closure.matcher;
+    loop.min_score = std::min(loop.min_score, o.loop_closure.min_score);
+    loop_matcher = ScanMatcher(loop);
+  }
+  ScanMatcher matcher;
+  ScanMatcher loop_matcher;
+  ScanMatcher reloc_matcher;
+  graph::Optimizer optimizer;
+  MatchTarget local_target;
+  bool local_dirty = true;
+  MatchTarget floor_target;  // whole floor, for relocalisation
+  bool floor_target_valid = false;
+
+  bool have_last = false;
+  double last_stamp = 0.0;
+  Pose2 last_odometry;
+  std::size_t beam_count = 0;
+  Pose2 ref_pose, ref_odometry;  // prediction = ref_pose * ref_odometry^-1 * odometry
+  bool jump_since_node = false;
+  int nodes_since_attempt = 0;
+  // Relocalisation state.
+  Pose2 reloc_guess;
+  bool reloc_have_odometry = false;
+  Pose2 reloc_odometry;
+  int reloc_attempts = 0;
+  // Pending update.
+  std::size_t update_nodes_from = 0;
+  std::vector<floor::FloorEdge> update_edges;
+  bool poses_changed = false;
+};
+
+FloorSlam::FloorSlam(FloorSlamOptions options, std::string robot, int graph_id, int floor_id,
+                     double floor_height)
+    : impl_(std::make_unique<Impl>(options)), options_(std::move(options)) {
+  floor_graph_.robot = std::move(robot);
+  floor_graph_.graph_id = graph_id;
+  floor_graph_.floor_id = floor_id;
+  floor_graph_.floor_height = floor_height;
+}
+FloorSlam::~FloorSlam() = default;
+FloorSlam::FloorSlam(FloorSlam&&) noexcept = default;
+FloorSlam& FloorSlam::operator=(FloorSlam&&) noexcept = default;
+
+namespace {
+
+grid::OccupancyGrid renderNodes(const floor::FloorGraph& graph, std::size_t first, std::size_t last,
+                                const LocalMapOptions& o) {
+  grid::OccupancyGridOptions go;
+  go.resolution = o.resolution;
+  go.max_insert_range = o.max_insert_range;
+  grid::OccupancyGrid map(go);
+  for (std::size_t i = first; i < last && i < graph.nodes.size(); ++i)
+    map.insertScan(graph.nodes[i].scan, graph.nodes[i].pose);
+  return map;
+}
+
+}  // namespace
+
+void FloorSlam::resumeAt(const Pose2& guess) {
+  if (floor_graph_.nodes.empty()) return;  // nothing to localise in: start fresh
+  relocalize_ = true;
+  impl_->reloc_guess = guess;
+  impl_->reloc_have_odometry = false;
+  impl_->reloc_attempts = 0;
+  impl_->floor_target_valid = false;
+}
+
+GraphUpdate FloorSlam::takeUpdate() {
+  GraphUpdate update;
+  for (std::size_t i = impl_->update_nodes_from; i < floor_graph_.nodes.size(); ++i)
+    update.new_nodes.push_back(floor_graph_.nodes[i]);
+  impl_->update_nodes_from = floor_graph_.nodes.size();
+  update.new_edges.swap(impl_->update_edges);
+  update.poses_changed = impl_->poses_changed;
+  impl_->poses_changed = false;
+  return update;
+}
+
+void FloorSlam::optimize() {
+  if (pose_graph_.numNodes() < 2) return;
+  const Pose2 before = floor_graph_.nodes.back().pose;
+  try {
+    impl_->optimizer.optimize(pose_graph_);
+    ++stats_.optimizations;
+  } catch (const std::exception& e) {
+    common::logWarn(str("floor_slam: optimisation failed: ", e.what()));
+    return;
+  }
+  for (auto& node : floor_graph_.nodes) node.pose = pose_graph_.node(node.id).pose;
+  const Pose2 correction = floor_graph_.nodes.back().pose * before.inverse();
+  impl_->ref_pose = correction * impl_->ref_pose;
+  last_pose_ = correction * last_pose_;
+  impl_->local_dirty = true;
+  impl_->floor_target_valid = false;
+  impl_->poses_changed = true;
+  try {
+    const graph::NodeId id = floor_graph_.nodes.back().id;
+    const auto marginals = impl_->optimizer.marginalCovariances(pose_graph_, {id});
+    const Eigen::Matrix3d cov = marginals.at(id);
+    if (cov.allFinite()) covariance_ = cov;
+  } catch (const std::exception& e) {
+    common::logDebug(str("floor_slam: no marginal covariance: ", e.what()));
+  }
+}
+
+ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odometry) {
+  Impl& s = *impl_;
+  ScanResult result;
+  ++stats_.scans;
+  auto reject = [&](const std::string& why) {
+    ++stats_.rejected;
+    result.status = ScanStatus::kRejected;
+    result.reason = why;
+    result.pose = last_pose_;
+    common::logWarn(str("floor_slam[", floor_graph_.robot, " floor ", floor_graph_.floor_id, "]: scan at ",
+                        scan.stamp, " rejected: ", why));
+    return result;
+  };
+  if (const std::string why = scan.validate(); !why.empty()) return reject(why);
+  if (!std::isfinite(scan.stamp)) return reject("non-finite stamp");
+  if (!odometry.isFinite()) return reject("non-finite odometry pose");
+  if (s.have_last && scan.stamp < s.last_stamp)
+    return reject(str("time went backwards (", scan.stamp, " < ", s.last_stamp, ")"));
+  const std::vector<Eigen::Vector2d> points =
+      filterPoints(scan.pointsInRobotFrame(), options_.matcher.point_filter_distance);
+  if (points.empty()) return reject("no valid returns");
+  if (s.beam_count != 0 && scan.size() != s.beam_count)
+    common::logWarn(str("floor_slam: scan at ", scan.stamp, " has ", scan.size(), " beams (was ",
+                        s.beam_count, "); matching its points as they are"));
+  s.beam_count = scan.size();
+
+  // Odometry jumps: do not trust that step; search around the last pose instead.
+  if (s.have_last) {
+    const Pose2 step = s.last_odometry.between(odometry);
+    if (step.translation().norm() > options_.max_odometry_step ||
+        std::abs(step.theta()) > options_.max_odometry_rotation_step) {
+      ++stats_.odometry_jumps;
+      common::logWarn(str("floor_slam: odometry jumped by (", step.x(), ", ", step.y(), ", ", step.theta(),
+                          ") before the scan at ", scan.stamp, "; searching a wider window"));
+      s.ref_pose = last_pose_;
+      s.ref_odometry = odometry;
+      s.jump_since_node = true;
+    }
+  }
+  s.have_last = true;
+  s.last_stamp = scan.stamp;
+  s.last_odometry = odometry;
+
+  // First scan of the floor: the origin.
+  if (floor_graph_.nodes.empty()) {
+    appendNode(scan, odometry, Pose2());
+    covariance_ = Eigen::Matrix3d::Zero();
+    result.status = ScanStatus::kNode;
+    result.node_id = floor_graph_.nodes.back().id;
+    return result;
+  }
+  if (relocalize_) return relocalizeWith(scan, odometry, points);
+
+  const Pose2 prediction = s.ref_pose * s.ref_odometry.between(odometry);
+  const floor::FloorNode& last = floor_graph_.nodes.back();
+  const Pose2 motion = last.pose.between(prediction);
+  const bool moved = motion.translation().norm() >= options_.node.min_translation ||
+                     std::abs(motion.theta()) >= options_.node.min_rotation;
+  if (!moved && !s.jump_since_node) {
+    ++stats_.skipped;
+    last_pose_ = prediction;
+    result.status = ScanStatus::kSkipped;
+    result.pose = prediction;
+    return result;
+  }
+
+  // Match against the recent nodes.
+  if (s.local_dirty) {
+    const std::size_t n = floor_graph_.nodes.size();
+    const std::size_t first = n > static_cast<std::size_t>(options_.local_map.max_nodes)
+                                  ? n - options_.local_map.max_nodes
+                                  : 0;
+    s.local_target = MatchTarget(renderNodes(floor_graph_, first, n, options_.local_map),
+                                 options_.local_map.field, options_.local_map.pyramid_levels);
+    s.local_dirty = false;
+  }
+  const bool jumped = s.jump_since_node;
+  const MatchResult match =
+      jumped ? s.matcher.match(s.local_target, points, prediction, options_.jump_linear_window,
+                               options_.jump_angular_window)
+             : s.matcher.match(s.local_target, points, prediction);
+  if (!match.success && jumped) {
+    // Neither odometry nor the map can place this scan: keep waiting for one that fits.
+    ++stats_.match_failures;
+    return reject(str("odometry jumped and the scan does not match the local map (", match.problem, ")"));
+  }
+  const int from = last.id;
+  const Pose2 last_pose = last.pose;
+  const Pose2 pose = match.success ? match.pose : prediction;
+  if (match.success) {
+    ++stats_.matched;
+    result.matched = true;
+  } else {
+    ++stats_.match_failures;
+    common::logDebug(str("floor_slam: scan at ", scan.stamp, " not matched (", match.problem,
+                         "); using odometry"));
+  }
+  const Eigen::Matrix3d odom_info = odometryInformation(motion, options_.odometry);
+  appendNode(scan, odometry, pose);
+  const int to = floor_graph_.nodes.back().id;
+  Eigen::Matrix3d step_cov = odom_info.inverse();
+  if (!jumped) appendEdge(from, to, motion, odom_info, floor::EdgeKind::kOdometry);
+  if (match.success) {
+    const Eigen::Matrix3d rel_cov = rotateCovariance(match.covariance, last_pose.theta());
+    appendEdge(from, to, last_pose.between(pose), safeInformation(rel_cov), floor::EdgeKind::kScanMatch);
+    step_cov = jumped ? rel_cov : Eigen::Matrix3d((rel_cov.inverse() + odom_info).inverse());
+  }
+  covariance_ = geometry::composeCovariance(last_pose, covariance_, last_pose.between(pose), step_cov);
+  result.status = ScanStatus::kNode;
+  result.node_id = to;
+  result.pose = pose;
+
+  if (options_.loop_closure.enabled && ++s.nodes_since_attempt >= options_.loop_closure.every_n_nodes) {
+    s.nodes_since_attempt = 0;
+    if (tryLoopClosure(points)) {
+      result.loop_closed = true;
+      result.pose = floor_graph_.nodes.back().pose;
+    }
+  }
+  return result;
+}
+
+void FloorSlam::appendNode(const sensor::LaserScan& scan, const Pose2& odometry, const Pose2& pose) {
+  Impl& s = *impl_;
+  floor::FloorNode node;
+  node.id = floor_graph_.nodes.empty() ? 0 : floor_graph_.nodes.back().id + 1;
+  node.stamp = scan.stamp;
+  node.pose = pose;
+  node.odometry = odometry;
+  node.scan = scan;
+  pose_graph_.addNode(node.id, pose, /*fixed=*/floor_graph_.nodes.empty(), floor_graph_.floor_id,
+                      floor_graph_.floor_height);
+  floor_graph_.nodes.push_back(std::move(node));
+  ++stats_.nodes;
+  s.ref_pose = pose;
+  s.ref_odometry = odometry;
+  s.jump_since_node = false;
+  s.local_dirty = true;
+  s.floor_target_valid = false;
+  last_pose_ = pose;
+}
+
+std::size_t FloorSlam::appendEdge(int from, int to, const Pose2& z, const Eigen::Matrix3d& info,
+                                  floor::EdgeKind kind) {
+  floor::FloorEdge e{from, to, z, info, kind};
+  pose_graph_.addEdge(from, to, z, info, toGraphKind(kind));
+  floor_graph_.edges.push_back(e);
+  impl_->update_edges.push_back(e);
+  return pose_graph_.numEdges() - 1;
+}
+
+bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
+  Impl& s = *impl_;
+  const LoopClosureOptions& o = options_.loop_closure;
+  const std::size_t n = floor_graph_.nodes.size();
+  if (n <= static_cast<std::size_t>(o.min_node_gap)) return false;
+  const floor::FloorNode& current = floor_graph_.nodes.back();
+  // Search radius from the current pose's uncertainty.
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(covariance_.topLeftCorner<2, 2>());
+  const double sigma_xy = std::sqrt(std::max(0.0, eig.eigenvalues().maxCoeff()));
+  const double sigma_theta = std::sqrt(std::max(0.0, covariance_(2, 2)));
+  const double radius = std::min(o.max_search_radius, o.search_radius + o.sigma_factor * sigma_xy);
+  const std::size_t last_candidate = n - 1 - o.min_node_gap;
+  int best = -1;
+  double best_d = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i <= last_candidate; ++i) {
+    const double d = (floor_graph_.nodes[i].pose.translation() - current.pose.translation()).norm();
+    if (d < best_d) {
+      best_d = d;
+      best = static_cast<int>(i);
+    }
+  }
+  if (best < 0 || best_d > radius) return false;
+  ++stats_.loop_attempts;
+  const std::size_t first = best > o.submap_half_nodes ? best - o.submap_half_nodes : 0;
+  const std::size_t end = std::min(last_candidate + 1, static_cast<std::size_t>(best + o.submap_half_nodes + 1));
+  const MatchTarget target(renderNodes(floor_graph_, first, end, options_.local_map), options_.local_map.field,
+                           options_.local_map.pyramid_levels);
+  const double linear = std::min(o.max_linear_window, o.linear_window + o.sigma_factor * sigma_xy);
+  const double angular = std::min(o.max_angular_window, o.angular_window + o.sigma_factor * sigma_theta);
+  const MatchResult match = s.loop_matcher.match(target, points, current.pose, linear, angular);
+  if (!match.success || match.score < o.min_score) return false;
+
+  const floor::FloorNode& candidate = floor_graph_.nodes[best];
+  const Pose2 z = candidate.pose.between(match.pose);
+  const Eigen::Matrix3d info = safeInformation(rotateCovariance(match.covariance, candidate.pose.theta()));
+  std::vector<Pose2> backup;
+  backup.reserve(pose_graph_.numNodes());
+  for (const auto& node : pose_graph_.nodes()) backup.push_back(node.pose);
+  const std::size_t edge = pose_graph_.addEdge(candidate.id, current.id, z, info, graph::EdgeKind::kLoopClosure);
+  try {
+    s.optimizer.optimize(pose_graph_);
+    ++stats_.optimizations;
+  } catch (const std::exception& e) {
+    common::logWarn(str("floor_slam: optimisation after a loop closure failed: ", e.what()));
+    pose_graph_.setEdgeEnabled(edge, false);
+    for (std::size_t i = 0; i < backup.size(); ++i) pose_graph_.setPoseAt(i, backup[i]);
+    return false;
+  }
+  const double chi2 = pose_graph_.edgeChi2(edge);
+  if (!(chi2 <= o.max_chi2)) {
+    // The graph disagrees: a wrong match (e.g. a similar room). Undo it.
+    ++stats_.loop_rejected_inconsistent;
+    common::logDebug(str("floor_slam: loop closure ", candidate.id, " -> ", current.id, " rejected (chi2 ", chi2,
+                         ")"));
+    pose_graph_.setEdgeEnabled(edge, false);
+    for (std::size_t i = 0; i < backup.size(); ++i) pose_graph_.setPoseAt(i, backup[i]);
+    return false;
+  }
+  ++stats_.loop_closures;
+  floor::FloorEdge e{candidate.id, current.id, z, info, floor::EdgeKind::kLoopClosure};
+  floor_graph_.edges.push_back(e);
+  s.update_edges.push_back(e);
+  const Pose2 before = floor_graph_.nodes.back().pose;
+  for (auto& node : floor_graph_.nodes) node.pose = pose_graph_.node(node.id).pose;
+  const Pose2 correction = floor_graph_.nodes.back().pose * before.inverse();
+  s.ref_pose = correction * s.ref_pose;
+  last_pose_ = correction * last_pose_;
+  s.local_dirty = true;
+  s.floor_target_valid = false;
+  s.poses_changed = true;
+  try {
+    const auto marginals = s.optimizer.marginalCovariances(pose_graph_, {current.id});
+    const Eigen::Matrix3d cov = marginals.at(current.id);
+    if (cov.allFinite()) covariance_ = cov;
+  } catch (const std::exception& ex) {
+    common::logDebug(str("floor_slam: no marginal covariance: ", ex.what()));
+  }
+  return true;
+}
+
+ScanResult FloorSlam::relocalizeWith(const sensor::LaserScan& scan, const Pose2& odometry,
+                                     const std::vector<Eigen::Vector2d>& points) {
+  Impl& s = *impl_;
+  const RelocalizationOptions& o = options_.relocalization;
+  ScanResult result;
+  if (!s.reloc_have_odometry) {
+    s.reloc_have_odometry = true;
+    s.reloc_odometry = odometry;
+  }
+  const Pose2 guess = s.reloc_guess * s.reloc_odometry.between(odometry);
+  if (!s.floor_target_valid) {
+    s.floor_target = MatchTarget(renderNodes(floor_graph_, 0, floor_graph_.nodes.size(), options_.local_map),
+                                 options_.local_map.field, options_.local_map.pyramid_levels);
+    s.floor_target_valid = true;
+  }
+  const MatchResult match = s.reloc_matcher.match(s.floor_target, points, guess, o.linear_window, o.angular_window);
+  ++s.reloc_attempts;
+  const bool found = match.success && match.score >= o.min_score;
+  if (!found && s.reloc_attempts < o.max_attempts) {
+    result.status = ScanStatus::kRejected;
+    result.reason = str("relocalising (attempt ", s.reloc_attempts, "): ", match.success ? "score too low" : match.problem);
+    result.pose = guess;
+    ++stats_.rejected;
+    return result;
+  }
+  Pose2 pose = guess;
+  Eigen::Matrix3d cov;
+  if (found) {
+    pose = match.pose;
+    cov = match.covariance;
+    ++stats_.relocalizations;
+    result.relocalized = true;
+  } else {
+    // Nothing matched: resume on the guess with a weak tie so the graph stays connected.
+    ++stats_.relocalization_failures;
+    common::logWarn(str("floor_slam: could not localise on floor ", floor_graph_.floor_id, " after ",
+                        s.reloc_attempts, " scans; resuming at the expected arrival pose"));
+    cov = Eigen::Vector3d(1.0, 1.0, 0.25).asDiagonal();
+  }
+  const int nearest = floor_graph_.nearestNodeIndex(pose.translation());
+  const floor::FloorNode anchor = floor_graph_.nodes[nearest];
+  appendNode(scan, odometry, pose);
+  const Eigen::Matrix3d info = safeInformation(rotateCovariance(cov, anchor.pose.theta()));
+  appendEdge(anchor.id, floor_graph_.nodes.back().id, anchor.pose.between(pose), info, floor::EdgeKind::kLoopClosure);
+  covariance_ = cov;
+  relocalize_ = false;
+  result.status = ScanStatus::kNode;
+  result.node_id = floor_graph_.nodes.back().id;
+  result.pose = pose;
+  return result;
+}
+
+}  // namespace storey::mapping

@@ -1,0 +1,190 @@
+// The per-floor SLAM front end: one floor graph grown from scans and odometry.
+//
+// Each scan is predicted from odometry; when the robot has moved or turned enough since
+// the last node, the scan is matched against a local map (the recent nodes' scans in an
+// occupancy grid, as a likelihood field) and becomes a node, joined to the previous node
+// by an odometry edge and a scan-match edge whose information comes from the match.
+// Every few nodes, older nodes within the current pose's uncertainty (marginal covariance
+// from the optimiser, grown along the chain since) are loop-closure candidates: the scan
+// is matched in a map around the candidate, a good match becomes a loop-closure edge
+// (robust kernel), the graph is re-optimised, and a closure the optimised graph disagrees
+// with is disabled again.
+//
+//   FloorSlam slam(readFloorSlamOptions(config), "robot1", /*graph_id=*/0, /*floor_id=*/0, 0.0);
+//   for (...) slam.addScan(scan, odometry_pose_at_scan_time);
+//   slam.floorGraph();   // nodes (pose, odometry, scan) and edges
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "storey/common/config.h"
+#include "storey/floor/floor_graph.h"
+#include "storey/graph/optimizer.h"
+#include "storey/graph/pose_graph.h"
+#include "storey/grid/likelihood_field.h"
+#include "storey/grid/occupancy_grid.h"
+#include "storey/mapping/scan_matcher.h"
+#include "storey/sensor/laser_scan.h"
+
+namespace storey::mapping {
+
+struct NodeCreationOptions {
+  double min_translation = 0.2;  // m since the last node
+  double min_rotation = 0.17;    // rad since the last node
+};
+
+struct LocalMapOptions {
+  int max_nodes = 20;  // most recent nodes rendered into the local map
+  double resolution = 0.05;
+  double max_insert_range = 20.0;  // m; farther returns are left out of local maps
+  int pyramid_levels = 7;
+  grid::LikelihoodFieldOptions field;
+};
+
+// Standard deviations of odometry per step, for the odometry edges' information.
+struct OdometryNoiseModel {
+  double translation_per_meter = 0.05;  // m per m travelled
+  double rotation_per_meter = 0.035;    // rad per m travelled
+  double rotation_per_radian = 0.05;    // rad per rad turned
+  double min_translation_stddev = 0.01;
+  double min_rotation_stddev = 0.005;
+};
+
+struct LoopClosureOptions {
+  bool enabled = true;
+  int every_n_nodes = 3;         // attempt a closure every n nodes
+  int min_node_gap = 40;         // candidates are at least this many nodes older
+  double search_radius = 1.5;    // m, plus sigma_factor standard deviations
+  double sigma_factor = 3.0;
+  double max_search_radius = 10.0;
+  double linear_window = 1.0;   // m, plus sigma_factor standard deviations...
+  double max_linear_window = 4.0;  // ...up to this
+  double angular_window = 0.35;  // rad, plus sigma_factor standard deviations...
+  double max_angular_window = 1.2;  // ...up to this
+  int submap_half_nodes = 10;    // the candidate's map: nodes within this index distance
+  double min_score = 0.6;        // refined mean score a closure needs
+  double max_chi2 = 25.0;        // after optimisation, a closure with larger χ² is disabled
+  ScanMatcherOptions matcher;    // for closures (windows from the options above)
+};
+
+struct RelocalizationOptions {
+  double linear_window = 3.0;    // m around the expected arrival point
+  double angular_window = M_PI;  // rad
+  double angular_step = 0.01;    // rad
+  double min_score = 0.6;
+  int max_attempts = 10;  // scans tried before resuming on the guess alone
+};
+
+struct FloorSlamOptions {
+  ScanMatcherOptions matcher;
+  NodeCreationOptions node;
+  LocalMapOptions local_map;
+  OdometryNoiseModel odometry;
+  LoopClosureOptions loop_closure;
+  RelocalizationOptions relocalization;
+  graph::OptimizerOptions optimizer;
+  // Odometry steps between consecutive scans beyond these are jumps: not trusted, the
+  // match searches a wider window around the last pose instead.
+  double max_odometry_step = 1.0;          // m
+  double max_odometry_rotation_step = 0.8;  // rad
+  double jump_linear_window = 1.5;          // m
+  double jump_angular_window = 0.8;         // rad
+};
+// Reads the front end's options (all keys optional; unknown keys are errors). Sections:
+// scan_matcher, node_creation, local_map (with likelihood_field), odometry_noise,
+// loop_closure (with scan_matcher), relocalization, optimizer.
+FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node);
+
+enum class ScanStatus {
+  kNode,      // became a node
+  kSkipped,   // not enough motion since the last node; pose predicted from odometry
+  kRejected,  // bad input (see reason); nothing changed
+};
+const char* scanStatusName(ScanStatus status);
+
+struct ScanResult {
+  ScanStatus status = ScanStatus::kRejected;
+  std::string reason;
+  geometry::Pose2 pose;  // estimated robot pose in the floor frame
+  int node_id = -1;
+  bool matched = false;       // the node's scan matched the local map
+  bool loop_closed = false;   // a loop closure was accepted with this node
+  bool relocalized = false;   // resumed a known floor with this scan
+};
+
+// What changed since the last takeUpdate(): for publishing incrementally.
+struct GraphUpdate {
+  std::vector<floor::FloorNode> new_nodes;
+  std::vector<floor::FloorEdge> new_edges;
+  bool poses_changed = false;  // optimised: every node's pose may have moved
+};
+
+struct FloorSlamStats {
+  std::size_t scans = 0, nodes = 0, skipped = 0, rejected = 0;
+  std::size_t matched = 0, match_failures = 0, odometry_jumps = 0;
+  std::size_t loop_attempts = 0, loop_closures = 0, loop_rejected_inconsistent = 0;
+  std::size_t optimizations = 0;
+  std::size_t relocalizations = 0, relocalization_failures = 0;
+};
+
+class FloorSlam {
+ public:
+  FloorSlam(FloorSlamOptions options, std::string robot, int graph_id, int floor_id,
+            double floor_height);
+  ~FloorSlam();
+  FloorSlam(FloorSlam&&) noexcept;
+  FloorSlam& operator=(FloorSlam&&) noexcept;
+
+  // One scan and the odometry pose at its stamp. Never throws for bad data: returns
+  // kRejected with the reason (and logs it).
+  ScanResult addScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry);
+
+  // Prepares to resume this (non-empty) floor: the next scans are localised in the floor's
+  // whole map within the relocalization window around `guess` (e.g. where the robot left
+  // the floor: the elevator) before mapping continues.
+  void resumeAt(const geometry::Pose2& guess);
+  bool awaitingRelocalization() const { return relocalize_; }
+
+  const floor::FloorGraph& floorGraph() const { return floor_graph_; }
+  const graph::PoseGraph& poseGraph() const { return pose_graph_; }
+  const FloorSlamStats& stats() const { return stats_; }
+  const FloorSlamOptions& options() const { return options_; }
+  // Last estimated robot pose (of the last accepted scan).
+  const geometry::Pose2& currentPose() const { return last_pose_; }
+  // Uncertainty of the last node (floor frame).
+  const Eigen::Matrix3d& currentCovariance() const { return covariance_; }
+  GraphUpdate takeUpdate();
+  // Runs the optimiser over the whole graph now (e.g. when closing the floor).
+  void optimize();
+
+ private:
+  struct Impl;
+  void appendNode(const sensor::LaserScan& scan, const geometry::Pose2& odometry,
+                  const geometry::Pose2& pose);
+  std::size_t appendEdge(int from, int to, const geometry::Pose2& measurement,
+                         const Eigen::Matrix3d& information, floor::EdgeKind kind);
+  ScanResult relocalizeWith(const sensor::LaserScan& scan, const geometry::Pose2& odometry,
+                            const std::vector<Eigen::Vector2d>& points);
+  bool tryLoopClosure(const std::vector<Eigen::Vector2d>& points);
+
+  std::unique_ptr<Impl> impl_;
+  FloorSlamOptions options_;
+  floor::FloorGraph floor_graph_;
+  graph::PoseGraph pose_graph_;
+  FloorSlamStats stats_;
+  geometry::Pose2 last_pose_;
+  Eigen::Matrix3d covariance_ = Eigen::Matrix3d::Zero();
+  bool relocalize_ = false;
+};
+
+// Odometry edge information for a step `delta` under the noise model.
+Eigen::Matrix3d odometryInformation(const geometry::Pose2& delta, const OdometryNoiseModel& model);
+
+// A covariance of a pose in the world frame re-expressed in the frame of a pose with
+// heading `theta` (rotates the translation block).
+Eigen::Matrix3d rotateCovariance(const Eigen::Matrix3d& covariance, double theta);
+
+}  // namespace storey::mapping

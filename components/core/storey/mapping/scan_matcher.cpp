@@ -1,0 +1,379 @@
+#include "storey/mapping/scan_matcher.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+#include "storey/common/log.h"
+
+namespace storey::mapping {
+
+using geometry::Pose2;
+
+ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node) {
+  ScanMatcherOptions o;
+  o.linear_window = node.getDouble("linear_window", o.linear_window, 0.0, 100.0);
+  o.angular_window = node.getDouble("angular_window", o.angular_window, 0.0, M_PI);
+  o.angular_step = node.getDouble("angular_step", o.angular_step, 0.0, 0.5);
+  o.min_score = node.getDouble("min_score", o.min_score, 0.0, 1.0);
+  o.translation_penalty = node.getDouble("translation_penalty", o.translation_penalty, 0.0, 10.0);
+  o.rotation_penalty = node.getDouble("rotation_penalty", o.rotation_penalty, 0.0, 10.0);
+  o.max_iterations = node.getInt("max_iterations", o.max_iterations, 0, 1000);
+  o.translation_prior_weight =
+      node.getDouble("translation_prior_weight", o.translation_prior_weight, 0.0, 1e6);
+  o.rotation_prior_weight = node.getDouble("rotation_prior_weight", o.rotation_prior_weight, 0.0, 1e6);
+  o.covariance_scale = node.getDouble("covariance_scale", o.covariance_scale, 1e-6, 1e6);
+  o.min_translation_stddev =
+      node.getDouble("min_translation_stddev", o.min_translation_stddev, 0.0, 10.0);
+  o.min_rotation_stddev = node.getDouble("min_rotation_stddev", o.min_rotation_stddev, 0.0, 1.0);
+  o.max_translation_stddev =
+      node.getDouble("max_translation_stddev", o.max_translation_stddev, 1e-3, 1e6);
+  o.max_rotation_stddev = node.getDouble("max_rotation_stddev", o.max_rotation_stddev, 1e-4, 1e3);
+  o.robust_distance = node.getDouble("robust_distance", o.robust_distance, 1e-3, 10.0);
+  o.min_point_stddev = node.getDouble("min_point_stddev", o.min_point_stddev, 1e-4, 10.0);
+  o.point_filter_distance =
+      node.getDouble("point_filter_distance", o.point_filter_distance, 0.0, 10.0);
+  o.min_points = node.getInt("min_points", o.min_points, 3, 100000);
+  node.finish();
+  if (o.min_translation_stddev > o.max_translation_stddev)
+    node.fail("min_translation_stddev", "must not exceed max_translation_stddev");
+  if (o.min_rotation_stddev > o.max_rotation_stddev)
+    node.fail("min_rotation_stddev", "must not exceed max_rotation_stddev");
+  return o;
+}
+
+MatchTarget::MatchTarget(const grid::OccupancyGrid& grid, const grid::LikelihoodFieldOptions& options,
+                         int pyramid_levels)
+    : field_(grid, options), pyramid_(grid::maxPyramid(field_.score(), std::max(1, pyramid_levels))) {}
+
+double interpolatedDistance(const grid::LikelihoodField& field, const Eigen::Vector2d& p,
+                            Eigen::Vector2d* gradient) {
+  const grid::Grid2<float>& dist = field.distance();
+  const grid::GridFrame& f = dist.frame;
+  const float outside = static_cast<float>(field.options().max_distance);
+  // Cell centres sit at integer + 0.5 in continuous cell coordinates.
+  const Eigen::Vector2d c = f.continuousCellOf(p) - Eigen::Vector2d(0.5, 0.5);
+  const int x0 = static_cast<int>(std::floor(c.x())), y0 = static_cast<int>(std::floor(c.y()));
+  const double fx = c.x() - x0, fy = c.y() - y0;
+  const double v00 = dist.valueOr(x0, y0, outside), v10 = dist.valueOr(x0 + 1, y0, outside);
+  const double v01 = dist.valueOr(x0, y0 + 1, outside), v11 = dist.valueOr(x0 + 1, y0 + 1, outside);
+  if (gradient) {
+    const double inv_res = 1.0 / f.resolution;
+    gradient->x() = ((v10 - v00) * (1 - fy) + (v11 - v01) * fy) * inv_res;
+    gradient->y() = ((v01 - v00) * (1 - fx) + (v11 - v10) * fx) * inv_res;
+  }
+  return (v00 * (1 - fx) + v10 * fx) * (1 - fy) + (v01 * (1 - fx) + v11 * fx) * fy;
+}
+
+double pointResidual(const grid::LikelihoodField& field, const Pose2& pose, const Eigen::Vector2d& point,
+                     Eigen::RowVector3d* jacobian) {
+  const double c = std::cos(pose.theta()), s = std::sin(pose.theta());
+  const Eigen::Vector2d q(c * point.x() - s * point.y() + pose.x(), s * point.x() + c * point.y() + pose.y());
+  Eigen::Vector2d g;
+  const double d = interpolatedDistance(field, q, jacobian ? &g : nullptr);
+  if (jacobian) {
+    const Eigen::Vector2d dq_dtheta(-s * point.x() - c * point.y(), c * point.x() - s * point.y());
+    *jacobian << g.x(), g.y(), g.dot(dq_dtheta);
+  }
+  return d;
+}
+
+std::vector<Eigen::Vector2d> filterPoints(const std::vector<Eigen::Vector2d>& points, double distance) {
+  if (distance <= 0.0) return points;
+  // Hash on a grid of cell size `distance`: a kept point blocks its neighbours within it.
+  struct Hash {
+    std::size_t operator()(const std::pair<long, long>& k) const {
+      return std::hash<long>()(k.first * 73856093L ^ k.second * 19349663L);
+    }
+  };
+  std::unordered_map<std::pair<long, long>, std::vector<int>, Hash> cells;
+  std::vector<Eigen::Vector2d> kept;
+  const double d2 = distance * distance;
+  for (const auto& p : points) {
+    const long cx = static_cast<long>(std::floor(p.x() / distance));
+    const long cy = static_cast<long>(std::floor(p.y() / distance));
+    bool near = false;
+    for (long dx = -1; dx <= 1 && !near; ++dx)
+      for (long dy = -1; dy <= 1 && !near; ++dy) {
+        auto it = cells.find({cx + dx, cy + dy});
+        if (it == cells.end()) continue;
+        for (int k : it->second)
+          if ((kept[k] - p).squaredNorm() < d2) {
+            near = true;
+            break;
+          }
+      }
+    if (near) continue;
+    cells[{cx, cy}].push_back(static_cast<int>(kept.size()));
+    kept.push_back(p);
+  }
+  return kept;
+}
+
+ScanMatcher::ScanMatcher(ScanMatcherOptions options) : options_(options) {}
+
+namespace {
+
+struct Candidate {
+  int angle = 0;  // index into the angle list
+  int x = 0, y = 0;  // cell offsets of the node's lower corner
+  int level = 0;
+  double bound = 0.0;
+};
+
+// Lower bound of the Euclidean distance (in cells) from the origin to [x0, x1] x [y0, y1].
+double rectDistance(int x0, int x1, int y0, int y1) {
+  const double dx = x0 > 0 ? x0 : (x1 < 0 ? -x1 : 0);
+  const double dy = y0 > 0 ? y0 : (y1 < 0 ? -y1 : 0);
+  return std::sqrt(dx * dx + dy * dy);
+}
+
+class BranchAndBound {
+ public:
+  BranchAndBound(const MatchTarget& target, const std::vector<std::vector<Eigen::Vector2i>>& cells,
+                 const std::vector<double>& angle_offsets, int window, const ScanMatcherOptions& o)
+      : target_(target), cells_(cells), angle_offsets_(angle_offsets), window_(window), o_(o) {
+    res_ = target.field().frame().resolution;
+  }
+
+  double bound(const Candidate& c) const {
+    const grid::Grid2<float>& level = target_.pyramid()[c.level];
+    double sum = 0.0;
+    for (const auto& cell : cells_[c.angle]) sum += level.valueOr(cell.x() + c.x, cell.y() + c.y, 0.0f);
+    const int size = (1 << c.level) - 1;
+    const double dist = rectDistance(c.x, std::min(c.x + size, window_), c.y, std::min(c.y + size, window_));
+    ++evaluated_;
+    return sum / static_cast<double>(cells_[c.angle].size()) - o_.translation_penalty * dist * res_ -
+           o_.rotation_penalty * std::abs(angle_offsets_[c.angle]);
+  }
+
+  void search(std::vector<Candidate>& nodes) {
+    for (auto& n : nodes) n.bound = bound(n);
+    std::sort(nodes.begin(), nodes.end(), [](const Candidate& a, const Candidate& b) { return a.bound > b.bound; });
+    for (const auto& n : nodes) {
+      if (n.bound <= best_score_) break;  // sorted: nothing after can beat the best
+      if (n.level == 0) {
+        best_score_ = n.bound;
+        best_ = n;
+        found_ = true;
+        continue;
+      }
+      const int half = 1 << (n.level - 1);
+      std::vector<Candidate> children;
+      children.reserve(4);
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) {
+          Candidate c{n.angle, n.x + dx * half, n.y + dy * half, n.level - 1, 0.0};
+          if (c.x > window_ || c.y > window_) continue;
+          children.push_back(c);
+        }
+      search(children);
+    }
+  }
+
+  double best_score_ = 0.0;
+  Candidate best_;
+  bool found_ = false;
+  mutable long evaluated_ = 0;
+
+ private:
+  const MatchTarget& target_;
+  const std::vector<std::vector<Eigen::Vector2i>>& cells_;
+  const std::vector<double>& angle_offsets_;
+  int window_;
+  const ScanMatcherOptions& o_;
+  double res_ = 0.05;
+};
+
+}  // namespace
+
+MatchResult ScanMatcher::correlativeSearch(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
+                                           const Pose2& prediction, double linear_window,
+                                           double angular_window) const {
+  MatchResult result;
+  result.points = static_cast<int>(points.size());
+  result.pose = prediction;
+  if (target.empty()) {
+    result.problem = "empty map";
+    return result;
+  }
+  if (static_cast<int>(points.size()) < options_.min_points) {
+    result.problem = common::str("too few points (", points.size(), " < ", options_.min_points, ")");
+    return result;
+  }
+  const grid::GridFrame& frame = target.field().frame();
+  const double res = frame.resolution;
+  double max_range = 0.0;
+  for (const auto& p : points) max_range = std::max(max_range, p.norm());
+  double step = options_.angular_step;
+  if (step <= 0.0) {
+    // The angle that moves the farthest point by one cell.
+    step = std::acos(std::clamp(1.0 - res * res / (2.0 * max_range * max_range), -1.0, 1.0));
+    step = std::max(step, 1e-4);
+  }
+  const int num_angles = static_cast<int>(std::ceil(angular_window / step));
+  std::vector<double> offsets;
+  std::vector<std::vector<Eigen::Vector2i>> cells;
+  for (int a = -num_angles; a <= num_angles; ++a) {
+    const double offset = a * step;
+    offsets.push_back(offset);
+    const Pose2 rotated(prediction.x(), prediction.y(), prediction.theta() + offset);
+    std::vector<Eigen::Vector2i> c;
+    c.reserve(points.size());
+    for (const auto& p : points) c.push_back(frame.cellOf(rotated.transformPoint(p)));
+    cells.push_back(std::move(c));
+  }
+  const int window = static_cast<int>(std::ceil(linear_window / res));
+  const int max_level = static_cast<int>(target.pyramid().size()) - 1;
+  int level = 0;
+  while ((1 << level) < 2 * window + 1 && level < max_level) ++level;
+  const int top = 1 << level;
+
+  BranchAndBound bb(target, cells, offsets, window, options_);
+  bb.best_score_ = options_.min_score;
+  std::vector<Candidate> nodes;
+  for (std::size_t a = 0; a < offsets.size(); ++a)
+    for (int y = -window; y <= window; y += top)
+      for (int x = -window; x <= window; x += top) nodes.push_back({static_cast<int>(a), x, y, level, 0.0});
+  bb.search(nodes);
+  result.candidates_scored = bb.evaluated_;
+  if (!bb.found_) {
+    result.problem = common::str("no candidate scored above ", options_.min_score);
+    return result;
+  }
+  const Candidate& best = bb.best_;
+  result.pose = Pose2(prediction.x() + best.x * res, prediction.y() + best.y * res,
+                      prediction.theta() + offsets[best.angle]);
+  result.correlative_score = bb.best_score_;
+  result.success = true;
+  return result;
+}
+
+MatchResult ScanMatcher::refine(const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,
+                                const Pose2& initial) const {
+  MatchResult result;
+  result.points = static_cast<int>(points.size());
+  result.pose = initial;
+  if (static_cast<int>(points.size()) < std::max(3, options_.min_points)) {
+    result.problem = common::str("too few points (", points.size(), ")");
+    return result;
+  }
+  const double n = static_cast<double>(points.size());
+  const double wt = options_.translation_prior_weight, wr = options_.rotation_prior_weight;
+  // Cauchy weights: points far from every obstacle (clutter, unseen parts of the map)
+  // barely pull. Points at the distance cap have no gradient at all.
+  const double c2 = options_.robust_distance * options_.robust_distance;
+  const double cap = field.options().max_distance;
+  // Cost: Σ ρ(d_i²) over points plus the priors towards `initial`.
+  auto evaluate = [&](const Pose2& pose, Eigen::Matrix3d* h, Eigen::Vector3d* b, Eigen::Matrix3d* h_scan,
+                      double* weighted_r2, double* weight_sum) {
+    double cost = 0.0, wr2 = 0.0, wsum = 0.0;
+    Eigen::Matrix3d hs = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d bs = Eigen::Vector3d::Zero();
+    Eigen::RowVector3d j;
+    for (const auto& p : points) {
+      const double r = pointResidual(field, pose, p, h ? &j : nullptr);
+      cost += c2 * std::log1p(r * r / c2);
+      if (h && r < cap) {
+        const double w = 1.0 / (1.0 + r * r / c2);
+        hs += w * j.transpose() * j;
+        bs += w * j.transpose() * r;
+        wr2 += w * r * r;
+        wsum += w;
+      }
+    }
+    if (weighted_r2) *weighted_r2 = wr2;
+    if (weight_sum) *weight_sum = wsum;
+    if (h_scan) *h_scan = hs;
+    const Eigen::Vector3d d(pose.x() - initial.x(), pose.y() - initial.y(),
+                            geometry::angleDiff(pose.theta(), initial.theta()));
+    cost += wt * (d.x() * d.x() + d.y() * d.y()) + wr * d.z() * d.z();
+    if (h) {
+      *h = hs;
+      *b = bs;
+      (*h)(0, 0) += wt;
+      (*h)(1, 1) += wt;
+      (*h)(2, 2) += wr;
+      (*b) += Eigen::Vector3d(wt * d.x(), wt * d.y(), wr * d.z());
+    }
+    return cost;
+  };
+
+  Pose2 pose = initial;
+  Eigen::Matrix3d h, h_scan;
+  Eigen::Vector3d b;
+  double cost = evaluate(pose, &h, &b, nullptr, nullptr, nullptr);
+  for (int it = 0; it < options_.max_iterations; ++it) {
+    Eigen::Matrix3d damped = h;
+    damped.diagonal() += Eigen::Vector3d::Constant(1e-9);
+    const Eigen::Vector3d delta = damped.ldlt().solve(-b);
+    if (!delta.allFinite()) break;
+    // Halve the step until the cost does not increase (the field is only piecewise smooth).
+    double scale = 1.0;
+    bool improved = false;
+    for (int k = 0; k < 6; ++k, scale *= 0.5) {
+      const Pose2 trial(pose.x() + scale * delta.x(), pose.y() + scale * delta.y(),
+                        pose.theta() + scale * delta.z());
+      const double trial_cost = evaluate(trial, nullptr, nullptr, nullptr, nullptr, nullptr);
+      if (trial_cost <= cost) {
+        pose = trial;
+        cost = trial_cost;
+        improved = true;
+        break;
+      }
+    }
+    if (!improved) break;
+    const double step = (scale * delta).head<2>().norm() + std::abs(scale * delta.z());
+    cost = evaluate(pose, &h, &b, nullptr, nullptr, nullptr);
+    if (step < 1e-6) break;
+  }
+  double weighted_r2 = 0.0, weight_sum = 0.0;
+  evaluate(pose, &h, &b, &h_scan, &weighted_r2, &weight_sum);
+  result.pose = pose;
+  // Mean interpolated likelihood-field score (comparable with the correlative score).
+  double mean = 0.0;
+  for (const auto& p : points) {
+    const double c = std::cos(pose.theta()), s = std::sin(pose.theta());
+    mean += field.interpolatedScore(
+        {c * p.x() - s * p.y() + pose.x(), s * p.x() + c * p.y() + pose.y()});
+  }
+  result.score = mean / n;
+  // Laplace approximation: σ² (JᵀWJ)⁻¹, σ² the weighted residual variance.
+  // Floored: a near-perfect fit does not make the map's quantisation artefacts confident.
+  const double sigma2 = std::max(weighted_r2 / std::max(1.0, weight_sum - 3.0),
+                                 options_.min_point_stddev * options_.min_point_stddev);
+  Eigen::Matrix3d info = h_scan / sigma2;
+  info(0, 0) += 1.0 / (options_.max_translation_stddev * options_.max_translation_stddev);
+  info(1, 1) += 1.0 / (options_.max_translation_stddev * options_.max_translation_stddev);
+  info(2, 2) += 1.0 / (options_.max_rotation_stddev * options_.max_rotation_stddev);
+  Eigen::Matrix3d cov = info.inverse() * options_.covariance_scale;
+  cov = 0.5 * (cov + cov.transpose());
+  cov(0, 0) += options_.min_translation_stddev * options_.min_translation_stddev;
+  cov(1, 1) += options_.min_translation_stddev * options_.min_translation_stddev;
+  cov(2, 2) += options_.min_rotation_stddev * options_.min_rotation_stddev;
+  result.covariance = cov;
+  result.success = pose.isFinite() && cov.allFinite();
+  if (!result.success) result.problem = "refinement diverged";
+  return result;
+}
+
+MatchResult ScanMatcher::match(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
+                               const Pose2& prediction, double linear_window, double angular_window) const {
+  if (linear_window < 0.0) linear_window = options_.linear_window;
+  if (angular_window < 0.0) angular_window = options_.angular_window;
+  MatchResult coarse = correlativeSearch(target, points, prediction, linear_window, angular_window);
+  if (!coarse.success) return coarse;
+  MatchResult fine = refine(target.field(), points, coarse.pose);
+  fine.correlative_score = coarse.correlative_score;
+  fine.candidates_scored = coarse.candidates_scored;
+  // The refinement must stay within the window and must not lose the match.
+  const Eigen::Vector2d moved = fine.pose.translation() - prediction.translation();
+  if (fine.success && (std::abs(moved.x()) > linear_window + target.field().frame().resolution ||
+                       std::abs(moved.y()) > linear_window + target.field().frame().resolution)) {
+    fine.pose = coarse.pose;
+  }
+  return fine;
+}
+
+}  // namespace storey::mapping

@@ -1,0 +1,118 @@
+// Scan-to-map matching in two stages. A correlative search (branch and bound over a
+// max-pyramid of the likelihood field's score, as in Olson 2009 and Hess et al. 2016)
+// finds the best (x, y, θ) within a window around a prediction, exactly at the grid's
+// resolution; Gauss-Newton then refines it below a cell on the likelihood field's
+// bilinearly interpolated obstacle distance (robust Cauchy weights). The score itself is
+// flat at its peak (exp(-d²/2σ²)), which makes a poorly conditioned refinement; the
+// distance it is computed from is not. The covariance is the refinement's Laplace
+// approximation σ²(JᵀWJ)⁻¹, so a featureless direction (a corridor's axis) gets a large
+// variance instead of a confident guess.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "storey/common/config.h"
+#include "storey/geometry/pose2.h"
+#include "storey/grid/likelihood_field.h"
+#include "storey/grid/occupancy_grid.h"
+
+namespace storey::mapping {
+
+struct ScanMatcherOptions {
+  // Correlative search window around the prediction (half widths).
+  double linear_window = 0.3;    // m
+  double angular_window = 0.35;  // rad
+  double angular_step = 0.0;     // rad; 0: from the resolution and the scan's extent
+  // Scores below this (mean per-point score in [0, 1]) are no match.
+  double min_score = 0.35;
+  // Small penalties on the distance from the prediction: break ties in featureless
+  // directions towards the prediction rather than to an arbitrary end of the window.
+  double translation_penalty = 0.02;  // score per metre
+  double rotation_penalty = 0.02;     // score per radian
+  // Gauss-Newton refinement.
+  int max_iterations = 15;
+  // Weak priors pulling the refinement towards the correlative result (in units of the
+  // summed squared point distance, m²): they only matter where the scan says nothing.
+  double translation_prior_weight = 1.0;
+  double rotation_prior_weight = 1.0;
+  double robust_distance = 0.1;  // m, Cauchy width on point-to-obstacle distances
+  double min_point_stddev = 0.02;  // m, floor of the per-point noise in the covariance
+  // Covariance: σ² (JᵀJ)⁻¹ times this factor (neighbouring beams are not independent),
+  // then floored by the minimum standard deviations.
+  double covariance_scale = 10.0;
+  double min_translation_stddev = 0.01;  // m
+  double min_rotation_stddev = 0.003;    // rad
+  double max_translation_stddev = 10.0;  // m, regularises a direction with no information
+  double max_rotation_stddev = 1.0;      // rad
+  // Points closer than this to an already kept point are dropped (even weighting).
+  double point_filter_distance = 0.05;  // m
+  int min_points = 20;
+};
+ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node);
+
+// A map prepared for matching: its likelihood field and the max pyramid of the score.
+class MatchTarget {
+ public:
+  MatchTarget() = default;
+  MatchTarget(const grid::OccupancyGrid& grid, const grid::LikelihoodFieldOptions& options,
+              int pyramid_levels = 7);
+  bool empty() const { return field_.frame().width == 0; }
+  const grid::LikelihoodField& field() const { return field_; }
+  const std::vector<grid::Grid2<float>>& pyramid() const { return pyramid_; }
+
+ private:
+  grid::LikelihoodField field_;
+  std::vector<grid::Grid2<float>> pyramid_;
+};
+
+struct MatchResult {
+  bool success = false;
+  std::string problem;           // why not, when !success
+  geometry::Pose2 pose;          // robot pose in the map frame
+  double correlative_score = 0;  // mean score of the best grid candidate
+  double score = 0;              // mean interpolated score after refinement
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
+  int points = 0;
+  long candidates_scored = 0;  // leaves and bounds evaluated (for speed figures)
+};
+
+// Bilinearly interpolated obstacle distance of the field (capped at its max_distance) and
+// its gradient.
+double interpolatedDistance(const grid::LikelihoodField& field, const Eigen::Vector2d& p,
+                            Eigen::Vector2d* gradient = nullptr);
+
+// Per-point residual r = D(T(ξ)·p), D the interpolated obstacle distance, of the refinement and its 1×3 Jacobian with respect
+// to ξ = (x, y, θ) of the robot pose. Exposed for the numeric-derivative test.
+double pointResidual(const grid::LikelihoodField& field, const geometry::Pose2& pose,
+                     const Eigen::Vector2d& point, Eigen::RowVector3d* jacobian);
+
+// Drops points within `distance` of a previously kept point (greedy, order-preserving).
+std::vector<Eigen::Vector2d> filterPoints(const std::vector<Eigen::Vector2d>& points,
+                                          double distance);
+
+class ScanMatcher {
+ public:
+  explicit ScanMatcher(ScanMatcherOptions options = {});
+  const ScanMatcherOptions& options() const { return options_; }
+
+  // Matches robot-frame points (already filtered or not) against the target around
+  // `prediction`. Window half widths override the options when positive.
+  MatchResult match(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
+                    const geometry::Pose2& prediction, double linear_window = -1.0,
+                    double angular_window = -1.0) const;
+
+  // The correlative stage alone (best grid candidate); score < min_score means none.
+  MatchResult correlativeSearch(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
+                                const geometry::Pose2& prediction, double linear_window,
+                                double angular_window) const;
+  // The refinement alone, from `initial`; fills pose, score and covariance.
+  MatchResult refine(const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,
+                     const geometry::Pose2& initial) const;
+
+ private:
+  ScanMatcherOptions options_;
+};
+
+}  // namespace storey::mapping

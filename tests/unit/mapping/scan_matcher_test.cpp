@@ -1,0 +1,143 @@
+#include "storey/mapping/scan_matcher.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "synthetic_world.h"
+#include "test_support.h"
+
+namespace storey::mapping {
+namespace {
+
+using geometry::Pose2;
+
+MatchTarget targetFrom(const test::World& world, const std::vector<Pose2>& poses,
+                       double resolution = 0.05) {
+  grid::OccupancyGridOptions options;
+  options.resolution = resolution;
+  grid::OccupancyGrid grid(options);
+  for (const auto& p : poses) grid.insertScan(world.scan(p, 0.0), p);
+  return MatchTarget(grid, grid::LikelihoodFieldOptions{}, 7);
+}
+
+TEST(ScanMatcher, PointResidualJacobianMatchesNumeric) {
+  const test::World world = test::officeWorld();
+  const MatchTarget target = targetFrom(world, {Pose2(4, 4, 0), Pose2(8, 3, 1.0)});
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int checked = 0;
+  for (int k = 0; k < 500; ++k) {
+    const Pose2 pose(4 + u(rng), 4 + u(rng), u(rng) * M_PI);
+    const Eigen::Vector2d point(3 * u(rng), 3 * u(rng));
+    Eigen::RowVector3d analytic;
+    pointResidual(target.field(), pose, point, &analytic);
+    auto f = [&](const Eigen::VectorXd& x) {
+      Eigen::VectorXd r(1);
+      r(0) = pointResidual(target.field(), Pose2(x(0), x(1), x(2)), point, nullptr);
+      return r;
+    };
+    const Eigen::MatrixXd numeric = storey::test::numericJacobian(f, pose.vector(), 1e-7);
+    // Bilinear interpolation has kinks at cell borders: skip the few evaluations straddling one.
+    const Eigen::MatrixXd numeric_coarse = storey::test::numericJacobian(f, pose.vector(), 1e-6);
+    if ((numeric - numeric_coarse).norm() > 1e-4 * (1 + numeric.norm())) continue;
+    ++checked;
+    EXPECT_NEAR((analytic.transpose() - numeric.transpose()).norm(), 0.0, 1e-4 * (1 + numeric.norm()))
+        << "pose " << pose << " point " << point.transpose();
+  }
+  EXPECT_GT(checked, 400);
+}
+
+TEST(ScanMatcher, RecoversOffsetInRoom) {
+  const test::World world = test::officeWorld();
+  // A 2.5 cm grid: walls are quantised to half a cell, which bounds the absolute accuracy.
+  const MatchTarget target =
+      targetFrom(world, {Pose2(4, 4, 0), Pose2(8, 3, 1.0), Pose2(6, 6.5, -2.0)}, 0.025);
+  ScanMatcher matcher;
+  for (const Pose2 truth : {Pose2(6, 4, 0.3), Pose2(3.5, 6, -1.2), Pose2(10, 4, 2.5)}) {
+    const auto points = filterPoints(world.scan(truth, 0.0).pointsInRobotFrame(), 0.05);
+    const Pose2 prediction = truth * Pose2(0.2, -0.15, 0.1);
+    const MatchResult r = matcher.match(target, points, prediction);
+    ASSERT_TRUE(r.success) << r.problem;
+    EXPECT_LT((r.pose.translation() - truth.translation()).norm(), 0.01) << r.pose << " vs " << truth;
+    EXPECT_LT(std::abs(geometry::angleDiff(r.pose.theta(), truth.theta())), 0.2 * M_PI / 180);
+    EXPECT_GT(r.score, 0.75);
+    // A confident match: centimetre-level standard deviations.
+    EXPECT_LT(std::sqrt(r.covariance(0, 0)), 0.05);
+    EXPECT_LT(std::sqrt(r.covariance(1, 1)), 0.05);
+  }
+}
+
+TEST(ScanMatcher, CorrelativeSearchIsExactOnTheGrid) {
+  const test::World world = test::officeWorld();
+  const MatchTarget target = targetFrom(world, {Pose2(4, 4, 0)});
+  ScanMatcher matcher;
+  const Pose2 truth(4, 4, 0);
+  const auto points = world.scan(truth, 0.0).pointsInRobotFrame();
+  // Offsets that are whole cells away: the correlative stage alone must land within a cell.
+  const MatchResult r = matcher.correlativeSearch(target, points, Pose2(4.15, 3.9, 0.05), 0.3, 0.2);
+  ASSERT_TRUE(r.success) << r.problem;
+  EXPECT_LT((r.pose.translation() - truth.translation()).norm(), 0.05 * 1.5);
+  EXPECT_LT(std::abs(r.pose.theta()), 0.01);
+}
+
+TEST(ScanMatcher, CorridorGivesWeakInformationAlongTheAxis) {
+  const test::World world = test::corridorWorld();
+  // The map covers more corridor than the scan sees, so no wall end gives information.
+  // Many scans, as a robot driving along it would take (grazing beams erase wall cells).
+  std::vector<Pose2> poses;
+  for (double x = -15; x <= 15; x += 0.5) poses.emplace_back(x, 0.0, 0.0);
+  const MatchTarget target = targetFrom(world, poses);
+  ScanMatcher matcher;
+  const Pose2 truth(0.5, 0.1, 0.05);
+  const auto points = filterPoints(world.scan(truth, 0.0, 361, 10.0).pointsInRobotFrame(), 0.05);
+  const Pose2 prediction(0.62, 0.0, 0.0);
+  const MatchResult r = matcher.match(target, points, prediction);
+  ASSERT_TRUE(r.success) << r.problem;
+  // Across the corridor and in heading, the walls fix the pose...
+  EXPECT_NEAR(r.pose.y(), truth.y(), 0.02);
+  EXPECT_NEAR(r.pose.theta(), truth.theta(), 0.01);
+  // ...along it nothing does: the match stays with the prediction rather than wandering...
+  EXPECT_NEAR(r.pose.x(), prediction.x(), 0.06);
+  // ...and says so: the along-axis standard deviation dwarfs the across one.
+  const double sx = std::sqrt(r.covariance(0, 0)), sy = std::sqrt(r.covariance(1, 1));
+  EXPECT_GT(sx, 1.0);
+  EXPECT_LT(sy, 0.1);
+  EXPECT_GT(sx / sy, 20.0);
+}
+
+TEST(ScanMatcher, FailsCleanlyWithoutMapOrPoints) {
+  ScanMatcher matcher;
+  const MatchTarget empty;
+  std::vector<Eigen::Vector2d> points(50, Eigen::Vector2d(1, 0));
+  EXPECT_FALSE(matcher.match(empty, points, Pose2()).success);
+  const test::World world = test::officeWorld();
+  const MatchTarget target = targetFrom(world, {Pose2(4, 4, 0)});
+  const MatchResult r = matcher.match(target, {}, Pose2(4, 4, 0));
+  EXPECT_FALSE(r.success);
+  EXPECT_NE(r.problem.find("too few points"), std::string::npos);
+}
+
+TEST(ScanMatcher, FilterPointsKeepsOnePerNeighbourhood) {
+  std::vector<Eigen::Vector2d> points;
+  for (int i = 0; i < 100; ++i) points.emplace_back(i * 0.01, 0.0);  // 1 m at 1 cm spacing
+  const auto kept = filterPoints(points, 0.05);
+  // Every 5th or 6th point (1 cm steps are not exact in floating point).
+  EXPECT_GE(kept.size(), 16u);
+  EXPECT_LE(kept.size(), 20u);
+  for (std::size_t i = 1; i < kept.size(); ++i) EXPECT_GE((kept[i] - kept[i - 1]).norm(), 0.05 - 1e-12);
+  EXPECT_EQ(filterPoints(points, 0.0).size(), points.size());
+}
+
+TEST(ScanMatcher, OptionsAreReadStrictly) {
+  const auto node = common::ConfigNode::loadString("linear_window: 0.5\nmin_score: 0.4\n");
+  const ScanMatcherOptions o = readScanMatcherOptions(node);
+  EXPECT_DOUBLE_EQ(o.linear_window, 0.5);
+  EXPECT_DOUBLE_EQ(o.min_score, 0.4);
+  EXPECT_THROW(readScanMatcherOptions(common::ConfigNode::loadString("linear_windw: 0.5\n")),
+               common::ConfigError);
+  EXPECT_THROW(readScanMatcherOptions(common::ConfigNode::loadString("min_score: 2\n")), common::ConfigError);
+}
+
+}  // namespace
+}  // namespace storey::mapping

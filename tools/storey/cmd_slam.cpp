@@ -1,0 +1,200 @@
+// storey slam LOG: the per-floor front end alone on a laser log, writing the graph, the map
+// and the trajectory, and (when the log carries reference poses) the relation error.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "args.h"
+#include "storey/common/config.h"
+#include "storey/common/log.h"
+#include "storey/floor/floor_graph.h"
+#include "storey/graph/graph_io.h"
+#include "storey/grid/image.h"
+#include "storey/io/carmen.h"
+#include "storey/mapping/evaluation.h"
+#include "storey/mapping/floor_slam.h"
+
+namespace storey::cli {
+
+extern const char* const summary_slam = "run the floor SLAM front end on a laser log";
+
+namespace {
+
+using geometry::Pose2;
+
+std::vector<double> parseList(const std::string& text, std::size_t count, const std::string& option) {
+  std::vector<double> values;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    try {
+      std::size_t used = 0;
+      values.push_back(std::stod(item, &used));
+      if (used != item.size()) throw std::invalid_argument(item);
+    } catch (const std::exception&) {
+      throw UsageError("--" + option + ": '" + item + "' is not a number");
+    }
+  }
+  if (values.size() != count) throw UsageError("--" + option + " takes " + std::to_string(count) + " numbers");
+  return values;
+}
+
+void printStats(std::ostream& out, const char* name, const mapping::ErrorStats& s) {
+  out << std::fixed << std::setprecision(4) << "  " << name << " pairs: " << s.count
+      << "  translation " << s.translation_mean << " ± " << s.translation_std << " m"
+      << "  rotation " << std::setprecision(3) << s.rotation_mean * 180.0 / M_PI << " ± "
+      << s.rotation_std * 180.0 / M_PI << " deg\n";
+}
+
+}  // namespace
+
+int run_slam(Args& args) {
+  args.usage("LOG",
+             "Runs the per-floor SLAM front end (scan matching, loop closure, pose graph) on a\n"
+             "CARMEN log or GMapping .gfs log and writes OUTPUT/graph.g2o, OUTPUT/map.{pgm,yaml,png}\n"
+             "and OUTPUT/trajectory.csv. With --odometry simulated (the default), odometry is\n"
+             "derived from the log's (corrected) poses with seeded noise and the result is compared\n"
+             "with those poses by the relation metric (Kümmerle et al. 2009). With --odometry\n"
+             "recorded, the log's odometry is used; --reference names a log of the same scans\n"
+             "whose poses serve as reference.")
+      .option("output", "DIR", "output folder", "slam_out")
+      .option("config", "FILE",
+              "front-end options: the 'slam' section of this YAML file (e.g. "
+              "config/floor_mapper.yaml); default: built-in defaults")
+      .option("odometry", "simulated|recorded", "odometry source", "simulated")
+      .option("odometry-noise", "T,R,F",
+              "simulated odometry noise: translation sigma per metre (fraction), heading sigma "
+              "in degrees per metre, heading sigma per radian turned (fraction)",
+              "0.05,2,0.02")
+      .option("seed", "N", "seed of the simulated odometry noise", "1")
+      .option("reference", "LOG", "log of the same scans whose poses are the reference")
+      .option("max-scans", "N", "use only the first N scans (0: all)", "0")
+      .flag("no-loop-closure", "disable loop closure")
+      .flag("quiet", "log warnings only");
+  if (!args.parse()) return 0;
+  const std::string log_path = args.positional(0, "LOG");
+  const std::string out_dir = args.get("output");
+  const std::string odometry_source = args.get("odometry");
+  if (odometry_source != "simulated" && odometry_source != "recorded")
+    throw UsageError("--odometry must be simulated or recorded");
+  const auto noise_values = parseList(args.get("odometry-noise"), 3, "odometry-noise");
+  mapping::OdometryNoise noise;
+  noise.translation_fraction = noise_values[0];
+  noise.rotation_per_meter = noise_values[1] * M_PI / 180.0;
+  noise.rotation_fraction = noise_values[2];
+  const long seed = args.getInt("seed");
+  const long max_scans = args.getInt("max-scans");
+  if (args.flagSet("quiet")) common::setLogLevel(common::LogLevel::kWarn);
+
+  mapping::FloorSlamOptions options;
+  if (args.has("config")) {
+    const common::ConfigNode root = common::ConfigNode::loadFile(args.get("config"));
+    options = mapping::readFloorSlamOptions(root.child("slam"));
+  }
+  if (args.flagSet("no-loop-closure")) options.loop_closure.enabled = false;
+
+  io::CarmenReaderOptions reader_options;
+  reader_options.strict = false;
+  std::vector<io::CarmenLaser> lasers = io::readCarmenLasers(log_path, reader_options);
+  if (max_scans > 0 && lasers.size() > static_cast<std::size_t>(max_scans)) lasers.resize(max_scans);
+  if (lasers.empty()) {
+    std::cerr << "storey slam: " << log_path << " holds no laser readings with poses\n";
+    return 1;
+  }
+  std::vector<sensor::LaserScan> scans;
+  std::vector<Pose2> log_poses;
+  for (const auto& l : lasers) {
+    scans.push_back(l.scan);
+    log_poses.push_back(l.robotPose());
+  }
+  // Some shared logs have stamps that go backwards or repeat: order by index instead.
+  bool stamps_ok = true;
+  for (std::size_t i = 1; i < scans.size(); ++i)
+    if (!(scans[i].stamp > scans[i - 1].stamp)) stamps_ok = false;
+  const double duration = stamps_ok ? scans.back().stamp - scans.front().stamp : 0.0;
+  if (!stamps_ok) {
+    std::cerr << "storey slam: the log's stamps are not increasing; using the scan index as time\n";
+    for (std::size_t i = 0; i < scans.size(); ++i) scans[i].stamp = static_cast<double>(i);
+  }
+
+  std::vector<Pose2> odometry, reference;
+  if (odometry_source == "simulated") {
+    reference = log_poses;
+    odometry = mapping::simulateOdometry(reference, noise, static_cast<std::uint64_t>(seed));
+  } else {
+    odometry = log_poses;
+  }
+  if (args.has("reference")) {
+    std::vector<io::CarmenLaser> ref = io::readCarmenLasers(args.get("reference"), reader_options);
+    if (ref.size() < scans.size()) {
+      std::cerr << "storey slam: the reference log has " << ref.size() << " scans, the log " << scans.size() << "\n";
+      return 1;
+    }
+    reference.clear();
+    for (std::size_t i = 0; i < scans.size(); ++i) reference.push_back(ref[i].robotPose());
+  }
+
+  mapping::FloorSlam slam(options, "robot", 0, 0, 0.0);
+  const mapping::OfflineRun run = mapping::runOffline(slam, scans, odometry);
+
+  std::filesystem::create_directories(out_dir);
+  // Express the result in the log's frame (the front end starts at the origin).
+  const Pose2 to_log = odometry.front();
+  graph::PoseGraph out_graph = slam.poseGraph();
+  for (std::size_t i = 0; i < out_graph.numNodes(); ++i)
+    out_graph.setPoseAt(i, to_log * out_graph.nodes()[i].pose);
+  graph::writeG2o(out_graph, out_dir + "/graph.g2o");
+  floor::FloorGraph fg = slam.floorGraph();
+  for (auto& n : fg.nodes) n.pose = to_log * n.pose;
+  grid::OccupancyGridOptions grid_options;
+  grid_options.resolution = 0.05;
+  const grid::OccupancyGrid map = floor::renderFloorMap(fg, grid_options);
+  grid::writeMapServerFiles(map, out_dir + "/map");
+  grid::writePng(out_dir + "/map.png", grid::renderGrey(map));
+  std::vector<Pose2> trajectory;
+  {
+    std::ofstream csv(out_dir + "/trajectory.csv");
+    csv << "stamp,x,y,theta,status\n" << std::setprecision(10);
+    for (std::size_t i = 0; i < run.trajectory.size(); ++i) {
+      trajectory.push_back(to_log * run.trajectory[i]);
+      const Pose2& p = trajectory.back();
+      csv << scans[i].stamp << ',' << p.x() << ',' << p.y() << ',' << p.theta() << ','
+          << mapping::scanStatusName(run.status[i]) << '\n';
+    }
+  }
+
+  const auto& st = slam.stats();
+  std::ostringstream report;
+  report << "log: " << log_path << "\n"
+         << "scans: " << scans.size() << "  nodes: " << st.nodes << "  skipped: " << st.skipped
+         << "  rejected: " << st.rejected << "  matched: " << st.matched << "  match failures: " << st.match_failures
+         << "\nloop closures: " << st.loop_closures << " of " << st.loop_attempts << " attempts ("
+         << st.loop_rejected_inconsistent << " rejected as inconsistent), optimisations: " << st.optimizations << "\n";
+  report << std::fixed << std::setprecision(2) << "processing: " << run.seconds << " s";
+  if (duration > 0.0) report << "  log duration: " << duration << " s  real-time factor: " << duration / run.seconds;
+  else report << "  log duration: unknown (bad stamps)  scans/s: " << scans.size() / run.seconds;
+  report << "\n";
+  if (odometry_source == "simulated")
+    report << "odometry: simulated from the log's poses, noise " << args.get("odometry-noise")
+           << " (translation fraction, deg per m, heading fraction), seed " << seed << "\n";
+  else
+    report << "odometry: as recorded\n";
+  if (!reference.empty()) {
+    const mapping::RelationErrors errors = mapping::relationErrors(trajectory, reference);
+    const mapping::RelationErrors odo = mapping::relationErrors(odometry, reference);
+    report << "relation error (Kümmerle et al. 2009) against the reference poses:\n";
+    printStats(report, "slam     nearby", errors.nearby);
+    printStats(report, "slam     far   ", errors.far);
+    printStats(report, "odometry nearby", odo.nearby);
+    printStats(report, "odometry far   ", odo.far);
+  }
+  std::cout << report.str();
+  std::ofstream(out_dir + "/report.txt") << report.str();
+  std::cout << "wrote " << out_dir << "/{graph.g2o,map.pgm,map.yaml,map.png,trajectory.csv,report.txt}\n";
+  return 0;
+}
+
+}  // namespace storey::cli
