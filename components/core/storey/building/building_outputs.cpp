@@ -98,20 +98,6 @@ void writeBuildingYaml(const std::string& path, const BuildingSolution& solution
   if (!out) throw std::runtime_error(path + ": write failed");
 }
 
-void writeTrajectoryCsv(const std::string& path, const BuildingGraph& graph, const BuildingSolution& solution) {
-  std::ofstream out(path);
-  if (!out) throw std::runtime_error(path + ": cannot open for writing");
-  out << std::setprecision(12) << "stamp,robot,floor,x,y,theta,z\n";
-  for (const auto& [g, fg] : graph.floorGraphs())
-    for (const auto& node : fg.nodes) {
-      auto pose = solution.poses.find({g, node.id});
-      const geometry::Pose2 p = pose == solution.poses.end() ? node.pose : pose->second;
-      out << node.stamp << "," << fg.robot << "," << fg.floor_id << "," << p.x() << "," << p.y() << ","
-          << p.theta() << "," << fg.floor_height << "\n";
-    }
-  if (!out) throw std::runtime_error(path + ": write failed");
-}
-
 grid::Image renderFloorOverlay(const std::map<int, FloorMap>& floors) {
   static const std::array<std::array<std::uint8_t, 3>, 8> kColours{{{220, 30, 30},
                                                                      {30, 110, 220},

@@ -1,6 +1,5 @@
 // What storey writes for a building: per-floor maps in the building frame (nav2
-// map_server PGM+YAML and PNG), building.yaml (floors, heights, transforms), the optimised
-// trajectory (CSV, the format `storey evaluate` reads) and the building OctoMap (.bt).
+// map_server PGM+YAML and PNG), building.yaml (floors, heights, transforms) and the building OctoMap (.bt).
 #pragma once
 
 #include <map>
@@ -39,8 +38,6 @@ std::size_t writeBuildingOctomap(const std::string& path, const std::map<int, Fl
 
 void writeBuildingYaml(const std::string& path, const BuildingSolution& solution,
                        const std::map<int, FloorMap>& floors);
-// stamp,robot,floor,x,y,theta,z for every node, in the building frame.
-void writeTrajectoryCsv(const std::string& path, const BuildingGraph& graph, const BuildingSolution& solution);
 
 // Overlay of floors in one picture (the paper's Fig. 4): each floor's occupied cells in its
 // own colour over a common frame.

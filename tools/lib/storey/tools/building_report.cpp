@@ -1,0 +1,244 @@
+#include "storey/tools/building_report.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <map>
+#include <sstream>
+
+#include "storey/eval/trajectory.h"
+#include "storey/graph/graph_io.h"
+#include "storey/grid/image.h"
+
+namespace storey::tools {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr std::array<std::array<std::uint8_t, 3>, 8> kFloorColours{{{220, 30, 30},
+                                                                     {30, 110, 220},
+                                                                     {20, 160, 60},
+                                                                     {230, 140, 0},
+                                                                     {140, 40, 180},
+                                                                     {0, 170, 170},
+                                                                     {120, 80, 30},
+                                                                     {200, 0, 120}}};
+
+void drawLine(grid::Image& image, int x0, int y0, int x1, int y1, const std::array<std::uint8_t, 3>& colour) {
+  const int dx = std::abs(x1 - x0), dy = -std::abs(y1 - y0);
+  const int sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
+  int err = dx + dy;
+  while (true) {
+    if (x0 >= 0 && y0 >= 0 && x0 < image.width && y0 < image.height)
+      std::copy(colour.begin(), colour.end(), image.at(x0, y0));
+    if (x0 == x1 && y0 == y1) break;
+    const int e2 = 2 * err;
+    if (e2 >= dy) {
+      err += dy;
+      x0 += sx;
+    }
+    if (e2 <= dx) {
+      err += dx;
+      y0 += sy;
+    }
+  }
+}
+
+std::string html(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '<') out += "&lt;";
+    else if (c == '>') out += "&gt;";
+    else if (c == '&') out += "&amp;";
+    else out += c;
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<eval::PoseRow> trajectoryRows(const building::BuildingGraph& graph,
+                                          const building::BuildingSolution& solution) {
+  std::vector<eval::PoseRow> rows;
+  for (const auto& [g, fg] : graph.floorGraphs())
+    for (const auto& node : fg.nodes) {
+      auto pose = solution.poses.find({g, node.id});
+      eval::PoseRow row;
+      row.stamp = node.stamp;
+      row.robot = fg.robot;
+      row.floor = std::to_string(fg.floor_id);
+      row.pose = pose == solution.poses.end() ? node.pose : pose->second;
+      row.z = fg.floor_height;
+      rows.push_back(row);
+    }
+  std::sort(rows.begin(), rows.end(), [](const eval::PoseRow& a, const eval::PoseRow& b) {
+    return a.robot != b.robot ? a.robot < b.robot : a.stamp < b.stamp;
+  });
+  return rows;
+}
+
+building::BuildingSolution solveWithoutConstraints(const building::BuildingGraph& graph) {
+  building::BuildingGraph alone;
+  for (const auto& [g, fg] : graph.floorGraphs()) alone.upsertFloorGraph(fg);
+  return alone.optimize();
+}
+
+grid::Image renderGraph(const building::BuildingGraph& graph, const building::BuildingSolution& solution,
+                        bool draw_constraints) {
+  double min_x = 1e300, min_y = 1e300, max_x = -1e300, max_y = -1e300;
+  for (const auto& [key, pose] : solution.poses) {
+    min_x = std::min(min_x, pose.x());
+    min_y = std::min(min_y, pose.y());
+    max_x = std::max(max_x, pose.x());
+    max_y = std::max(max_y, pose.y());
+  }
+  if (solution.poses.empty()) return grid::Image(1, 1, 3);
+  const double span = std::max({max_x - min_x, max_y - min_y, 1.0});
+  const double scale = 760.0 / span;
+  const int w = static_cast<int>((max_x - min_x) * scale) + 41, h = static_cast<int>((max_y - min_y) * scale) + 41;
+  grid::Image image(w, h, 3, 255);
+  auto pixel = [&](const geometry::Pose2& p) {
+    return std::pair<int, int>{static_cast<int>((p.x() - min_x) * scale) + 20,
+                               h - 1 - (static_cast<int>((p.y() - min_y) * scale) + 20)};
+  };
+  std::map<int, int> colour_of_floor;
+  for (const auto& [g, fg] : graph.floorGraphs()) {
+    if (!colour_of_floor.count(fg.floor_id)) {
+      const int next = static_cast<int>(colour_of_floor.size());
+      colour_of_floor[fg.floor_id] = next;
+    }
+    const auto& colour = kFloorColours[colour_of_floor[fg.floor_id] % kFloorColours.size()];
+    for (const auto& edge : fg.edges) {
+      auto a = solution.poses.find({g, edge.from}), b = solution.poses.find({g, edge.to});
+      if (a == solution.poses.end() || b == solution.poses.end()) continue;
+      const auto [x0, y0] = pixel(a->second);
+      const auto [x1, y1] = pixel(b->second);
+      drawLine(image, x0, y0, x1, y1, colour);
+    }
+  }
+  if (draw_constraints)
+    for (const auto& c : graph.constraints()) {
+      auto a = solution.poses.find({c.graph_from, c.node_from}), b = solution.poses.find({c.graph_to, c.node_to});
+      if (a == solution.poses.end() || b == solution.poses.end()) continue;
+      const auto [x0, y0] = pixel(a->second);
+      const auto [x1, y1] = pixel(b->second);
+      drawLine(image, x0, y0, x1, y1, {0, 0, 0});
+    }
+  return image;
+}
+
+BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const building::BuildingGraph& graph,
+                                           const building::BuildingSolution& solution,
+                                           const BuildingOutputOptions& options, const ReportExtras& extras) {
+  fs::create_directories(dir);
+  BuildingOutputSummary summary;
+  auto add = [&](const std::string& name) { summary.files.push_back((fs::path(dir) / name).string()); };
+  const auto floors = building::renderBuildingFloors(graph, solution, options.map);
+  summary.floors = floors.size();
+  summary.constraints = graph.constraints().size();
+  for (const auto& [id, floor] : floors) {
+    const std::string stem = "floor_" + std::to_string(id);
+    grid::writeMapServerFiles(floor.grid, (fs::path(dir) / stem).string());
+    add(stem + ".pgm");
+    add(stem + ".yaml");
+    grid::writePng((fs::path(dir) / (stem + ".png")).string(), grid::renderGrey(floor.grid));
+    add(stem + ".png");
+  }
+  building::writeBuildingYaml((fs::path(dir) / "building.yaml").string(), solution, floors);
+  add("building.yaml");
+  if (!graph.empty() && graph.poseGraph().numNodes() > 0) {
+    graph::writeG2o(graph.poseGraph(), (fs::path(dir) / "graph.g2o").string());
+    add("graph.g2o");
+  }
+  eval::writeTrajectoryCsv((fs::path(dir) / "trajectory.csv").string(), trajectoryRows(graph, solution));
+  add("trajectory.csv");
+  summary.occupied_voxels =
+      building::writeBuildingOctomap((fs::path(dir) / "building.bt").string(), floors, options.octomap);
+  add("building.bt");
+  grid::writePng((fs::path(dir) / "overlay.png").string(), building::renderFloorOverlay(floors));
+  add("overlay.png");
+  const building::BuildingSolution before = solveWithoutConstraints(graph);
+  grid::writePng((fs::path(dir) / "graph_before.png").string(), renderGraph(graph, before, false));
+  grid::writePng((fs::path(dir) / "graph_after.png").string(), renderGraph(graph, solution, true));
+  add("graph_before.png");
+  add("graph_after.png");
+
+  // Constraints per pair of floors.
+  std::map<std::pair<int, int>, int> per_pair;
+  for (const auto& c : graph.constraints()) {
+    const int a = graph.floorGraphs().at(c.graph_from).floor_id, b = graph.floorGraphs().at(c.graph_to).floor_id;
+    ++per_pair[{std::min(a, b), std::max(a, b)}];
+  }
+
+  std::ofstream out(fs::path(dir) / "report.html");
+  if (!out) throw std::runtime_error((fs::path(dir) / "report.html").string() + ": cannot open for writing");
+  out << std::setprecision(4);
+  out << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>" << html(extras.title)
+      << "</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:auto}"
+         "table{border-collapse:collapse}td,th{border:1px solid #aaa;padding:3px 8px;text-align:right}"
+         "img{max-width:100%;border:1px solid #ccc}figure{display:inline-block;margin:6px}</style></head><body>\n";
+  out << "<h1>" << html(extras.title) << "</h1>\n";
+  if (!extras.input.empty()) out << "<p>Input: <code>" << html(extras.input) << "</code></p>\n";
+  out << "<h2>Floors</h2>\n<table><tr><th>floor graph</th><th>robot</th><th>floor</th><th>height [m]</th>"
+         "<th>x [m]</th><th>y [m]</th><th>&theta; [deg]</th><th>aligned</th><th>nodes</th></tr>\n";
+  for (const auto& p : solution.placements)
+    out << "<tr><td>" << p.graph_id << "</td><td>" << html(p.robot) << "</td><td>" << p.floor_id << "</td><td>"
+        << p.height << "</td><td>" << p.transform.x() << "</td><td>" << p.transform.y() << "</td><td>"
+        << p.transform.theta() * 180 / M_PI << "</td><td>" << (p.aligned ? "yes" : "no") << "</td><td>"
+        << graph.floorGraphs().at(p.graph_id).nodes.size() << "</td></tr>\n";
+  out << "</table>\n<h2>Inter-floor constraints</h2>\n<table><tr><th>floors</th><th>constraints</th></tr>\n";
+  for (const auto& [pair, count] : per_pair)
+    out << "<tr><td>" << pair.first << " &ndash; " << pair.second << "</td><td>" << count << "</td></tr>\n";
+  if (per_pair.empty()) out << "<tr><td colspan=2>none</td></tr>\n";
+  out << "</table>\n<p>&chi;&sup2; " << solution.initial_chi2 << " &rarr; " << solution.final_chi2 << " in "
+      << solution.iterations << " iterations.</p>\n";
+  auto evaluation_table = [&](const eval::Evaluation& e, const std::string& caption) {
+    out << "<h3>" << html(caption) << "</h3>\n<table><tr><th>floor</th><th>poses</th><th>alignment error [m]</th>"
+           "<th>alignment error [deg]</th><th>ATE rmse [m]</th></tr>\n";
+    for (const auto& f : e.floors)
+      out << "<tr><td>" << html(f.floor) << "</td><td>" << f.poses << "</td><td>" << f.residual_translation
+          << "</td><td>" << f.residual_rotation * 180 / M_PI << "</td><td>" << f.ate_rmse << "</td></tr>\n";
+    out << "</table>\n";
+    if (!e.corridors.empty()) {
+      out << "<table><tr><th>corridor</th><th>true [m]</th><th>estimated [m]</th><th>error [%]</th></tr>\n";
+      for (const auto& c : e.corridors)
+        if (c.measured)
+          out << "<tr><td>" << html(c.name) << "</td><td>" << c.true_length << "</td><td>" << c.estimated_length
+              << "</td><td>" << (c.ratio - 1.0) * 100 << "</td></tr>\n";
+      out << "</table>\n";
+    }
+  };
+  if (extras.evaluation || extras.evaluation_unaligned) out << "<h2>Accuracy against ground truth</h2>\n";
+  if (extras.evaluation_unaligned)
+    evaluation_table(*extras.evaluation_unaligned, "Without inter-floor constraints");
+  if (extras.evaluation) evaluation_table(*extras.evaluation, "With inter-floor constraints");
+  if (!extras.timings.empty()) {
+    out << "<h2>Timings</h2>\n<table><tr><th>phase</th><th>seconds</th></tr>\n";
+    double total = 0;
+    for (const auto& t : extras.timings) {
+      out << "<tr><td style=\"text-align:left\">" << html(t.phase) << "</td><td>" << t.seconds << "</td></tr>\n";
+      total += t.seconds;
+    }
+    out << "</table>\n";
+    if (extras.recording_seconds > 0 && total > 0)
+      out << "<p>Real-time factor: " << extras.recording_seconds / total << " (" << extras.recording_seconds
+          << " s of recording in " << total << " s)</p>\n";
+  }
+  for (const auto& note : extras.notes) out << "<p>" << html(note) << "</p>\n";
+  out << "<h2>Pictures</h2>\n";
+  for (const auto& [id, floor] : floors)
+    out << "<figure><img src=\"floor_" << id << ".png\"><figcaption>floor " << id << " (height " << floor.height
+        << " m)</figcaption></figure>\n";
+  out << "<figure><img src=\"overlay.png\"><figcaption>all floors overlaid (cf. the paper's Fig. 4)</figcaption></figure>\n"
+      << "<figure><img src=\"graph_before.png\"><figcaption>graph without inter-floor constraints</figcaption></figure>\n"
+      << "<figure><img src=\"graph_after.png\"><figcaption>graph with inter-floor constraints (black)</figcaption></figure>\n";
+  out << "</body></html>\n";
+  if (!out) throw std::runtime_error((fs::path(dir) / "report.html").string() + ": write failed");
+  add("report.html");
+  return summary;
+}
+
+}  // namespace storey::tools

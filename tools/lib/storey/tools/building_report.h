@@ -1,0 +1,62 @@
+// Writes a mapped building into a folder: per-floor maps in the building frame (nav2
+// map_server PGM+YAML and PNG), building.yaml, the merged graph (graph.g2o), the
+// optimised trajectory (trajectory.csv, read by `storey evaluate`), the OctoMap
+// (building.bt), pictures, and report.html with the figures.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "storey/building/building_graph.h"
+#include "storey/building/building_outputs.h"
+#include "storey/eval/metrics.h"
+
+namespace storey::tools {
+
+struct BuildingOutputOptions {
+  grid::OccupancyGridOptions map;
+  building::OctomapOptions octomap;
+};
+
+struct Timing {
+  std::string phase;
+  double seconds = 0.0;
+};
+
+struct ReportExtras {
+  std::string title = "storey building";
+  std::string input;                       // what was mapped
+  std::vector<Timing> timings;
+  std::optional<eval::Evaluation> evaluation;           // with inter-floor constraints
+  std::optional<eval::Evaluation> evaluation_unaligned;  // same graphs, no inter-floor constraints
+  double recording_seconds = 0.0;          // for the real-time factor
+  std::vector<std::string> notes;
+};
+
+struct BuildingOutputSummary {
+  std::vector<std::string> files;
+  std::size_t occupied_voxels = 0;
+  std::size_t floors = 0;
+  std::size_t constraints = 0;
+};
+
+// Optimises nothing: writes what `solution` says. Throws std::runtime_error naming the
+// file that could not be written.
+BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const building::BuildingGraph& graph,
+                                           const building::BuildingSolution& solution,
+                                           const BuildingOutputOptions& options, const ReportExtras& extras);
+
+// The optimised node poses as trajectory rows (building frame; floor = floor id).
+std::vector<eval::PoseRow> trajectoryRows(const building::BuildingGraph& graph,
+                                          const building::BuildingSolution& solution);
+
+// The same floor graphs without inter-floor constraints (each floor in its own frame):
+// the "before" of the report and of `storey evaluate`'s comparison.
+building::BuildingSolution solveWithoutConstraints(const building::BuildingGraph& graph);
+
+// Draws the nodes and edges of the solution (inter-floor edges in red), one colour per floor.
+grid::Image renderGraph(const building::BuildingGraph& graph, const building::BuildingSolution& solution,
+                        bool draw_constraints);
+
+}  // namespace storey::tools
