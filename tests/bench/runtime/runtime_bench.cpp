@@ -94,8 +94,11 @@ class RawNode : public fdds::DataReaderListener {
     auto* sub = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
     auto* out_topic = participant_->create_topic(Context::ddsTopicName(out), type.get_type_name(),
                                                  fdds::TOPIC_QOS_DEFAULT);
-    auto* in_topic = participant_->create_topic(Context::ddsTopicName(in), type.get_type_name(),
-                                                fdds::TOPIC_QOS_DEFAULT);
+    auto* in_topic = in == out ? out_topic
+                               : participant_->create_topic(Context::ddsTopicName(in),
+                                                            type.get_type_name(),
+                                                            fdds::TOPIC_QOS_DEFAULT);
+    if (!pub || !sub || !out_topic || !in_topic) throw std::runtime_error("raw: no topic");
     writer_ = pub->create_datawriter_with_profile(out_topic, Context::profileName(g_kind, true));
     reader_ = sub->create_datareader_with_profile(in_topic, Context::profileName(g_kind, false),
                                                   this);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cstdlib>
 #include <chrono>
 #include <mutex>
 #include <thread>
@@ -172,6 +173,43 @@ TEST(RuntimeExecutor, RunsTasksInOrderAndSurvivesExceptions) {
   executor.shutdown();
   executor.post([&order] { order.push_back(-1); });  // ignored after shutdown
   EXPECT_EQ(order.size(), 99u);
+}
+
+}  // namespace
+}  // namespace storey::runtime
+
+namespace storey::runtime {
+namespace {
+
+TEST(RuntimeContext, DomainIdComesFromOptionsThenRosDomainId) {
+  const char* saved = std::getenv("ROS_DOMAIN_ID");
+  const std::string restore = saved ? saved : "";
+  unsetenv("ROS_DOMAIN_ID");
+  EXPECT_EQ(resolveDomainId(-1), 0);
+  setenv("ROS_DOMAIN_ID", "42", 1);
+  EXPECT_EQ(resolveDomainId(-1), 42);
+  EXPECT_EQ(resolveDomainId(7), 7);
+  setenv("ROS_DOMAIN_ID", "forty", 1);
+  EXPECT_THROW(resolveDomainId(-1), DdsError);
+  setenv("ROS_DOMAIN_ID", "300", 1);
+  EXPECT_THROW(resolveDomainId(-1), DdsError);
+  if (saved) {
+    setenv("ROS_DOMAIN_ID", restore.c_str(), 1);
+  } else {
+    unsetenv("ROS_DOMAIN_ID");
+  }
+}
+
+TEST(RuntimeContext, MissingQosFileIsNamed) {
+  ContextOptions options;
+  options.domain_id = 106;
+  options.qos_profiles_file = "/nonexistent/qos.xml";
+  try {
+    Context context(options);
+    FAIL() << "a missing QoS file was accepted";
+  } catch (const DdsError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/qos.xml"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
