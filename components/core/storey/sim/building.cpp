@@ -224,7 +224,7 @@ void validateFloor(const Building& building, const Floor& floor) {
       // A wall may end at a shaft but must not run into it.
       bool inside = false;
       for (int k = 1; k < 20 && !inside; ++k)
-        inside = shaft.contains(w.a + (w.b - w.a) * (k / 20.0), -0.05);
+        inside = shaft.contains(w.a + (w.b - w.a) * (k / 20.0), -0.1);
       if (inside)
         failAt(floor.origin, "a wall of floor " + floor.id + " runs into shaft '" + shaft.id + "'");
     }

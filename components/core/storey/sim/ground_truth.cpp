@@ -73,12 +73,12 @@ void writeGroundTruth(const Simulation& simulation, const std::string& dir) {
   }
   {
     auto out = openOut(fs::path(dir) / "transits.csv");
-    out << "robot,start,end,from_floor,to_floor,mode\n";
+    out << "robot,start,end,from_floor,to_floor,mode,odometry_heading_error\n";
     for (const auto& robot : simulation.robots)
       for (const auto& t : robot.transits)
         out << t.robot << ',' << format("%.6f", t.start) << ',' << format("%.6f", t.end) << ','
             << building.floors[t.from_floor].id << ',' << building.floors[t.to_floor].id << ','
-            << t.mode << '\n';
+            << t.mode << ',' << format("%.9f", t.odometry_heading_error) << '\n';
   }
   {
     auto out = openOut(fs::path(dir) / "corridors.yaml");

@@ -52,6 +52,7 @@ struct Transit {
   double start = 0.0, end = 0.0;
   int from_floor = 0, to_floor = 0;
   std::string mode;  // "elevator" or "stairs"
+  double odometry_heading_error = 0.0;  // rad added to the odometry heading by this ride
 };
 
 class Trajectory {

@@ -45,9 +45,20 @@ MissionStep readStep(const common::ConfigNode& node) {
   return step;
 }
 
-Scenario readScenario(const common::ConfigNode& root, const std::string& robots_dir) {
+Scenario readScenario(const common::ConfigNode& root, const std::string& robots_dir,
+                      const std::string& dir) {
   Scenario scenario;
-  scenario.building = readBuilding(root.child("building"));
+  if (root.has("building_file")) {
+    // Another scenario's building, e.g. a fleet in an existing building.
+    const std::string file = root.get<std::string>("building_file");
+    if (root.has("building")) root.fail("building", "give either 'building' or 'building_file'");
+    const std::string path = (std::filesystem::path(dir) / file).lexically_normal().string();
+    if (dir.empty() || !std::filesystem::exists(path))
+      root.fail("building_file", "no building file " + path);
+    scenario.building = readBuilding(common::ConfigNode::loadFile(path).child("building"));
+  } else {
+    scenario.building = readBuilding(root.child("building"));
+  }
   scenario.name = root.get<std::string>("name", scenario.building.name);
   for (const auto& element : root.sequence("robots")) {
     RobotSpec robot;
@@ -150,14 +161,15 @@ RobotModel readRobotModel(const common::ConfigNode& node) {
 Scenario loadScenario(const std::string& path) {
   const auto root = common::ConfigNode::loadFile(path);
   const auto dir = std::filesystem::path(path).parent_path();
-  Scenario scenario = readScenario(root, (dir / ".." / "robots").lexically_normal().string());
+  Scenario scenario =
+      readScenario(root, (dir / ".." / "robots").lexically_normal().string(), dir.string());
   scenario.path = path;
   return scenario;
 }
 
 Scenario loadScenarioString(const std::string& text, const std::string& name,
                             const std::string& robots_dir) {
-  return readScenario(common::ConfigNode::loadString(text, name), robots_dir);
+  return readScenario(common::ConfigNode::loadString(text, name), robots_dir, "");
 }
 
 }  // namespace storey::sim

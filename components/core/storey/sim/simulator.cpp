@@ -81,7 +81,12 @@ RobotRun simulateRobot(const Scenario& scenario, std::size_t index, std::uint64_
   run.transits = trajectory.transits();
   const double start = trajectory.startTime();
   double end = trajectory.endTime();
-  if (max_duration > 0.0) end = std::min(end, start + max_duration);
+  if (max_duration > 0.0) {
+    end = std::min(end, start + max_duration);
+    run.transits.erase(std::remove_if(run.transits.begin(), run.transits.end(),
+                                      [&](const Transit& t) { return t.end > end; }),
+                       run.transits.end());
+  }
 
   // Ray casters are shared by robots that see the same scene.
   std::vector<const RayCaster*> scene_casters;
@@ -127,7 +132,12 @@ RobotRun simulateRobot(const Scenario& scenario, std::size_t index, std::uint64_
                       g3 * o.rotation_per_metre_sigma * travelled;
       // Turning in a cabin while it moves makes wheel odometry slip.
       while (next_ride < ride_ends.size() && ride_ends[next_ride] <= t) {
-        dtheta += noise.gaussian() * o.elevator_heading_sigma;
+        const double error = noise.gaussian() * o.elevator_heading_sigma;
+        dtheta += error;
+        // Rides are the elevator transits, in order.
+        std::size_t ride = 0;
+        for (auto& transit : run.transits)
+          if (transit.mode == "elevator" && ride++ == next_ride) transit.odometry_heading_error = error;
         ++next_ride;
       }
       estimate = estimate * geometry::Pose2(delta.x() * scale, delta.y() * scale, dtheta);
