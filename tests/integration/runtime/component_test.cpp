@@ -215,3 +215,22 @@ TEST(RuntimeRunner, RunsUntilAComponentFinishes) {
 
 }  // namespace
 }  // namespace storey::runtime
+
+namespace storey::runtime {
+namespace {
+
+TEST(RuntimeComponent, HooksRunOnTheExecutorAndErrorsReachTheCaller) {
+  Context context(onDomain(118));
+  std::atomic<bool> on_worker{false};
+  context.executor().invoke([&] { on_worker = context.executor().onWorkerThread(); });
+  EXPECT_TRUE(on_worker);
+  EXPECT_THROW(context.executor().invoke([] { throw std::runtime_error("boom"); }),
+               std::runtime_error);
+  // From a worker, invoke runs inline (no deadlock).
+  std::atomic<int> depth{0};
+  context.executor().invoke([&] { context.executor().invoke([&] { depth = 2; }); });
+  EXPECT_EQ(depth, 2);
+}
+
+}  // namespace
+}  // namespace storey::runtime

@@ -40,42 +40,50 @@ void requireState(const std::string& name, const char* transition, LifecycleStat
 }  // namespace
 
 void Component::configure() {
-  requireState(name_, "configure", state(), LifecycleState::kUnconfigured);
-  try {
-    onConfigure();
-  } catch (...) {
-    releaseEntities();
-    throw;
-  }
-  std::lock_guard<std::mutex> lock(mutex_);
-  state_ = LifecycleState::kInactive;
+  executor().invoke([this] {
+    requireState(name_, "configure", state(), LifecycleState::kUnconfigured);
+    try {
+      onConfigure();
+    } catch (...) {
+      releaseEntities();
+      throw;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    state_ = LifecycleState::kInactive;
+  });
 }
 
 void Component::activate() {
-  requireState(name_, "activate", state(), LifecycleState::kInactive);
-  onActivate();
-  std::lock_guard<std::mutex> lock(mutex_);
-  state_ = LifecycleState::kActive;
-  for (auto& publisher : publishers_) publisher->setActive(true);
+  executor().invoke([this] {
+    requireState(name_, "activate", state(), LifecycleState::kInactive);
+    onActivate();
+    std::lock_guard<std::mutex> lock(mutex_);
+    state_ = LifecycleState::kActive;
+    for (auto& publisher : publishers_) publisher->setActive(true);
+  });
 }
 
 void Component::deactivate() {
-  requireState(name_, "deactivate", state(), LifecycleState::kActive);
-  {
-    // Publishers go quiet before the hook, so nothing is sent while deactivating.
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (auto& publisher : publishers_) publisher->setActive(false);
-    state_ = LifecycleState::kInactive;
-  }
-  onDeactivate();
+  executor().invoke([this] {
+    requireState(name_, "deactivate", state(), LifecycleState::kActive);
+    {
+      // Publishers go quiet before the hook, so nothing is sent while deactivating.
+      std::lock_guard<std::mutex> lock(mutex_);
+      for (auto& publisher : publishers_) publisher->setActive(false);
+      state_ = LifecycleState::kInactive;
+    }
+    onDeactivate();
+  });
 }
 
 void Component::cleanup() {
-  requireState(name_, "clean up", state(), LifecycleState::kInactive);
-  onCleanup();
-  releaseEntities();
-  std::lock_guard<std::mutex> lock(mutex_);
-  state_ = LifecycleState::kUnconfigured;
+  executor().invoke([this] {
+    requireState(name_, "clean up", state(), LifecycleState::kInactive);
+    onCleanup();
+    releaseEntities();
+    std::lock_guard<std::mutex> lock(mutex_);
+    state_ = LifecycleState::kUnconfigured;
+  });
 }
 
 void Component::shutdown() {

@@ -8,7 +8,8 @@
 // a component before activation. Timers made with createTimer() only fire while active.
 // Subscriptions deliver in every state once created (so transient-local history that
 // arrives before activate is not lost); callbacks can check state().
-// Callbacks of all kinds run on the Context's Executor.
+// Callbacks of all kinds, and the lifecycle hooks, run on the Context's Executor: with
+// one worker (the default) a component's hooks and callbacks never run concurrently.
 #pragma once
 
 #include <memory>

@@ -1,6 +1,7 @@
 #include "storey/runtime/executor.h"
 
 #include <algorithm>
+#include <future>
 #include <stdexcept>
 
 #include "storey/common/log.h"
@@ -15,13 +16,30 @@ Executor::Executor(int threads) {
 
 Executor::~Executor() { shutdown(); }
 
-void Executor::post(Task task) {
+bool Executor::post(Task task) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (stopping_) return;
+    if (stopping_) return false;
     queue_.push_back(std::move(task));
   }
   work_cv_.notify_one();
+  return true;
+}
+
+void Executor::invoke(const Task& task) {
+  if (onWorkerThread()) return task();
+  std::promise<void> done;
+  std::future<void> result = done.get_future();
+  const bool queued = post([&task, &done] {
+    try {
+      task();
+      done.set_value();
+    } catch (...) {
+      done.set_exception(std::current_exception());
+    }
+  });
+  if (!queued) return task();
+  result.get();  // a shutdown that drops the task throws std::future_error here
 }
 
 Executor::TimerId Executor::addTimer(double period_s, Task callback) {

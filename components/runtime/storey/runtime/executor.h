@@ -26,8 +26,13 @@ class Executor {
   Executor(const Executor&) = delete;
   Executor& operator=(const Executor&) = delete;
 
-  // Queues a task; ignored after shutdown(). Exceptions from tasks are logged, not fatal.
-  void post(Task task);
+  // Queues a task; returns false (and drops it) after shutdown(). Exceptions from tasks
+  // are logged, not fatal.
+  bool post(Task task);
+  // Runs `task` on a worker and waits for it, rethrowing its exception; runs it directly
+  // when called from a worker or after shutdown. Lifecycle transitions use this so that
+  // they never overlap a component's callbacks.
+  void invoke(const Task& task);
   // Calls `callback` every `period_s` seconds (first call one period from now). A tick
   // that is still queued is not queued twice: slow callbacks skip ticks, never pile up.
   TimerId addTimer(double period_s, Task callback);
