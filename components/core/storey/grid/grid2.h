@@ -8,6 +8,13 @@
 
 namespace storey::grid {
 
+// floor() as an int without a libm call (x86-64 without SSE4.1 has no floor instruction);
+// exact for every value an int holds.
+inline int floorToInt(double v) {
+  const int i = static_cast<int>(v);
+  return i - (v < static_cast<double>(i));
+}
+
 struct GridFrame {
   double resolution = 0.05;
   double origin_x = 0.0;
@@ -16,8 +23,7 @@ struct GridFrame {
   int height = 0;
 
   Eigen::Vector2i cellOf(const Eigen::Vector2d& p) const {
-    return {static_cast<int>(std::floor((p.x() - origin_x) / resolution)),
-            static_cast<int>(std::floor((p.y() - origin_y) / resolution))};
+    return {floorToInt((p.x() - origin_x) / resolution), floorToInt((p.y() - origin_y) / resolution)};
   }
   // Continuous cell coordinates: cell (cx, cy) has its centre at (cx + 0.5, cy + 0.5).
   Eigen::Vector2d continuousCellOf(const Eigen::Vector2d& p) const {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <limits>
 
 #include "storey/grid/distance_transform.h"
 
@@ -45,17 +46,44 @@ LikelihoodField::LikelihoodField(const GridFrame& frame, const std::vector<std::
 
 void LikelihoodField::build(const std::vector<std::uint8_t>& obstacles) {
   const GridFrame frame = distance_.frame;
-  distance_ = distanceField(frame, obstacles, options_.max_distance);
-  log_likelihood_ = Grid2<float>(frame, 0.0f);
-  score_ = Grid2<float>(frame, 0.0f);
   const double norm = 1.0 / (std::sqrt(2.0 * M_PI) * options_.sigma_hit);
   const double inv_two_sigma2 = 1.0 / (2.0 * options_.sigma_hit * options_.sigma_hit);
   const double uniform = options_.z_rand / options_.range_max;
-  for (std::size_t i = 0; i < distance_.data.size(); ++i) {
-    const double d = distance_.data[i];
-    const double gauss = std::exp(-d * d * inv_two_sigma2);
-    log_likelihood_.data[i] = static_cast<float>(std::log(options_.z_hit * norm * gauss + uniform));
-    score_.data[i] = static_cast<float>(gauss);
+  const float res = static_cast<float>(frame.resolution), cap = static_cast<float>(options_.max_distance);
+  // Squared distances in cells are integers, and every one beyond the cap gives the same
+  // values: tabulate distance, log-likelihood and score per squared distance up to the cap
+  // instead of evaluating sqrt, exp and log per cell (same expressions, same results).
+  struct Entry {
+    float distance, log_likelihood, score;
+  };
+  auto entry = [&](float squared) {
+    const float d = std::min(std::sqrt(squared) * res, cap);
+    const double dd = d;
+    const double gauss = std::exp(-dd * dd * inv_two_sigma2);
+    return Entry{d, static_cast<float>(std::log(options_.z_hit * norm * gauss + uniform)),
+                 static_cast<float>(gauss)};
+  };
+  const double cap_cells = options_.max_distance / frame.resolution;
+  std::size_t table_size = static_cast<std::size_t>(std::ceil(cap_cells * cap_cells)) + 1;
+  // Float sqrt and product are monotonic: once one squared distance reaches the cap, every
+  // larger one does. Grow the table until the first entry past it is at the cap.
+  while (entry(static_cast<float>(table_size)).distance < cap) ++table_size;
+  constexpr std::size_t kMaxTable = std::size_t{1} << 22;  // huge caps: evaluate per cell
+  const bool tabulate = table_size <= kMaxTable;
+  std::vector<Entry> table(tabulate ? table_size : 0);
+  for (std::size_t k = 0; k < table.size(); ++k) table[k] = entry(static_cast<float>(k));
+  const Entry beyond = entry(std::numeric_limits<float>::infinity());
+
+  const Grid2<float> squared = squaredDistanceTransform(frame, obstacles);
+  distance_ = Grid2<float>(frame, 0.0f);
+  log_likelihood_ = Grid2<float>(frame, 0.0f);
+  score_ = Grid2<float>(frame, 0.0f);
+  for (std::size_t i = 0; i < squared.data.size(); ++i) {
+    const float k = squared.data[i];
+    const Entry e = !tabulate ? entry(k) : k < static_cast<float>(table_size) ? table[static_cast<std::size_t>(k)] : beyond;
+    distance_.data[i] = e.distance;
+    log_likelihood_.data[i] = e.log_likelihood;
+    score_.data[i] = e.score;
   }
   const double d = options_.max_distance;
   outside_log_likelihood_ =
@@ -71,7 +99,7 @@ double LikelihoodField::interpolatedScore(const Eigen::Vector2d& p, Eigen::Vecto
   const GridFrame& f = frame();
   // Cell centres sit at integer + 0.5 in continuous cell coordinates.
   const Eigen::Vector2d c = f.continuousCellOf(p) - Eigen::Vector2d(0.5, 0.5);
-  const int x0 = static_cast<int>(std::floor(c.x())), y0 = static_cast<int>(std::floor(c.y()));
+  const int x0 = floorToInt(c.x()), y0 = floorToInt(c.y());
   const double fx = c.x() - x0, fy = c.y() - y0;
   const double v00 = score_.valueOr(x0, y0, 0.0f), v10 = score_.valueOr(x0 + 1, y0, 0.0f);
   const double v01 = score_.valueOr(x0, y0 + 1, 0.0f), v11 = score_.valueOr(x0 + 1, y0 + 1, 0.0f);

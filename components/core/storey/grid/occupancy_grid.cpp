@@ -109,8 +109,8 @@ void OccupancyGrid::traceRay(const Eigen::Vector2d& from, const Eigen::Vector2d&
                              std::vector<std::size_t>* cells) const {
   const GridFrame& f = log_odds_.frame;
   const Eigen::Vector2d a = f.continuousCellOf(from), b = f.continuousCellOf(to);
-  int cx = static_cast<int>(std::floor(a.x())), cy = static_cast<int>(std::floor(a.y()));
-  const int end_x = static_cast<int>(std::floor(b.x())), end_y = static_cast<int>(std::floor(b.y()));
+  int cx = floorToInt(a.x()), cy = floorToInt(a.y());
+  const int end_x = floorToInt(b.x()), end_y = floorToInt(b.y());
   const Eigen::Vector2d d = b - a;
   const int step_x = d.x() > 0 ? 1 : -1, step_y = d.y() > 0 ? 1 : -1;
   const double inf = std::numeric_limits<double>::infinity();
@@ -166,22 +166,38 @@ void OccupancyGrid::insertScan(const sensor::LaserScan& scan, const geometry::Po
   if (beams.empty()) return;
   ensureContains(lo, hi);
   // Each cell gets at most one update per scan, and a cell that holds an endpoint in this
-  // scan is never cleared by a neighbouring beam passing through it.
+  // scan is never cleared by a neighbouring beam passing through it: endpoints are marked
+  // with this scan's hit tag first, then traversed cells not yet tagged get the miss.
   const GridFrame& f = log_odds_.frame;
-  std::vector<std::size_t> hits, misses;
-  for (const Beam& beam : beams) {
-    traceRay(origin, beam.end, &misses);
-    const Eigen::Vector2i end = f.cellOf(beam.end);
-    (beam.hit ? hits : misses).push_back(f.index(end.x(), end.y()));
+  if (marks_.size() != f.cellCount()) marks_.assign(f.cellCount(), 0);
+  if (last_tag_ > std::numeric_limits<std::uint32_t>::max() - 2) {
+    std::fill(marks_.begin(), marks_.end(), 0);
+    last_tag_ = 0;
   }
-  std::sort(hits.begin(), hits.end());
-  hits.erase(std::unique(hits.begin(), hits.end()), hits.end());
-  std::sort(misses.begin(), misses.end());
-  misses.erase(std::unique(misses.begin(), misses.end()), misses.end());
-  for (std::size_t index : hits) addLogOdds(index, options_.hit_log_odds);
-  std::vector<std::size_t> free_only;
-  std::set_difference(misses.begin(), misses.end(), hits.begin(), hits.end(), std::back_inserter(free_only));
-  for (std::size_t index : free_only) addLogOdds(index, options_.miss_log_odds);
+  const std::uint32_t hit_tag = ++last_tag_, miss_tag = ++last_tag_;
+  for (const Beam& beam : beams) {
+    if (!beam.hit) continue;
+    const Eigen::Vector2i end = f.cellOf(beam.end);
+    const std::size_t index = f.index(end.x(), end.y());
+    if (marks_[index] == hit_tag) continue;
+    marks_[index] = hit_tag;
+    addLogOdds(index, options_.hit_log_odds);
+  }
+  auto miss = [&](std::size_t index) {
+    std::uint32_t& mark = marks_[index];
+    if (mark == hit_tag || mark == miss_tag) return;
+    mark = miss_tag;
+    addLogOdds(index, options_.miss_log_odds);
+  };
+  for (const Beam& beam : beams) {
+    ray_cells_.clear();
+    traceRay(origin, beam.end, &ray_cells_);
+    for (std::size_t index : ray_cells_) miss(index);
+    if (!beam.hit) {
+      const Eigen::Vector2i end = f.cellOf(beam.end);
+      miss(f.index(end.x(), end.y()));
+    }
+  }
 }
 
 Image renderGrey(const OccupancyGrid& grid, double occupied_threshold, double free_threshold) {

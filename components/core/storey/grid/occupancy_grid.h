@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -55,6 +56,11 @@ class OccupancyGrid {
 
   OccupancyGridOptions options_;
   Grid2<float> log_odds_;
+  // Per cell, the tag of the last scan update (hit or miss tag of that scan), so each scan
+  // updates a cell at most once without sorting the traversed cells.
+  std::vector<std::uint32_t> marks_;
+  std::uint32_t last_tag_ = 0;
+  std::vector<std::size_t> ray_cells_;  // scratch, reused across scans
 };
 
 // nav2 map_server format: <stem>.pgm (trinary: 0 occupied, 254 free, 205 unknown; top row
