@@ -16,8 +16,7 @@ int run_optimize(Args& args) {
              "Reads a pose graph (g2o, or TORO for .graph/.toro), optimises it and writes it.\n"
              "Prints the initial and final chi2, the iterations and the time per phase.")
       .option("init", "file|odometry",
-              "initial guess: the file's vertices, or chained odometry from the first node",
-              "file")
+              "initial guess: the file's vertices, or chained odometry from the first node", "file")
       .option("solver", "gn|lm", "Gauss-Newton or Levenberg-Marquardt", "lm")
       .option("robust", "none|huber|cauchy|dcs",
               "robust kernel on every non-odometry edge (scan match, loop closure, inter-floor)",
@@ -45,8 +44,8 @@ int run_optimize(Args& args) {
   }
   kernel.delta = args.getDouble("delta");
   if (!(kernel.delta > 0.0)) throw UsageError("--delta must be positive");
-  for (graph::EdgeKind kind : {graph::EdgeKind::kScanMatch, graph::EdgeKind::kLoopClosure,
-                               graph::EdgeKind::kInterFloor}) {
+  for (graph::EdgeKind kind :
+       {graph::EdgeKind::kScanMatch, graph::EdgeKind::kLoopClosure, graph::EdgeKind::kInterFloor}) {
     options.robust[static_cast<int>(kind)] = kernel;
   }
   const long iterations = args.getInt("iterations");
@@ -69,8 +68,8 @@ int run_optimize(Args& args) {
   if (init == "odometry" && !info.initialized_from_odometry) {
     graph::initializeFromOdometry(pose_graph);
   }
-  std::cout << "read " << in << ": " << pose_graph.numNodes() << " nodes, "
-            << pose_graph.numEdges() << " edges"
+  std::cout << "read " << in << ": " << pose_graph.numNodes() << " nodes, " << pose_graph.numEdges()
+            << " edges"
             << (info.initialized_from_odometry ? " (no vertices: chained odometry guess)" : "")
             << "\n";
 

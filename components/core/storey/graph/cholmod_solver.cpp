@@ -1,6 +1,7 @@
-// CHOLMOD backend: supernodal Cholesky (simplicial where CHOLMOD judges it cheaper). The fill-reducing ordering is computed by AMD on
-// the block (pose) pattern, which is 9× smaller than the scalar one, and expanded to the
-// scalar variables; the symbolic factor is kept until the next analyze().
+// CHOLMOD backend: supernodal Cholesky (simplicial where CHOLMOD judges it cheaper). The
+// fill-reducing ordering is computed by AMD on the block (pose) pattern, which is 9× smaller than
+// the scalar one, and expanded to the scalar variables; the symbolic factor is kept until the next
+// analyze().
 #include <cholmod.h>
 
 #include <cstring>

@@ -226,11 +226,11 @@ std::string formatGraph(const PoseGraph& graph, GraphFormat format) {
     out << (g2o ? "EDGE_SE2 " : "EDGE2 ") << e.from << ' ' << e.to << ' ' << e.measurement.x()
         << ' ' << e.measurement.y() << ' ' << e.measurement.theta() << ' ';
     if (g2o) {
-      out << m(0, 0) << ' ' << m(0, 1) << ' ' << m(0, 2) << ' ' << m(1, 1) << ' ' << m(1, 2)
-          << ' ' << m(2, 2) << '\n';
+      out << m(0, 0) << ' ' << m(0, 1) << ' ' << m(0, 2) << ' ' << m(1, 1) << ' ' << m(1, 2) << ' '
+          << m(2, 2) << '\n';
     } else {
-      out << m(0, 0) << ' ' << m(0, 1) << ' ' << m(1, 1) << ' ' << m(2, 2) << ' ' << m(0, 2)
-          << ' ' << m(1, 2) << '\n';
+      out << m(0, 0) << ' ' << m(0, 1) << ' ' << m(1, 1) << ' ' << m(2, 2) << ' ' << m(0, 2) << ' '
+          << m(1, 2) << '\n';
     }
   }
   return out.str();

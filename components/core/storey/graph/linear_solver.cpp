@@ -30,8 +30,8 @@ class EigenSolver : public LinearSolver {
  private:
   using Matrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
   static Eigen::Map<const Matrix> view(const SparseUpper& m) {
-    return Eigen::Map<const Matrix>(m.n, m.n, static_cast<int>(m.values.size()),
-                                    m.col_ptr.data(), m.row_idx.data(), m.values.data());
+    return Eigen::Map<const Matrix>(m.n, m.n, static_cast<int>(m.values.size()), m.col_ptr.data(),
+                                    m.row_idx.data(), m.values.data());
   }
 
   Eigen::SimplicialLDLT<Matrix, Eigen::Upper, Eigen::AMDOrdering<int>> ldlt_;

@@ -71,14 +71,15 @@ void robustKernel(const RobustKernel& kernel, double s, double* rho, double* wei
     }
     case RobustKernelType::kDcs:
       // Dynamic covariance scaling (Agarwal et al. 2013): the error is scaled by
-      // min(1, 2Φ / (Φ + s)), i.e. its information by the square of that.
+      // σ = min(1, 2Φ / (Φ + s)), its information by σ². With the switch prior
+      // Φ(1 − σ)² the cost σ²s + Φ(1 − σ)² equals Φ for every s ≥ Φ, so ρ = min(s, Φ).
       if (s <= d) {
         *rho = s;
         *weight = 1.0;
       } else {
         const double scale = 2.0 * d / (d + s);
         *weight = scale * scale;
-        *rho = *weight * s;
+        *rho = d;
       }
       return;
   }
@@ -114,8 +115,8 @@ OptimizerOptions readOptimizerOptions(const common::ConfigNode& config) {
       }
       const common::ConfigNode entry = robust.child(kind_name);
       RobustKernel& kernel = o.robust[static_cast<int>(kind)];
-      kernel.type = parseRobustKernel(
-          entry.getChoice("kernel", {"none", "huber", "cauchy", "dcs"}));
+      kernel.type =
+          parseRobustKernel(entry.getChoice("kernel", {"none", "huber", "cauchy", "dcs"}));
       kernel.delta = entry.getDouble("delta", 1.0, 1e-12, 1e12);
       entry.finish();
     }
@@ -273,8 +274,8 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
       const int b = s->var_of_node[graph.edgeToIndex(e)];
       if (a < 0 || b < 0) continue;
       const int k = std::max(a, b), m = std::min(a, b);
-      const int pos = static_cast<int>(
-          std::lower_bound(lower[k].begin(), lower[k].end(), m) - lower[k].begin());
+      const int pos = static_cast<int>(std::lower_bound(lower[k].begin(), lower[k].end(), m) -
+                                       lower[k].begin());
       for (int c = 0; c < 3; ++c) s->offdiag[e][c] = h.col_ptr[3 * k + c] + 3 * pos;
     }
     structure_ = std::move(s);
@@ -352,7 +353,8 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
       }
       if (vi >= 0 && vj >= 0) {
         // Stored block is H(min, max): rows of the lower-numbered variable.
-        const Eigen::Matrix3d block = vi < vj ? Eigen::Matrix3d(jti * jj) : Eigen::Matrix3d(jtj * ji);
+        const Eigen::Matrix3d block =
+            vi < vj ? Eigen::Matrix3d(jti * jj) : Eigen::Matrix3d(jtj * ji);
         for (int a = 0; a < 3; ++a) {
           double* column = values + s.offdiag[e][a];
           for (int p = 0; p < 3; ++p) column[p] += block(p, a);
@@ -370,14 +372,15 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
   };
   auto stateNorm = [&]() {
     double sq = 0.0;
-    for (int k = 0; k < n_vars; ++k) sq += graph.nodes()[s.node_of_var[k]].pose.vector().squaredNorm();
+    for (int k = 0; k < n_vars; ++k)
+      sq += graph.nodes()[s.node_of_var[k]].pose.vector().squaredNorm();
     return std::sqrt(sq);
   };
   auto applyStep = [&](const Eigen::VectorXd& dx) {
     for (int k = 0; k < n_vars; ++k) {
       const Pose2& p = graph.nodes()[s.node_of_var[k]].pose;
-      graph.setPoseAt(s.node_of_var[k], Pose2(p.x() + dx[3 * k], p.y() + dx[3 * k + 1],
-                                              p.theta() + dx[3 * k + 2]));
+      graph.setPoseAt(s.node_of_var[k],
+                      Pose2(p.x() + dx[3 * k], p.y() + dx[3 * k + 1], p.theta() + dx[3 * k + 2]));
     }
   };
 
@@ -420,8 +423,7 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
     }
     if (!ok) {
       if (!lm) {
-        result.termination =
-            "H is not positive definite (an under-constrained node?); try lm";
+        result.termination = "H is not positive definite (an under-constrained node?); try lm";
         break;
       }
       lambda *= nu;
@@ -478,8 +480,8 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
     }
     const double rho = (cost - trial_cost) / std::max(predicted, 1e-300);
     if (options_.verbose) {
-      common::logInfo(str("lm ", result.iterations, ": cost ", std::setprecision(12), cost, " -> ", trial_cost,
-                          " lambda ", lambda, " rho ", rho));
+      common::logInfo(str("lm ", result.iterations, ": cost ", std::setprecision(12), cost, " -> ",
+                          trial_cost, " lambda ", lambda, " rho ", rho));
     }
     if (std::isfinite(trial_cost) && trial_cost < cost && rho > 0.0) {
       ++result.accepted_steps;

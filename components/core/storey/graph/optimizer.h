@@ -35,7 +35,7 @@ struct RobustKernel {
   RobustKernelType type = RobustKernelType::kNone;
   double delta = 1.0;
 };
-const char* robustKernelName(RobustKernelType type);  // "none", "huber", "cauchy", "dcs"
+const char* robustKernelName(RobustKernelType type);          // "none", "huber", "cauchy", "dcs"
 RobustKernelType parseRobustKernel(const std::string& name);  // throws std::invalid_argument
 // ρ(s) and the IRLS weight w = ρ'(s) (for DCS: the squared scaling factor).
 void robustKernel(const RobustKernel& kernel, double s, double* rho, double* weight);
@@ -75,30 +75,30 @@ struct OptimizerOptions {
 OptimizerOptions readOptimizerOptions(const common::ConfigNode& config);
 
 struct PhaseTimes {
-  double assembly = 0.0;   // residuals, Jacobians, H and b (seconds)
-  double symbolic = 0.0;   // structure, ordering, symbolic factorisation
-  double numeric = 0.0;    // numeric factorisations
-  double solve = 0.0;      // triangular solves
-  double evaluate = 0.0;   // χ² of trial steps (LM)
+  double assembly = 0.0;  // residuals, Jacobians, H and b (seconds)
+  double symbolic = 0.0;  // structure, ordering, symbolic factorisation
+  double numeric = 0.0;   // numeric factorisations
+  double solve = 0.0;     // triangular solves
+  double evaluate = 0.0;  // χ² of trial steps (LM)
   double total = 0.0;
 };
 
 struct OptimizerResult {
   bool converged = false;
-  std::string termination;  // why it stopped
+  std::string termination;    // why it stopped
   double initial_chi2 = 0.0;  // Σ eᵀΩe of enabled edges (no kernel)
   double final_chi2 = 0.0;
   double initial_cost = 0.0;  // Σ ρ(eᵀΩe): the robust objective actually minimised
   double final_cost = 0.0;
-  int iterations = 0;         // steps tried
+  int iterations = 0;  // steps tried
   int accepted_steps = 0;
   int factorizations = 0;
-  bool reanalysed = false;    // the structure was (re)analysed in this call
+  bool reanalysed = false;  // the structure was (re)analysed in this call
   double final_lambda = 0.0;
   PhaseTimes time;
-  int components = 0;                      // connected components over enabled edges
-  std::vector<NodeId> auto_fixed;          // nodes fixed by the gauge rule
-  std::vector<std::size_t> downweighted;   // edge indices with weight < threshold
+  int components = 0;                     // connected components over enabled edges
+  std::vector<NodeId> auto_fixed;         // nodes fixed by the gauge rule
+  std::vector<std::size_t> downweighted;  // edge indices with weight < threshold
 };
 
 class Optimizer {

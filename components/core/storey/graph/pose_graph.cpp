@@ -42,8 +42,8 @@ EdgeKind parseEdgeKind(const std::string& name) {
   for (int k = 0; k < kEdgeKindCount; ++k) {
     if (name == edgeKindName(static_cast<EdgeKind>(k))) return static_cast<EdgeKind>(k);
   }
-  throw std::invalid_argument(
-      "unknown edge kind '" + name + "' (odometry, scan_match, loop_closure, inter_floor)");
+  throw std::invalid_argument("unknown edge kind '" + name +
+                              "' (odometry, scan_match, loop_closure, inter_floor)");
 }
 
 Eigen::Vector3d edgeResidual(const Pose2& xi, const Pose2& xj, const Pose2& z,
@@ -238,7 +238,8 @@ std::size_t initializeFromOdometry(PoseGraph& graph) {
       if (via[u] != kUnset) {
         const Edge& edge = graph.edges()[via[u]];
         const bool forward = graph.edgeToIndex(via[u]) == u;
-        const std::size_t parent = forward ? graph.edgeFromIndex(via[u]) : graph.edgeToIndex(via[u]);
+        const std::size_t parent =
+            forward ? graph.edgeFromIndex(via[u]) : graph.edgeToIndex(via[u]);
         const Pose2& base = graph.nodes()[parent].pose;
         graph.setPoseAt(u, forward ? base * edge.measurement : base * edge.measurement.inverse());
       }
