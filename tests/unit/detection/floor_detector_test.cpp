@@ -73,7 +73,7 @@ TEST(FloorDetectorOptions, UnknownKeyAndBadValuesNameTheKey) {
   const std::string text = buffer.str();
   auto load = [](const std::string& t) {
     const auto root = common::ConfigNode::loadString(t, "fd.yaml");
-    return readFloorDetectorOptions(root.child("floor_detector"));
+    return readFloorDetectorOptions(root.child("detector"));
   };
   EXPECT_NO_THROW(load(text));
   std::string unknown = text;

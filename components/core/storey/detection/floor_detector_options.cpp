@@ -80,9 +80,7 @@ FloorDetectorOptions readFloorDetectorOptions(const common::ConfigNode& node) {
 
 FloorDetectorOptions loadFloorDetectorOptions(const std::string& path) {
   const common::ConfigNode root = common::ConfigNode::loadFile(path);
-  FloorDetectorOptions options = readFloorDetectorOptions(root.child("floor_detector"));
-  root.finish();
-  return options;
+  return readFloorDetectorOptions(root.child("detector"));
 }
 
 }  // namespace storey::detection

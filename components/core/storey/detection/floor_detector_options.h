@@ -60,7 +60,8 @@ struct FloorDetectorOptions {
 
 // Reads the mapping holding barometer/transit/floors/corroboration; calls finish().
 FloorDetectorOptions readFloorDetectorOptions(const common::ConfigNode& node);
-// Reads the `floor_detector` mapping of a YAML file (e.g. config/floor_detector.yaml).
+// Reads the `detector` mapping of a component parameter file (config/floor_detector.yaml);
+// the file's other keys belong to the component and are checked by it.
 FloorDetectorOptions loadFloorDetectorOptions(const std::string& path);
 
 }  // namespace storey::detection

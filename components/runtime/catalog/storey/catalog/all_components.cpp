@@ -4,11 +4,14 @@
 //   #include "storey/floor_detector/floor_detector_component.h"
 //   registry.add<floor_detector::FloorDetectorComponent>("floor_detector", "...");
 
+#include "storey/floor_detector/floor_detector_component.h"
 #include "storey/graph_server/graph_server.h"
 
 namespace storey::catalog {
 
 void registerStoreyComponents(runtime::ComponentRegistry& registry) {
+  registry.add<floor_detector::FloorDetectorComponent>(
+      "floor_detector", "floor changes of one robot from pressure (+ IMU, odometry, scan)");
   registry.add<graph_server::GraphServer>(
       "graph_server", "building graph: merges floor graphs and inter-floor constraints, optimises, journals");
 }

@@ -1,0 +1,19 @@
+// storey_msgs/FloorEvent <-> detection::FloorEvent, converted once at the boundary.
+#pragma once
+
+#include <string>
+
+#include "storey/detection/floor_detector.h"
+#include "storey_msgs/msg/FloorEvent.h"
+
+namespace storey::floor_detector {
+
+// TransitStarted carries floor_id FLOOR_UNKNOWN (-1); TransitEnded the floor reached
+// (the floor it left when the ride did not change floor).
+storey_msgs::msg::FloorEvent toMessage(const detection::FloorEvent& event,
+                                       const std::string& robot);
+// The fields the message has; from_floor, start_stamp and floor_changed are not on the
+// wire (floor_changed is left true for TransitEnded).
+detection::FloorEvent fromMessage(const storey_msgs::msg::FloorEvent& message);
+
+}  // namespace storey::floor_detector

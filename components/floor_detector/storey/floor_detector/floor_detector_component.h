@@ -1,0 +1,54 @@
+// floor_detector component: subscribes a robot's pressure, IMU, odometry and scan topics
+// (best effort), runs detection::FloorDetector, and publishes storey_msgs/FloorEvent on
+// /<robot>/<events_topic> (reliable, transient local, so a late floor_mapper gets every
+// event). Parameters: config/floor_detector.yaml. Samples are processed only while active.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "nav_msgs/msg/OdometryPubSubTypes.h"
+#include "sensor_msgs/msg/FluidPressurePubSubTypes.h"
+#include "sensor_msgs/msg/ImuPubSubTypes.h"
+#include "sensor_msgs/msg/LaserScanPubSubTypes.h"
+#include "storey/detection/floor_detector.h"
+#include "storey/runtime/component.h"
+#include "storey_msgs/msg/FloorEventPubSubTypes.h"
+
+namespace storey::floor_detector {
+
+struct FloorDetectorComponentOptions {
+  std::string robot;                          // topic namespace
+  std::string events_topic = "floor_events";  // under the robot's namespace
+  detection::FloorDetectorOptions detector;
+};
+// Reads robot, events_topic and detector; calls finish().
+FloorDetectorComponentOptions readFloorDetectorComponentOptions(const common::ConfigNode& node);
+
+class FloorDetectorComponent : public runtime::Component {
+ public:
+  FloorDetectorComponent(runtime::Context& context, const common::ConfigNode& parameters,
+                         std::string name);
+
+  int currentFloor() const;
+  std::uint64_t eventsPublished() const;
+  const FloorDetectorComponentOptions& options() const { return options_; }
+
+ protected:
+  void onConfigure() override;
+  void onCleanup() override;
+
+ private:
+  void publishEvents();
+
+  FloorDetectorComponentOptions options_;
+  mutable std::mutex mutex_;  // guards detector_ (callbacks may run on several threads)
+  std::unique_ptr<detection::FloorDetector> detector_;
+  std::shared_ptr<runtime::Publisher<storey_msgs::msg::FloorEvent,
+                                     storey_msgs::msg::FloorEventPubSubType>>
+      publisher_;
+  std::uint64_t published_ = 0;
+};
+
+}  // namespace storey::floor_detector

@@ -1,0 +1,211 @@
+#include "storey/floor_detector/floor_detector_component.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <mutex>
+#include <random>
+#include <sstream>
+#include <thread>
+
+#include "storey/catalog/all_components.h"
+#include "storey/detection/barometer.h"
+#include "storey/floor_detector/conversions.h"
+#include "storey/runtime/context.h"
+#include "storey/runtime/publisher.h"
+#include "storey/runtime/sensor_conversions.h"
+#include "storey/runtime/subscription.h"
+#include "test_support.h"
+
+namespace storey::floor_detector {
+namespace {
+
+using EventMsg = storey_msgs::msg::FloorEvent;
+using EventSub = runtime::Subscription<EventMsg, storey_msgs::msg::FloorEventPubSubType>;
+
+runtime::ContextOptions onDomain(int domain) {
+  runtime::ContextOptions options;
+  options.domain_id = domain;
+  return options;
+}
+
+// The shipped parameters with another robot name.
+common::ConfigNode parametersFor(const std::string& robot) {
+  std::ifstream in(test::sourceDir() + "/config/floor_detector.yaml");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  std::string text = buffer.str();
+  const std::string key = "robot: robot1";
+  text.replace(text.find(key), key.size(), "robot: " + robot);
+  return common::ConfigNode::loadString(text, "floor_detector.yaml");
+}
+
+// Height of a 3 m elevator ride starting at 30 s: 0.5 m/s^2 up to 1 m/s, 4 s in all.
+double rideHeight(double t) {
+  const double tau = t - 30.0;
+  if (tau <= 0.0) return 0.0;
+  if (tau < 2.0) return 0.25 * tau * tau;
+  if (tau < 2.0 + 1.0) return 1.0 + (tau - 2.0);
+  if (tau < 4.0 + 1.0) return 3.0 - 0.25 * (5.0 - tau) * (5.0 - tau);
+  return 3.0;
+}
+double rideAcceleration(double t) {
+  const double tau = t - 30.0;
+  if (tau > 0.0 && tau < 2.0) return 0.5;
+  if (tau > 3.0 && tau < 5.0) return -0.5;
+  return 0.0;
+}
+
+// Publishes 75 s of pressure (10 Hz, 2 Pa noise) and IMU (50 Hz) at 25x real time.
+void publishRide(runtime::Context& context, const std::string& robot) {
+  runtime::Publisher<sensor_msgs::msg::FluidPressure, sensor_msgs::msg::FluidPressurePubSubType>
+      pressure(context, "/" + robot + "/pressure", runtime::TopicKind::kSensor);
+  runtime::Publisher<sensor_msgs::msg::Imu, sensor_msgs::msg::ImuPubSubType> imu(
+      context, "/" + robot + "/imu", runtime::TopicKind::kSensor);
+  ASSERT_TRUE(pressure.waitForSubscribers(1, 5.0));
+  ASSERT_TRUE(imu.waitForSubscribers(1, 5.0));
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (int step = 0; step <= 750; ++step) {
+    const double t = 100.0 + step * 0.1;  // stamps need not start at 0
+    const double p = detection::pressureAtHeight(rideHeight(t - 100.0), 288.15) + 2.0 * noise(rng);
+    pressure.publish(runtime::toMessage(sensor::PressureSample{t, p, 4.0}));
+    for (int k = 0; k < 5; ++k) {
+      sensor::ImuSample sample;
+      sample.stamp = t + 0.02 * k;
+      sample.linear_acceleration = Eigen::Vector3d(
+          0.05 * noise(rng), 0.05 * noise(rng),
+          detection::kStandardGravity + rideAcceleration(sample.stamp - 100.0) + 0.05 * noise(rng));
+      imu.publish(runtime::toMessage(sample));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(4));
+  }
+}
+
+bool waitFor(const std::function<bool()>& done, double seconds) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return true;
+}
+
+TEST(FloorDetectorComponent, PublishesTheRideAndLateSubscribersGetIt) {
+  runtime::Context context(onDomain(230));
+  std::mutex mutex;
+  std::vector<EventMsg> received;
+  EventSub events(context, "/fd_robot/floor_events", runtime::TopicKind::kGraph,
+                  [&](const EventMsg& m) {
+                    std::lock_guard<std::mutex> lock(mutex);
+                    received.push_back(m);
+                  });
+  FloorDetectorComponent component(context, parametersFor("fd_robot"), "detector");
+  component.configure();
+  component.activate();
+  publishRide(context, "fd_robot");
+  ASSERT_TRUE(waitFor(
+      [&] {
+        std::lock_guard<std::mutex> lock(mutex);
+        return received.size() >= 2;
+      },
+      10.0));
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    ASSERT_EQ(received.size(), 2u);
+    namespace k = storey_msgs::msg::FloorEvent_Constants;
+    EXPECT_EQ(received[0].kind(), k::KIND_TRANSIT_STARTED);
+    EXPECT_EQ(received[0].robot(), "fd_robot");
+    EXPECT_EQ(received[1].kind(), k::KIND_TRANSIT_ENDED);
+    EXPECT_EQ(received[1].floor_id(), 1);
+    EXPECT_TRUE(received[1].new_floor());
+    EXPECT_NEAR(received[1].height_change(), 3.0, 0.25);
+    EXPECT_EQ(received[1].mode(), k::MODE_ELEVATOR);
+    const double start = runtime::fromTimeMessage(received[0].stamp());
+    const double end = runtime::fromTimeMessage(received[1].stamp());
+    EXPECT_LE(start, 130.0);
+    EXPECT_GE(end, 134.0);
+  }
+  EXPECT_EQ(component.currentFloor(), 1);
+  EXPECT_EQ(component.eventsPublished(), 2u);
+
+  // Transient local: a subscriber that joins after the ride still gets both events.
+  std::vector<EventMsg> late;
+  EventSub late_events(context, "/fd_robot/floor_events", runtime::TopicKind::kGraph,
+                       [&](const EventMsg& m) {
+                         std::lock_guard<std::mutex> lock(mutex);
+                         late.push_back(m);
+                       });
+  EXPECT_TRUE(waitFor(
+      [&] {
+        std::lock_guard<std::mutex> lock(mutex);
+        return late.size() >= 2;
+      },
+      5.0));
+  component.deactivate();
+  component.cleanup();
+}
+
+TEST(FloorDetectorComponent, NothingIsProcessedBeforeActivation) {
+  runtime::Context context(onDomain(231));
+  std::atomic<int> received{0};
+  EventSub events(context, "/idle_robot/floor_events", runtime::TopicKind::kGraph,
+                  [&](const EventMsg&) { ++received; });
+  FloorDetectorComponent component(context, parametersFor("idle_robot"), "detector");
+  component.configure();
+  publishRide(context, "idle_robot");
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  EXPECT_EQ(received.load(), 0);
+  EXPECT_EQ(component.currentFloor(), 0);
+  component.cleanup();
+}
+
+TEST(FloorDetectorComponent, BadParametersNameTheKey) {
+  runtime::Context context(onDomain(232));
+  FloorDetectorComponent component(
+      context, common::ConfigNode::loadString("{robot: r, events_topic: e}", "p.yaml"), "d");
+  try {
+    component.configure();
+    FAIL() << "configured without a detector mapping";
+  } catch (const common::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("detector"), std::string::npos) << e.what();
+  }
+}
+
+TEST(FloorDetectorComponent, RegisteredInTheCatalog) {
+  runtime::ComponentRegistry registry;
+  catalog::registerStoreyComponents(registry);
+  EXPECT_TRUE(registry.has("floor_detector"));
+}
+
+TEST(FloorDetectorConversions, RoundTrip) {
+  detection::FloorEvent e;
+  e.type = detection::FloorEventType::kTransitEnded;
+  e.stamp = 12.5;
+  e.floor_id = 3;
+  e.new_floor = true;
+  e.floor_changed = true;
+  e.height_change = -3.5;
+  e.height_change_stddev = 0.07;
+  e.floor_height = 4.0;
+  e.confidence = 0.9;
+  e.mode = detection::TransitMode::kStairs;
+  const detection::FloorEvent back = fromMessage(toMessage(e, "r"));
+  EXPECT_EQ(back.type, e.type);
+  EXPECT_DOUBLE_EQ(back.stamp, e.stamp);
+  EXPECT_EQ(back.floor_id, 3);
+  EXPECT_TRUE(back.new_floor);
+  EXPECT_DOUBLE_EQ(back.height_change, -3.5);
+  EXPECT_DOUBLE_EQ(back.height_change_stddev, 0.07);
+  EXPECT_DOUBLE_EQ(back.floor_height, 4.0);
+  EXPECT_DOUBLE_EQ(back.confidence, 0.9);
+  EXPECT_EQ(back.mode, detection::TransitMode::kStairs);
+  detection::FloorEvent s;
+  s.stamp = 3.0;
+  EXPECT_EQ(toMessage(s, "r").floor_id(), -1);
+}
+
+}  // namespace
+}  // namespace storey::floor_detector
