@@ -1,0 +1,347 @@
+#include "storey/tools/map_job.h"
+
+#include <chrono>
+#include <filesystem>
+#include <iostream>
+#include <limits>
+#include <set>
+
+#include "storey/catalog/all_components.h"
+#include "storey/common/config.h"
+#include "storey/common/log.h"
+#include "storey/eval/corridors.h"
+#include "storey/eval/trajectory.h"
+#include "storey/graph_server/graph_server.h"
+#include "storey/runtime/component_registry.h"
+#include "storey/runtime/context.h"
+#include "storey/runtime/publisher.h"
+#include "storey/runtime/sensor_bag.h"
+#include "storey/runtime/sensor_conversions.h"
+#include "storey/sim/ground_truth.h"
+#include "storey/sim/scenario.h"
+#include "storey/sim/simulator.h"
+#include "storey/tools/replay.h"
+#include "storey_msgs/msg/FloorEventPubSubTypes.h"
+
+namespace storey::tools {
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+bool isYamlFile(const std::string& path) {
+  const std::string ext = fs::path(path).extension().string();
+  return fs::is_regular_file(path) && (ext == ".yaml" || ext == ".yml");
+}
+
+// Parameters of one component: its shipped file with this run's values set on top.
+common::ConfigNode componentParameters(const std::string& config_dir, const std::string& kind,
+                                       const std::function<void(YAML::Node&)>& overrides) {
+  const std::string path = (fs::path(config_dir) / (kind + ".yaml")).string();
+  YAML::Node root = fs::exists(path) ? common::ConfigNode::loadFile(path).yaml() : YAML::Node(YAML::NodeType::Map);
+  YAML::Node copy = YAML::Clone(root);
+  overrides(copy);
+  return common::ConfigNode(copy, path, "");
+}
+
+// Every robot's samples in one bag, in time order (scan, odom, pressure, imu at a tie).
+void writeSimulationBag(const sim::Simulation& run, const std::string& folder) {
+  runtime::SensorBagWriter bag(folder);
+  struct Cursor {
+    const sim::RobotRun* robot;
+    std::size_t s = 0, o = 0, p = 0, i = 0;
+  };
+  std::vector<Cursor> cursors;
+  for (const auto& robot : run.robots) cursors.push_back({&robot});
+  constexpr double kEnd = std::numeric_limits<double>::infinity();
+  while (true) {
+    // The robot with the earliest next sample, so several robots interleave by time.
+    Cursor* best = nullptr;
+    double best_stamp = kEnd;
+    for (auto& c : cursors) {
+      const auto& r = *c.robot;
+      const double next = std::min({c.s < r.scans.size() ? r.scans[c.s].stamp : kEnd,
+                                    c.o < r.odometry.size() ? r.odometry[c.o].stamp : kEnd,
+                                    c.p < r.pressure.size() ? r.pressure[c.p].stamp : kEnd,
+                                    c.i < r.imu.size() ? r.imu[c.i].stamp : kEnd});
+      if (next < best_stamp) {
+        best_stamp = next;
+        best = &c;
+      }
+    }
+    if (!best) break;
+    const auto& r = *best->robot;
+    if (best->s < r.scans.size() && r.scans[best->s].stamp == best_stamp) bag.write(r.name, r.scans[best->s++]);
+    else if (best->o < r.odometry.size() && r.odometry[best->o].stamp == best_stamp) bag.write(r.name, r.odometry[best->o++]);
+    else if (best->p < r.pressure.size() && r.pressure[best->p].stamp == best_stamp) bag.write(r.name, r.pressure[best->p++]);
+    else bag.write(r.name, r.imu[best->i++]);
+  }
+  bag.close();
+}
+
+struct PreparedInput {
+  std::string recording;  // bag folder or log file
+  std::string robot;      // CARMEN logs: the robot name used for it
+  std::optional<int> floor;
+  std::optional<double> height;
+};
+
+}  // namespace
+
+std::string defaultConfigDir() {
+  const fs::path source = fs::path(STOREY_SOURCE_DIR) / "config";
+  if (fs::exists(source / "buildings")) return source.string();
+  return (fs::path(STOREY_INSTALLED_DATA_DIR) / "config").string();
+}
+
+std::string defaultBuilding(const std::string& config_dir) {
+  return (fs::path(config_dir) / "buildings" / "small2.yaml").string();
+}
+
+MapInput parseMapInput(const std::string& text) {
+  MapInput input;
+  const auto at = text.rfind('@');
+  if (at == std::string::npos || fs::exists(text)) {
+    input.path = text;
+    return input;
+  }
+  input.path = text.substr(0, at);
+  const std::string spec = text.substr(at + 1);
+  const auto colon = spec.find(':');
+  try {
+    std::size_t used = 0;
+    const std::string floor_text = spec.substr(0, colon);
+    input.floor = std::stoi(floor_text, &used);
+    if (used != floor_text.size()) throw std::invalid_argument(floor_text);
+    if (colon != std::string::npos) {
+      const std::string height_text = spec.substr(colon + 1);
+      input.height = std::stod(height_text, &used);
+      if (used != height_text.size()) throw std::invalid_argument(height_text);
+    }
+  } catch (const std::exception&) {
+    throw std::invalid_argument("'" + text + "': expected PATH@FLOOR or PATH@FLOOR:HEIGHT");
+  }
+  return input;
+}
+
+std::vector<MapInput> readMapInputs(const std::string& yaml_path) {
+  const auto root = common::ConfigNode::loadFile(yaml_path);
+  std::vector<MapInput> inputs;
+  std::set<int> floors;
+  for (const auto& entry : root.sequence("floors")) {
+    MapInput input;
+    const fs::path path = entry.get<std::string>("path");
+    input.path = (path.is_absolute() ? path : fs::path(yaml_path).parent_path() / path).string();
+    input.floor = entry.getInt("floor", -1000, 1000);
+    input.height = entry.getDouble("height", -1000.0, 10000.0);
+    input.robot = entry.get<std::string>("robot", "");
+    if (!floors.insert(*input.floor).second) entry.fail("floor", "floor listed twice");
+    if (!fs::exists(input.path)) entry.fail("path", "no such file or folder: " + input.path);
+    entry.finish();
+    inputs.push_back(input);
+  }
+  root.finish();
+  if (inputs.empty()) root.fail("floors", "no floors listed");
+  return inputs;
+}
+
+MapJobResult runMapJob(const MapJobOptions& options) {
+  const auto job_start = Clock::now();
+  MapJobResult result;
+  result.output_dir = options.output_dir;
+  const std::string config_dir = options.config_dir.empty() ? defaultConfigDir() : options.config_dir;
+  fs::create_directories(options.output_dir);
+  auto say = [&](const std::string& text) {
+    if (!options.quiet) std::cout << text << std::endl;
+  };
+
+  // 1. Recordings: simulate scenarios first.
+  std::vector<MapInput> inputs = options.inputs;
+  if (inputs.empty()) inputs.push_back({defaultBuilding(config_dir), {}, {}, ""});
+  std::vector<PreparedInput> prepared;
+  std::string ground_truth_dir;
+  std::vector<eval::CorridorSpec> corridors;
+  auto phase_start = Clock::now();
+  for (std::size_t k = 0; k < inputs.size(); ++k) {
+    const MapInput& input = inputs[k];
+    if (!fs::exists(input.path)) throw std::runtime_error(input.path + ": no such file or folder");
+    PreparedInput p;
+    p.floor = input.floor;
+    p.height = input.height;
+    if (isYamlFile(input.path)) {
+      if (inputs.size() > 1) throw std::invalid_argument(input.path + ": a simulated building must be the only input");
+      const sim::Scenario scenario = sim::loadScenario(input.path);
+      say("simulating " + scenario.name + " (seed " + std::to_string(options.seed) + ")");
+      const sim::Simulation run = sim::simulate(scenario, options.seed);
+      const fs::path recording = fs::path(options.output_dir) / "recording";
+      fs::remove_all(recording);
+      fs::create_directories(recording);
+      writeSimulationBag(run, (recording / "bag").string());
+      sim::writeGroundTruth(run, (recording / "ground_truth").string());
+      ground_truth_dir = (recording / "ground_truth").string();
+      corridors = eval::readCorridors((recording / "ground_truth" / "corridors.yaml").string());
+      result.scenario = scenario.name;
+      p.recording = (recording / "bag").string();
+    } else {
+      p.recording = input.path;
+      p.robot = !input.robot.empty() ? input.robot
+                : input.floor         ? "floor" + std::to_string(*input.floor)
+                                      : "robot";
+    }
+    prepared.push_back(p);
+  }
+  result.timings.push_back({"simulate", secondsSince(phase_start)});
+
+  // 2. Robots and which of them need floor detection.
+  std::vector<std::string> robots;
+  std::map<std::string, const PreparedInput*> robot_input;
+  for (const auto& p : prepared) {
+    std::vector<std::string> found;
+    if (isCarmenLog(p.recording)) found = {p.robot};
+    else found = runtime::SensorBagReader(p.recording).robots();
+    if (found.empty()) throw std::runtime_error(p.recording + ": no robot's sensor data found");
+    for (const auto& r : found) {
+      if (robot_input.count(r)) throw std::invalid_argument("robot '" + r + "' appears in two inputs");
+      robots.push_back(r);
+      robot_input[r] = &p;
+    }
+  }
+
+  // 3. The components, all in this process.
+  runtime::ContextOptions context_options;
+  context_options.domain_id = options.domain_id;
+  context_options.participant_name = "storey_map";
+  runtime::Context context(context_options);
+  runtime::ComponentRegistry registry;
+  catalog::registerStoreyComponents(registry);
+  std::vector<std::unique_ptr<runtime::Component>> pipeline;  // in data-flow order
+  graph_server::GraphServer* server = nullptr;
+  const std::string journal = (fs::path(options.output_dir) / "journal.bin").string();
+  fs::remove(journal);
+  for (const auto& robot : robots) {
+    if (!robot_input[robot]->floor) {
+      pipeline.push_back(registry.create("floor_detector", context,
+                                         componentParameters(config_dir, "floor_detector",
+                                                             [&](YAML::Node& n) { n["robot"] = robot; }),
+                                         "floor_detector_" + robot));
+    }
+  }
+  for (const auto& robot : robots) {
+    pipeline.push_back(registry.create("floor_mapper", context,
+                                       componentParameters(config_dir, "floor_mapper",
+                                                           [&](YAML::Node& n) { n["robot"] = robot; }),
+                                       "floor_mapper_" + robot));
+  }
+  pipeline.push_back(registry.create("floor_matcher", context,
+                                     componentParameters(config_dir, "floor_matcher",
+                                                         [&](YAML::Node& n) {
+                                                           if (n["floor_matcher"]) n["floor_matcher"]["seed"] = options.seed;
+                                                         }),
+                                     "floor_matcher"));
+  pipeline.push_back(registry.create("graph_server", context,
+                                     componentParameters(config_dir, "graph_server",
+                                                         [&](YAML::Node& n) { n["journal"] = journal; }),
+                                     "graph_server"));
+  server = dynamic_cast<graph_server::GraphServer*>(pipeline.back().get());
+  for (auto& component : pipeline) component->configure();
+  for (auto& component : pipeline) component->activate();
+
+  // Floors recorded on their own: tell their mappers which floor they are on.
+  std::vector<std::unique_ptr<runtime::Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>>>
+      event_publishers;
+  for (const auto& robot : robots) {
+    const PreparedInput& p = *robot_input[robot];
+    if (!p.floor) continue;
+    event_publishers.push_back(
+        std::make_unique<runtime::Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>>(
+            context, robot + "/floor_events", runtime::TopicKind::kGraph));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery within the process
+  std::size_t event_index = 0;
+  for (const auto& robot : robots) {
+    const PreparedInput& p = *robot_input[robot];
+    if (!p.floor) continue;
+    storey_msgs::msg::FloorEvent event;
+    event.robot(robot);
+    event.kind(storey_msgs::msg::FloorEvent_Constants::KIND_TRANSIT_ENDED);
+    event.floor_id(*p.floor);
+    event.new_floor(true);
+    event.floor_height(p.height.value_or(0.0));
+    event.confidence(1.0);
+    event_publishers[event_index++]->publish(event);
+  }
+  context.executor().drain();
+
+  // 4. Replay every recording. After each message the executor is drained, so every
+  // component has seen everything up to that stamp before the next one: as fast as the
+  // subscribers take it, and the same order every run.
+  phase_start = Clock::now();
+  ReplayOptions replay_options;
+  replay_options.settle_seconds = 0.0;
+  SensorReplayer replayer(context, replay_options);
+  double first_stamp = std::numeric_limits<double>::infinity(), last_stamp = -first_stamp;
+  std::uint64_t messages = 0;
+  for (const auto& p : prepared) {
+    ReplayOptions source_options;
+    source_options.log_robot = p.robot;
+    auto source = openSensorSource(p.recording, source_options);
+    runtime::SensorRecord record;
+    double input_first = std::numeric_limits<double>::infinity(), input_last = -input_first;
+    while (source->next(record)) {
+      replayer.publish(record);
+      context.executor().drain();
+      context.executor().drain();  // what the first drain's tasks published
+      input_first = std::min(input_first, record.stamp);
+      input_last = std::max(input_last, record.stamp);
+      ++messages;
+    }
+    if (input_last > input_first) result.recording_seconds += input_last - input_first;
+    first_stamp = std::min(first_stamp, input_first);
+    last_stamp = std::max(last_stamp, input_last);
+    if (source->skipped()) say(p.recording + ": " + std::to_string(source->skipped()) + " records skipped");
+  }
+  result.timings.push_back({"replay + detection + mapping", secondsSince(phase_start)});
+  say("replayed " + std::to_string(messages) + " messages (" + std::to_string(result.recording_seconds) +
+      " s of recording)");
+
+  // 5. Let every component finish, in data-flow order.
+  phase_start = Clock::now();
+  for (auto& component : pipeline) {
+    context.executor().drain();
+    if (!component->flush(options.flush_timeout))
+      throw std::runtime_error(component->name() + " did not finish within " +
+                               std::to_string(options.flush_timeout) + " s");
+    context.executor().drain();
+  }
+  if (!server->flush(options.flush_timeout)) throw std::runtime_error("graph_server did not finish");
+  result.timings.push_back({"matching + building optimisation", secondsSince(phase_start)});
+
+  // 6. The building.
+  phase_start = Clock::now();
+  auto [graph, solution] = server->snapshot();
+  for (auto it = pipeline.rbegin(); it != pipeline.rend(); ++it) (*it)->shutdown();
+  if (graph.empty()) throw std::runtime_error("no floor graph was built: nothing to write");
+  ReportExtras extras;
+  extras.title = result.scenario.empty() ? "storey building" : "storey building: " + result.scenario;
+  for (const auto& input : inputs) extras.input += (extras.input.empty() ? "" : ", ") + input.path;
+  extras.recording_seconds = result.recording_seconds;
+  if (!ground_truth_dir.empty()) {
+    const auto truth = eval::readTrajectoryCsv((fs::path(ground_truth_dir) / "trajectory.csv").string());
+    result.evaluation = eval::evaluate(trajectoryRows(graph, solution), truth, corridors);
+    result.evaluation_unaligned =
+        eval::evaluate(trajectoryRows(graph, solveWithoutConstraints(graph)), truth, corridors);
+    extras.evaluation = result.evaluation;
+    extras.evaluation_unaligned = result.evaluation_unaligned;
+  }
+  extras.timings = result.timings;
+  result.outputs = writeBuildingOutputs(options.output_dir, graph, solution, options.outputs, extras);
+  result.timings.push_back({"outputs", secondsSince(phase_start)});
+  result.total_seconds = secondsSince(job_start);
+  return result;
+}
+
+}  // namespace storey::tools

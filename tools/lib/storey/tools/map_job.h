@@ -1,0 +1,60 @@
+// The main job, `storey map`: a recording (a bag, a CARMEN log, or a simulator scenario,
+// simulated first) is replayed through all four components running in one process over
+// DDS: floor_detector and floor_mapper per robot, one floor_matcher and one graph_server.
+// When everything is processed the building is written to the output folder.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "storey/eval/metrics.h"
+#include "storey/tools/building_report.h"
+
+namespace storey::tools {
+
+// One input. A floor recorded on its own (as in the paper, or by one robot of a fleet)
+// gives its floor id and height, and then needs no floor detection.
+struct MapInput {
+  std::string path;
+  std::optional<int> floor;
+  std::optional<double> height;
+  std::string robot;  // for CARMEN logs; "" -> "robot" or "floor<k>"
+};
+
+struct MapJobOptions {
+  std::vector<MapInput> inputs;  // empty: the bundled simulated building
+  std::string output_dir = "out";
+  std::uint64_t seed = 1;        // simulator and every component's random choices
+  int domain_id = -1;            // -1: ROS_DOMAIN_ID, else 0
+  std::string config_dir;        // component parameter files; "" -> the shipped config/
+  BuildingOutputOptions outputs;
+  double flush_timeout = 600.0;  // seconds allowed per component to finish its work
+  bool quiet = false;
+};
+
+struct MapJobResult {
+  std::string output_dir;
+  std::string scenario;  // when a simulated building was mapped
+  BuildingOutputSummary outputs;
+  std::optional<eval::Evaluation> evaluation;            // when ground truth is known
+  std::optional<eval::Evaluation> evaluation_unaligned;  // the same without inter-floor constraints
+  std::vector<Timing> timings;
+  double recording_seconds = 0.0;
+  double total_seconds = 0.0;
+};
+
+// The shipped configuration folder (source tree, else the installed copy).
+std::string defaultConfigDir();
+// The bundled simulated building of `storey map` with no input.
+std::string defaultBuilding(const std::string& config_dir);
+
+// Parses "PATH", "PATH@FLOOR" or "PATH@FLOOR:HEIGHT" (floor recorded on its own).
+MapInput parseMapInput(const std::string& text);
+// A YAML list of inputs: `floors: [{path: a.log, floor: 0, height: 0.0}, ...]`; paths are
+// relative to the file. Errors name the file, key and line.
+std::vector<MapInput> readMapInputs(const std::string& yaml_path);
+
+MapJobResult runMapJob(const MapJobOptions& options);
+
+}  // namespace storey::tools
