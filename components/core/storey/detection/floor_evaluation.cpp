@@ -55,28 +55,36 @@ std::vector<TrueTransit> readTrueTransits(const std::string& dir) {
   std::vector<TrueTransit> transits;
   std::string line;
   int number = 0;
+  // Columns by header name: later versions of the file may add columns.
+  std::map<std::string, std::size_t> column;
+  std::size_t width = 0;
   while (std::getline(in, line)) {
     ++number;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) continue;
     const std::string where = str(path, ":", number);
     const auto fields = splitCsv(line);
-    if (number == 1) {
-      if (fields.size() < 6 || fields[0] != "robot") {
-        throw std::runtime_error(str(where, ": expected the header robot,start,end,..."));
+    if (column.empty()) {
+      for (std::size_t i = 0; i < fields.size(); ++i) column[fields[i]] = i;
+      for (const char* name : {"robot", "start", "end", "from_floor", "to_floor", "mode"}) {
+        if (!column.count(name)) {
+          throw std::runtime_error(str(where, ": header lacks the column '", name, "'"));
+        }
       }
+      width = fields.size();
       continue;
     }
-    if (fields.size() != 6) {
-      throw std::runtime_error(str(where, ": expected 6 fields, found ", fields.size()));
+    if (fields.size() != width) {
+      throw std::runtime_error(
+          str(where, ": expected ", width, " fields as in the header, found ", fields.size()));
     }
     TrueTransit t;
-    t.robot = fields[0];
-    t.start = parseNumber(fields[1], where);
-    t.end = parseNumber(fields[2], where);
-    t.from_floor = fields[3];
-    t.to_floor = fields[4];
-    t.mode = fields[5];
+    t.robot = fields[column["robot"]];
+    t.start = parseNumber(fields[column["start"]], where);
+    t.end = parseNumber(fields[column["end"]], where);
+    t.from_floor = fields[column["from_floor"]];
+    t.to_floor = fields[column["to_floor"]];
+    t.mode = fields[column["mode"]];
     for (const auto* id : {&t.from_floor, &t.to_floor}) {
       if (!heights.count(*id)) {
         throw std::runtime_error(str(where, ": floor '", *id, "' is not in ", floors_path));
