@@ -230,7 +230,10 @@ double learnLikelihoodThreshold(const floor::FloorGraph& graph, const FloorMatch
   filter.initializeAround(graph.nodes.front().pose, sigma_xy, sigma_theta, options.learning_particles);
   std::vector<double> values;
   for (std::size_t n = 0; n < graph.nodes.size(); ++n) {
-    if (n > 0) filter.predict(odometryIncrement(graph, static_cast<int>(n)));
+    // Moved by the graph's own relative poses (the mapper knows them): the raw odometry
+    // can jump, e.g. across an elevator ride between two visits of the floor, and a lost
+    // tracker would teach a meaningless l_min.
+    if (n > 0) filter.predict(graph.nodes[n - 1].pose.between(graph.nodes[n].pose));
     const double lt = filter.update(graph.nodes[n].scan);
     if (n % 2 == 1) values.push_back(lt);
     filter.resampleIfNeeded();
@@ -332,6 +335,7 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_
     markAll(pool, CandidateStatus::kTooFew, result.reason);
   } else if (second.size() >= 2 &&
              static_cast<double>(second.size()) >= o.ambiguity_ratio * static_cast<double>(best.size())) {
+    result.ambiguous = true;
     result.reason = common::str("ambiguous: two disjoint consistent sets of ", best.size(), " and ",
                                 second.size(), " candidates");
     markAll(pool, CandidateStatus::kAmbiguous, result.reason);
@@ -403,9 +407,12 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs, const Floo
   parallelFor(static_cast<int>(others.size()), o.threads, [&](int j) {
     first[j] = matchPair(prepared[ref], prepared[others[j]], o, seedFor(ref, others[j]));
   });
+  // A floor that failed for lack of evidence tries the other floors; one that failed as
+  // ambiguous does not: its structure repeats, and other floors of the same building
+  // repeat it too, so a retry would only find a smaller, equally ambiguous set.
   std::vector<int> failed;
   for (std::size_t j = 0; j < others.size(); ++j) {
-    if (!first[j].accepted) failed.push_back(others[j]);
+    if (!first[j].accepted && !first[j].ambiguous) failed.push_back(others[j]);
     result.pairs.push_back(std::move(first[j]));
   }
   // Floors that fail against the reference try the others, most structure first.

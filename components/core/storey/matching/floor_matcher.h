@@ -25,7 +25,8 @@
 //   likelihood field (so it does not depend on the number of beams). l_min for a pair is
 //   likelihood_scale * min(l_min(g_ref), l_min(g_i)), where l_min(g) is the
 //   `likelihood_quantile` quantile (default 0.05, the 5th percentile) of l_t while
-//   tracking g's own scans in g's own map from its first node's pose. That map is
+//   tracking g's own scans in g's own map from its first node's pose (moved by the
+//   graph's relative poses, with the filter's motion noise). That map is
 //   rendered from g's even-indexed nodes and l_t is taken at the odd-indexed ones, so no
 //   scan is scored against a map built from itself (which would make l_min optimistic).
 #pragma once
@@ -133,6 +134,7 @@ struct PairResult {
   int reference_graph_id = 0;
   int graph_id = 0;
   bool accepted = false;
+  bool ambiguous = false;      // two disjoint consistent sets: the floor's structure repeats
   std::string reason;          // why not accepted (or "accepted")
   geometry::Pose2 alignment;   // T_i from all inliers jointly (when accepted)
   double l_min = 0.0;
@@ -170,8 +172,9 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor,
                      const FloorMatcherOptions& options, std::uint64_t seed);
 
 // All floor graphs: the reference is the graph with most structure; every other graph
-// is matched to it (in parallel), and a graph that fails tries the others in order of
-// structure until one accepts.
+// is matched to it (in parallel), and a graph that fails for too few consistent
+// candidates (not one found ambiguous) tries the others in order of structure until one
+// accepts.
 MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs, const FloorMatcherOptions& options);
 
 // Refines an alignment T (g_i frame in g_ref frame) so the scans of the node index

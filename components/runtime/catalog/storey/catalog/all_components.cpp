@@ -5,6 +5,7 @@
 //   registry.add<floor_detector::FloorDetectorComponent>("floor_detector", "...");
 
 #include "storey/floor_detector/floor_detector_component.h"
+#include "storey/floor_matcher/floor_matcher_component.h"
 #include "storey/graph_server/graph_server.h"
 
 namespace storey::catalog {
@@ -12,6 +13,8 @@ namespace storey::catalog {
 void registerStoreyComponents(runtime::ComponentRegistry& registry) {
   registry.add<floor_detector::FloorDetectorComponent>(
       "floor_detector", "floor changes of one robot from pressure (+ IMU, odometry, scan)");
+  registry.add<floor_matcher::FloorMatcherComponent>(
+      "floor_matcher", "inter-floor constraints: global MCL, likelihood gate, RANSAC");
   registry.add<graph_server::GraphServer>(
       "graph_server", "building graph: merges floor graphs and inter-floor constraints, optimises, journals");
 }

@@ -1,0 +1,164 @@
+#include "storey/floor_matcher/floor_matcher_component.h"
+
+#include <chrono>
+#include <vector>
+
+#include "storey/common/log.h"
+#include "storey/floor_matcher/conversions.h"
+
+namespace storey::floor_matcher {
+
+using common::logInfo;
+using common::logWarn;
+using common::str;
+
+FloorMatcherComponentOptions readFloorMatcherComponentOptions(const common::ConfigNode& node) {
+  FloorMatcherComponentOptions o;
+  o.floor_graph_topic = node.get<std::string>("floor_graph_topic", o.floor_graph_topic);
+  o.constraint_topic = node.get<std::string>("constraint_topic", o.constraint_topic);
+  o.min_new_nodes = node.getInt("min_new_nodes", o.min_new_nodes, 1, 1000000);
+  o.min_growth = node.getDouble("min_growth", o.min_growth, 0.0, 100.0);
+  o.min_nodes = node.getInt("min_nodes", o.min_nodes, 1, 1000000);
+  if (node.has("matcher")) o.matcher = matching::readFloorMatcherOptions(node.child("matcher"));
+  node.finish();
+  return o;
+}
+
+FloorMatcherComponent::FloorMatcherComponent(runtime::Context& context, const common::ConfigNode& parameters,
+                                             std::string name)
+    : runtime::Component(context, parameters, std::move(name)) {}
+
+FloorMatcherComponent::~FloorMatcherComponent() { stopWorker(); }
+
+void FloorMatcherComponent::onConfigure() {
+  options_ = readFloorMatcherComponentOptions(parameters());
+  publisher_ = createPublisher<storey_msgs::msg::InterFloorConstraint,
+                               storey_msgs::msg::InterFloorConstraintPubSubType>(
+      options_.constraint_topic, runtime::TopicKind::kGraph);
+  createSubscription<storey_msgs::msg::FloorGraphUpdate, storey_msgs::msg::FloorGraphUpdatePubSubType>(
+      options_.floor_graph_topic, runtime::TopicKind::kGraph,
+      [this](const storey_msgs::msg::FloorGraphUpdate& m) { onUpdate(m); });
+}
+
+void FloorMatcherComponent::onActivate() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = false;
+  }
+  worker_ = std::thread([this] { workerLoop(); });
+}
+
+void FloorMatcherComponent::onDeactivate() { stopWorker(); }
+
+void FloorMatcherComponent::onCleanup() {
+  stopWorker();
+  publisher_.reset();
+}
+
+void FloorMatcherComponent::stopWorker() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  changed_.notify_all();
+  if (worker_.joinable()) worker_.join();
+}
+
+FloorMatcherStats FloorMatcherComponent::stats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stats_;
+}
+
+bool FloorMatcherComponent::grewEnough(const floor::FloorGraph& g) const {
+  const std::size_t now = g.nodes.size();
+  if (now < static_cast<std::size_t>(options_.min_nodes)) return false;
+  auto it = matched_size_.find(g.graph_id);
+  if (it == matched_size_.end()) return true;
+  const std::size_t before = it->second;
+  return now >= before + static_cast<std::size_t>(options_.min_new_nodes) &&
+         static_cast<double>(now) >= (1.0 + options_.min_growth) * static_cast<double>(before);
+}
+
+void FloorMatcherComponent::onUpdate(const storey_msgs::msg::FloorGraphUpdate& message) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  try {
+    applyUpdate(message, &graphs_);  // conversion only: matching runs on the worker
+    ++stats_.updates_accepted;
+  } catch (const std::exception& e) {
+    ++stats_.rejected;
+    logWarn(str(name(), ": update rejected: ", e.what()));
+    return;
+  }
+  if (grewEnough(graphs_.at(static_cast<int>(message.floor_graph_id())))) {
+    pending_ = true;
+    changed_.notify_all();
+  }
+}
+
+void FloorMatcherComponent::workerLoop() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (true) {
+    changed_.wait(lock, [this] { return stop_ || pending_; });
+    if (stop_) return;
+    matchOnce(lock);
+  }
+}
+
+void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
+  pending_ = false;
+  std::vector<floor::FloorGraph> graphs;
+  for (const auto& [id, g] : graphs_)
+    if (g.nodes.size() >= static_cast<std::size_t>(options_.min_nodes)) graphs.push_back(g);
+  if (graphs.size() < 2) return;
+  busy_ = true;
+  for (const auto& g : graphs) matched_size_[g.graph_id] = g.nodes.size();
+  const matching::FloorMatcherOptions matcher = options_.matcher;
+  lock.unlock();
+  matching::MatchResult result;
+  try {
+    result = matching::matchFloors(graphs, matcher);
+  } catch (const std::exception& e) {
+    logWarn(str(name(), ": matching failed: ", e.what()));
+  }
+  std::vector<storey_msgs::msg::InterFloorConstraint> out;
+  lock.lock();
+  ++stats_.matchings;
+  for (const auto& c : result.constraints) {
+    const auto key = std::make_tuple(c.reference_graph_id, c.reference_node_id, c.graph_id, c.node_id);
+    if (!published_.insert(key).second) continue;
+    const matching::PairResult* pair = result.pairFor(c.graph_id);
+    std::uint32_t support = 0;
+    double l_min = 0.0;
+    if (pair) {
+      l_min = pair->l_min;
+      for (const auto& cand : pair->candidates) support += cand.status == matching::CandidateStatus::kAccepted;
+    }
+    out.push_back(toMessage(c, next_constraint_id_++, l_min, support));
+  }
+  stats_.constraints_published += out.size();
+  auto publisher = publisher_;
+  lock.unlock();
+  for (const auto& m : out)
+    if (publisher) publisher->publish(m);
+  if (!out.empty())
+    logInfo(str(name(), ": published ", out.size(), " inter-floor constraints (", result.seconds, " s)"));
+  lock.lock();
+  busy_ = false;
+  changed_.notify_all();
+}
+
+bool FloorMatcherComponent::flush(double timeout_s) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  for (const auto& [id, g] : graphs_) {
+    auto it = matched_size_.find(id);
+    if (g.nodes.size() >= static_cast<std::size_t>(options_.min_nodes) &&
+        (it == matched_size_.end() || it->second != g.nodes.size()))
+      pending_ = true;
+  }
+  if (pending_ && stop_) matchOnce(lock);  // not active: match here
+  changed_.notify_all();
+  return changed_.wait_for(lock, std::chrono::duration<double>(timeout_s),
+                           [this] { return !pending_ && !busy_; });
+}
+
+}  // namespace storey::floor_matcher

@@ -1,0 +1,85 @@
+// The floor_matcher component: subscribes to floor-graph updates, and when a floor graph is
+// new or has grown enough, runs the floor matcher (storey::matching) on a worker thread,
+// never on the DDS callback thread, and publishes each newly accepted inter-floor
+// constraint with its evidence on a reliable, transient-local topic. A constraint once
+// published is not published again (re-matching a grown graph may confirm it).
+#pragma once
+
+#include <condition_variable>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+#include <thread>
+#include <tuple>
+
+#include "storey/common/config.h"
+#include "storey/floor/floor_graph.h"
+#include "storey/matching/floor_matcher.h"
+#include "storey/runtime/component.h"
+#include "storey_msgs/msg/FloorGraphUpdatePubSubTypes.h"
+#include "storey_msgs/msg/InterFloorConstraintPubSubTypes.h"
+
+namespace storey::floor_matcher {
+
+struct FloorMatcherComponentOptions {
+  std::string floor_graph_topic = "storey/floor_graphs";
+  std::string constraint_topic = "storey/inter_floor_constraints";
+  // Re-match when a graph is new or has grown by `min_new_nodes` nodes and by
+  // `min_growth` (fraction of its size at the last matching).
+  int min_new_nodes = 20;
+  double min_growth = 0.2;
+  int min_nodes = 10;  // graphs smaller than this are not matched yet
+  matching::FloorMatcherOptions matcher;
+};
+// Reads the component's parameters; the matcher's options are under `matcher:`.
+FloorMatcherComponentOptions readFloorMatcherComponentOptions(const common::ConfigNode& node);
+
+struct FloorMatcherStats {
+  std::size_t updates_accepted = 0;
+  std::size_t rejected = 0;
+  std::size_t matchings = 0;
+  std::size_t constraints_published = 0;
+};
+
+class FloorMatcherComponent : public runtime::Component {
+ public:
+  FloorMatcherComponent(runtime::Context& context, const common::ConfigNode& parameters, std::string name);
+  ~FloorMatcherComponent() override;
+
+  // Matches whatever has arrived and is not matched yet, then returns once published.
+  bool flush(double timeout_s) override;
+  FloorMatcherStats stats() const;
+
+ protected:
+  void onConfigure() override;
+  void onActivate() override;
+  void onDeactivate() override;
+  void onCleanup() override;
+
+ private:
+  void onUpdate(const storey_msgs::msg::FloorGraphUpdate& message);
+  bool grewEnough(const floor::FloorGraph& graph) const;  // caller holds mutex_
+  void workerLoop();
+  void matchOnce(std::unique_lock<std::mutex>& lock);
+  void stopWorker();
+
+  FloorMatcherComponentOptions options_;
+  std::shared_ptr<runtime::Publisher<storey_msgs::msg::InterFloorConstraint,
+                                     storey_msgs::msg::InterFloorConstraintPubSubType>>
+      publisher_;
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  std::map<int, floor::FloorGraph> graphs_;
+  std::map<int, std::size_t> matched_size_;  // graph id -> nodes at its last matching
+  std::set<std::tuple<int, int, int, int>> published_;
+  std::uint32_t next_constraint_id_ = 0;
+  bool pending_ = false;
+  bool busy_ = false;
+  bool stop_ = true;
+  std::thread worker_;
+  FloorMatcherStats stats_;
+};
+
+}  // namespace storey::floor_matcher

@@ -1,0 +1,138 @@
+// The floor matcher on simulated buildings (every scenario, two seeds) and on real logs:
+// never a wrong constraint; at least three for every floor that shares structure with
+// another; none for a symmetric floor or for two different buildings.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+
+#include "storey/io/carmen.h"
+#include "storey/matching/floor_matcher.h"
+#include "storey/matching/log_floors.h"
+#include "storey/matching/simulated_floors.h"
+#include "storey/sim/scenario.h"
+#include "storey/sim/simulator.h"
+#include "test_support.h"
+
+namespace storey::matching {
+namespace {
+
+constexpr double kWrongTranslation = 0.3;       // metres
+constexpr double kWrongRotation = 2.0 * M_PI / 180.0;
+
+FloorMatcherOptions shippedOptions() {
+  const auto root = common::ConfigNode::loadFile(test::sourceDir() + "/config/floor_matcher.yaml");
+  return readFloorMatcherOptions(root.child("floor_matcher"));
+}
+
+struct Expectation {
+  std::string scenario;
+  bool every_floor = true;  // every floor graph must get >= 3 constraints
+  bool none = false;        // no constraint at all (symmetric)
+};
+
+class SimulatedScenario : public ::testing::TestWithParam<std::tuple<Expectation, int>> {};
+
+TEST_P(SimulatedScenario, NoWrongConstraintAndEnoughRightOnes) {
+  const auto& [expect, seed] = GetParam();
+  const std::string path = test::sourceDir() + "/config/buildings/" + expect.scenario + ".yaml";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "scenario " << path << " is not in the tree yet";
+  const sim::Simulation run = sim::simulate(sim::loadScenario(path), static_cast<std::uint64_t>(seed));
+  SimulatedFloorsOptions so;
+  so.seed = static_cast<std::uint64_t>(seed);
+  const SimulatedFloors floors = floorGraphsFromSimulation(run, so);
+  ASSERT_GE(floors.graphs.size(), 2u) << expect.scenario << " gives fewer than two floor graphs";
+  FloorMatcherOptions options = shippedOptions();
+  options.seed = static_cast<std::uint64_t>(seed);
+  const MatchResult result = matchFloors(floors.graphs, options);
+  std::ostringstream report;
+  printMatchReport(report, result);
+  std::cout << expect.scenario << " seed " << seed << ": " << result.constraints.size()
+            << " constraints, " << result.seconds << " s\n";
+  for (const auto& c : result.constraints) {
+    const ConstraintError e = constraintError(c, floors);
+    EXPECT_LT(e.translation, kWrongTranslation) << "wrong constraint graph " << c.graph_id << " node "
+                                                << c.node_id << "\n" << report.str();
+    EXPECT_LT(e.rotation, kWrongRotation) << report.str();
+  }
+  if (expect.none) {
+    EXPECT_TRUE(result.constraints.empty()) << report.str();
+  }
+  if (expect.every_floor) {
+    for (const auto& g : floors.graphs) {
+      if (g.graph_id == result.reference_graph_id) continue;
+      int count = 0;
+      for (const auto& c : result.constraints) count += c.graph_id == g.graph_id;
+      EXPECT_GE(count, 3) << "graph " << g.graph_id << " (" << g.robot << ", floor " << g.floor_id
+                          << ", " << g.nodes.size() << " nodes)\n" << report.str();
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Buildings, SimulatedScenario,
+    ::testing::Combine(::testing::Values(Expectation{"small2"}, Expectation{"office4"},
+                                         Expectation{"corridors3"}, Expectation{"glass3", false},
+                                         Expectation{"tower10"}, Expectation{"featureless", false},
+                                         Expectation{"symmetric", false, true}, Expectation{"fleet"}),
+                       ::testing::Values(1, 2)),
+    [](const auto& info) {
+      return std::get<0>(info.param).scenario + "_seed" + std::to_string(std::get<1>(info.param));
+    });
+
+// Two halves of one corrected log that cover the same rooms; the second is moved by a known
+// offset and height and gets fresh odometry noise.
+TEST(RealLogs, FreiburgHalvesRecoverTheKnownOffset) {
+  STOREY_REQUIRE_DATA(path, "carmen/freiburg-079-corrected.log.gz");
+  const auto lasers = io::readCarmenLasers(path);
+  const geometry::Pose2 offset(3.0, -2.0, 25.0 * M_PI / 180.0);
+  LogFloorOptions a, b;
+  a.last = lasers.size() / 2;
+  a.seed = 11;
+  b.first = lasers.size() / 2;
+  b.graph_id = b.floor_id = 1;
+  b.floor_height = 3.0;
+  b.frame = offset;
+  b.seed = 12;
+  SimulatedFloors floors;
+  floors.graphs = {floorGraphFromLasers(lasers, a), floorGraphFromLasers(lasers, b)};
+  floors.frames = {geometry::Pose2(), offset};
+  const MatchResult result = matchFloors(floors.graphs, shippedOptions());
+  std::ostringstream report;
+  printMatchReport(report, result);
+  ASSERT_GE(result.constraints.size(), 3u) << report.str();
+  for (const auto& c : result.constraints) {
+    const ConstraintError e = constraintError(c, floors);
+    EXPECT_LT(e.translation, kWrongTranslation) << report.str();
+    EXPECT_LT(e.rotation, kWrongRotation) << report.str();
+    EXPECT_DOUBLE_EQ(std::abs(c.dz), 3.0);
+  }
+  const PairResult* pair = result.pairFor(result.reference_graph_id == 0 ? 1 : 0);
+  ASSERT_TRUE(pair && pair->accepted);
+  const ConstraintError e = alignmentError(pair->alignment, pair->reference_graph_id, pair->graph_id, floors);
+  std::cout << "freiburg-079 halves: alignment error " << e.translation << " m, "
+            << e.rotation * 180.0 / M_PI << " deg from " << result.constraints.size()
+            << " constraints in " << result.seconds << " s\n";
+  EXPECT_LT(e.translation, 0.05);
+  EXPECT_LT(e.rotation, 0.2 * M_PI / 180.0);
+}
+
+TEST(RealLogs, IntelAgainstFreiburgGivesNoConstraint) {
+  STOREY_REQUIRE_DATA(intel, "carmen/intel-corrected.log.gz");
+  STOREY_REQUIRE_DATA(freiburg, "carmen/freiburg-079-corrected.log.gz");
+  LogFloorOptions a, b;
+  a.seed = 21;
+  b.graph_id = b.floor_id = 1;
+  b.floor_height = 3.0;
+  b.seed = 22;
+  std::vector<floor::FloorGraph> graphs{floorGraphFromLasers(io::readCarmenLasers(intel), a),
+                                        floorGraphFromLasers(io::readCarmenLasers(freiburg), b)};
+  const MatchResult result = matchFloors(graphs, shippedOptions());
+  std::ostringstream report;
+  printMatchReport(report, result);
+  EXPECT_TRUE(result.constraints.empty()) << report.str();
+}
+
+}  // namespace
+}  // namespace storey::matching
