@@ -12,6 +12,7 @@
 #include "storey/io/carmen.h"
 #include "storey/runtime/publisher.h"
 #include "storey/runtime/sensor_conversions.h"
+#include "tf2_msgs/msg/TFMessagePubSubTypes.h"
 
 namespace storey::tools {
 namespace fs = std::filesystem;
@@ -131,12 +132,29 @@ SensorReplayer::Publishers& SensorReplayer::publishersFor(const std::string& rob
   return *slot;
 }
 
+void SensorReplayer::publishLaserOffset(const std::string& robot, const sensor::LaserScan& scan) {
+  // LaserScan carries no mounting; as in ROS 2 it goes to tf_static (transient local), once
+  // per robot and whenever it changes.
+  auto known = laser_offsets_.find(robot);
+  if (known != laser_offsets_.end() && known->second.vector() == scan.sensor_offset.vector()) return;
+  laser_offsets_[robot] = scan.sensor_offset;
+  if (!tf_static_)
+    tf_static_ = std::make_unique<runtime::Publisher<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType>>(
+        context_, options_.topic_prefix + "tf_static", runtime::TopicKind::kGraph);
+  tf2_msgs::msg::TFMessage tf;
+  for (const auto& [name, offset] : laser_offsets_)
+    tf.transforms().push_back(runtime::toTransform(offset, scan.stamp, runtime::robotFrame(name, "base_link"),
+                                                   runtime::robotFrame(name, "laser")));
+  tf_static_->publish(tf);
+}
+
 void SensorReplayer::publish(const runtime::SensorRecord& record) {
   Publishers& p = publishersFor(record.robot);
   std::visit(
       [&](const auto& sample) {
         using T = std::decay_t<decltype(sample)>;
         if constexpr (std::is_same_v<T, sensor::LaserScan>) {
+          publishLaserOffset(record.robot, sample);
           p.scan.publish(runtime::toMessage(sample, runtime::robotFrame(record.robot, "laser")));
         } else if constexpr (std::is_same_v<T, sensor::OdometrySample>) {
           p.odom.publish(runtime::toMessage(sample, runtime::robotFrame(record.robot, "odom"),

@@ -1,5 +1,6 @@
 // Replays a recording over DDS: the sensor messages of a rosbag2 bag (every robot), or of
 // a CARMEN log (one robot), published on <robot>/scan, odom, pressure, imu in recorded
+// (laser mountings on tf_static, as ROS 2 does)
 // order, at the recorded rate, a multiple of it, or as fast as possible.
 #pragma once
 
@@ -9,7 +10,10 @@
 #include <memory>
 #include <string>
 
+#include "storey/geometry/pose2.h"
 #include "storey/runtime/context.h"
+#include "storey/runtime/publisher.h"
+#include "tf2_msgs/msg/TFMessagePubSubTypes.h"
 #include "storey/runtime/sensor_bag.h"
 
 namespace storey::tools {
@@ -62,9 +66,12 @@ class SensorReplayer {
  private:
   struct Publishers;
   Publishers& publishersFor(const std::string& robot);
+  void publishLaserOffset(const std::string& robot, const sensor::LaserScan& scan);
   runtime::Context& context_;
   ReplayOptions options_;
   std::map<std::string, std::unique_ptr<Publishers>> publishers_;
+  std::map<std::string, geometry::Pose2> laser_offsets_;
+  std::unique_ptr<runtime::Publisher<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType>> tf_static_;
 };
 
 }  // namespace storey::tools
