@@ -61,6 +61,7 @@ int run_simulate(Args& args) {
              "  bag/            rosbag2 (sqlite3) with /<robot>/scan, odom, pressure, imu\n"
              "  ground_truth/   trajectory.csv, floors.yaml, transits.csv, corridors.yaml\n"
              "  pictures/       floor_<id>.png, overlay_<a>_<b>.png, overlay_all.png\n"
+             "  baseline_odometry/trajectory.csv   dead reckoning, for `storey evaluate`\n"
              "  scenario.yaml   a copy of the scenario file\n"
              "The same scenario and seed give the same output.")
       .option("output", "DIR", "output folder (must not hold a bag already)")
@@ -92,6 +93,7 @@ int run_simulate(Args& args) {
   fs::create_directories(out);
   if (!args.flagSet("no-bag")) writeBag(run, (fs::path(out) / "bag").string());
   sim::writeGroundTruth(run, (fs::path(out) / "ground_truth").string());
+  sim::writeOdometryBaseline(run, (fs::path(out) / "baseline_odometry").string());
   if (!args.flagSet("no-pictures")) sim::writePictures(run.building, (fs::path(out) / "pictures").string());
   fs::copy_file(path, fs::path(out) / "scenario.yaml", fs::copy_options::overwrite_existing);
 

@@ -96,4 +96,45 @@ void writeGroundTruth(const Simulation& simulation, const std::string& dir) {
   }
 }
 
+void writeOdometryBaseline(const Simulation& simulation, const std::string& dir) {
+  namespace fs = std::filesystem;
+  fs::create_directories(dir);
+  struct Row {
+    double stamp;
+    std::size_t robot;
+    int floor;
+    geometry::Pose2 pose;
+    double z;
+  };
+  std::vector<Row> rows;
+  for (std::size_t r = 0; r < simulation.robots.size(); ++r) {
+    const RobotRun& robot = simulation.robots[r];
+    if (robot.truth.empty() || robot.odometry.empty()) continue;
+    const geometry::Pose2 start = robot.truth.front().pose;
+    std::size_t k = 0;
+    for (const auto& truth : robot.truth) {
+      while (k + 1 < robot.odometry.size() && robot.odometry[k + 1].stamp <= truth.stamp) ++k;
+      geometry::Pose2 odom = robot.odometry[k].pose;
+      if (k + 1 < robot.odometry.size() && robot.odometry[k].stamp < truth.stamp) {
+        const auto& a = robot.odometry[k];
+        const auto& b = robot.odometry[k + 1];
+        odom = geometry::interpolate(a.pose, b.pose, (truth.stamp - a.stamp) / (b.stamp - a.stamp));
+      }
+      rows.push_back({truth.stamp, r, truth.floor, start * odom, truth.z});
+    }
+  }
+  std::stable_sort(rows.begin(), rows.end(), [](const Row& a, const Row& b) {
+    return std::tie(a.stamp, a.robot) < std::tie(b.stamp, b.robot);
+  });
+  const fs::path path = fs::path(dir) / "trajectory.csv";
+  auto out = openOut(path);
+  out << "stamp,robot,floor,x,y,theta,z\n";
+  for (const auto& row : rows)
+    out << format("%.6f", row.stamp) << ',' << simulation.robots[row.robot].name << ','
+        << simulation.building.floors[row.floor].id << ',' << format("%.6f", row.pose.x()) << ','
+        << format("%.6f", row.pose.y()) << ',' << format("%.9f", row.pose.theta()) << ','
+        << format("%.6f", row.z) << '\n';
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
 }  // namespace storey::sim

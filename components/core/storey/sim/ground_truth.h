@@ -15,4 +15,9 @@ namespace storey::sim {
 // failure naming the file.
 void writeGroundTruth(const Simulation& simulation, const std::string& dir);
 
+// A dead-reckoning baseline in the same trajectory.csv format: each robot's odometry,
+// interpolated at its scan stamps and placed in the building frame at the true start pose
+// (floor and z copied from the truth). What a mapper must beat; writes <dir>/trajectory.csv.
+void writeOdometryBaseline(const Simulation& simulation, const std::string& dir);
+
 }  // namespace storey::sim

@@ -25,9 +25,11 @@ struct LaserOptions {
 
 struct OdometryOptions {
   double rate = 20.0;
-  double translation_sigma = 0.02;        // relative: sigma per metre driven
-  double rotation_sigma = 0.02;           // relative: sigma per radian turned
-  double rotation_per_metre_sigma = 0.005;  // heading sigma per metre driven
+  // Variances grow with the motion: after d metres driven the translation error has
+  // sigma translation_sigma * sqrt(d), and so on, whatever the odometry rate.
+  double translation_sigma = 0.02;         // m per sqrt(m) driven
+  double rotation_sigma = 0.02;            // rad per sqrt(rad) turned
+  double rotation_per_metre_sigma = 0.01;  // rad per sqrt(m) driven
   double elevator_heading_sigma = 0.0;    // extra heading error per elevator ride, rad
 };
 

@@ -127,9 +127,12 @@ RobotRun simulateRobot(const Scenario& scenario, std::size_t index, std::uint64_
       const geometry::Pose2 delta = previous.between(state.pose);
       const double travelled = delta.translation().norm();
       const double g1 = noise.gaussian(), g2 = noise.gaussian(), g3 = noise.gaussian();
-      const double scale = 1.0 + g1 * o.translation_sigma;
-      double dtheta = delta.theta() + g2 * o.rotation_sigma * std::abs(delta.theta()) +
-                      g3 * o.rotation_per_metre_sigma * travelled;
+      // Variances grow linearly with the motion (sigma with its square root), so the
+      // accumulated error does not depend on the odometry rate.
+      const double error = g1 * o.translation_sigma * std::sqrt(travelled);
+      const double scale = travelled > 0.0 ? 1.0 + error / travelled : 1.0;
+      double dtheta = delta.theta() + g2 * o.rotation_sigma * std::sqrt(std::abs(delta.theta())) +
+                      g3 * o.rotation_per_metre_sigma * std::sqrt(travelled);
       // Turning in a cabin while it moves makes wheel odometry slip.
       while (next_ride < ride_ends.size() && ride_ends[next_ride] <= t) {
         const double error = noise.gaussian() * o.elevator_heading_sigma;
@@ -144,7 +147,7 @@ RobotRun simulateRobot(const Scenario& scenario, std::size_t index, std::uint64_
       sensor::OdometrySample sample;
       sample.stamp = t;
       sample.pose = estimate;
-      sample.linear_velocity = state.v * scale;
+      sample.linear_velocity = state.v;  // velocities are reported without noise
       sample.angular_velocity = state.omega;
       run.odometry.push_back(sample);
       previous = state.pose;
