@@ -282,7 +282,7 @@ void blast(benchmark::State& state, Node& sender, Arrivals& arrivals, const std:
 
 // Ping-pong latency: the echo mirrors ping -> pong in this process or in a child.
 void BM_Latency(benchmark::State& state, bool runtime, bool two_processes) {
-  const int domain = 200 + (runtime ? 0 : 1) + (two_processes ? 2 : 0);
+  const int domain = 180 + (runtime ? 0 : 1) + (two_processes ? 2 : 0);
   Context& context = benchContext(domain);  // also loads the QoS profiles
   Arrivals arrivals;
   std::unique_ptr<EchoProcess> echo_process;
@@ -312,7 +312,7 @@ void BM_Latency(benchmark::State& state, bool runtime, bool two_processes) {
 // Throughput: one sender blasts kThroughputBatch scans; the receiver is in this process or
 // in a child which echoes them back (so the count is taken here).
 void BM_Throughput(benchmark::State& state, bool runtime, bool two_processes) {
-  const int domain = 210 + (runtime ? 0 : 1) + (two_processes ? 2 : 0);
+  const int domain = 190 + (runtime ? 0 : 1) + (two_processes ? 2 : 0);
   Context& context = benchContext(domain);
   Arrivals arrivals;
   std::unique_ptr<EchoProcess> echo_process;

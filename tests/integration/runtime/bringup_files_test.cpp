@@ -2,6 +2,9 @@
 // of its processes comes up (create, configure with strict parameters, activate) and down.
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+
+#include <cstdio>
 #include <filesystem>
 
 #include "storey/catalog/all_components.h"
@@ -33,6 +36,29 @@ TEST(ShippedBringupFiles, EveryFileReadsAndStarts) {
     }
   }
   std::printf("checked %d bringup file(s) in %s\n", files, folder.c_str());
+}
+
+}  // namespace
+}  // namespace storey::runtime
+
+namespace storey::runtime {
+namespace {
+
+// The storey binary end to end: one child process per bringup process, the domain from
+// ROS_DOMAIN_ID, a clean stop after --duration.
+TEST(ShippedBringupFiles, StoreyLaunchRunsAndStops) {
+  const std::string bringup = storey::test::sourceDir() + "/bringup/floor_detector.yaml";
+  const std::string command = "ROS_DOMAIN_ID=131 " + std::string(STOREY_EXECUTABLE) +
+                              " launch " + bringup + " --duration 1.5 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string output;
+  char buffer[256];
+  while (fgets(buffer, sizeof(buffer), pipe)) output += buffer;
+  const int status = pclose(pipe);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << output;
+  EXPECT_NE(output.find("started process 'robot1_floor_detector'"), std::string::npos) << output;
+  EXPECT_NE(output.find("on domain 131"), std::string::npos) << output;
 }
 
 }  // namespace
