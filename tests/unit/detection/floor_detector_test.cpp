@@ -65,6 +65,43 @@ TEST(FloorDetectorOptions, ShippedFileLoadsStrictly) {
   EXPECT_TRUE(o.corroboration.use_imu);
 }
 
+// `storey floors` without --config uses the struct's defaults: they must be the file's.
+TEST(FloorDetectorOptions, DefaultsEqualTheShippedFile) {
+  const FloorDetectorOptions f = shippedOptions();
+  const FloorDetectorOptions d;
+  EXPECT_EQ(f.barometer.temperature_kelvin, d.barometer.temperature_kelvin);
+  EXPECT_EQ(f.barometer.temperature_uncertainty_kelvin, d.barometer.temperature_uncertainty_kelvin);
+  EXPECT_EQ(f.barometer.min_pressure, d.barometer.min_pressure);
+  EXPECT_EQ(f.barometer.max_pressure, d.barometer.max_pressure);
+  EXPECT_EQ(f.barometer.median_window, d.barometer.median_window);
+  EXPECT_EQ(f.barometer.velocity_window, d.barometer.velocity_window);
+  EXPECT_EQ(f.barometer.max_gap, d.barometer.max_gap);
+  EXPECT_EQ(f.barometer.max_drift_rate, d.barometer.max_drift_rate);
+  EXPECT_EQ(f.transit.start_velocity, d.transit.start_velocity);
+  EXPECT_EQ(f.transit.end_velocity, d.transit.end_velocity);
+  EXPECT_EQ(f.transit.min_duration, d.transit.min_duration);
+  EXPECT_EQ(f.transit.min_start_change, d.transit.min_start_change);
+  EXPECT_EQ(f.transit.settle_time, d.transit.settle_time);
+  EXPECT_EQ(f.transit.new_floor_settle_time, d.transit.new_floor_settle_time);
+  EXPECT_EQ(f.transit.reference_window, d.transit.reference_window);
+  EXPECT_EQ(f.floors.storey_height, d.floors.storey_height);
+  EXPECT_EQ(f.floors.min_change_fraction, d.floors.min_change_fraction);
+  EXPECT_EQ(f.floors.match_tolerance, d.floors.match_tolerance);
+  EXPECT_EQ(f.floors.heights, d.floors.heights);
+  EXPECT_EQ(f.floors.initial_floor, d.floors.initial_floor);
+  EXPECT_EQ(f.corroboration.use_imu, d.corroboration.use_imu);
+  EXPECT_EQ(f.corroboration.use_odometry, d.corroboration.use_odometry);
+  EXPECT_EQ(f.corroboration.use_scan, d.corroboration.use_scan);
+  EXPECT_EQ(f.corroboration.elevator_min_speed, d.corroboration.elevator_min_speed);
+  EXPECT_EQ(f.corroboration.stairs_max_speed, d.corroboration.stairs_max_speed);
+  EXPECT_EQ(f.corroboration.stationary_speed, d.corroboration.stationary_speed);
+  EXPECT_EQ(f.corroboration.max_planar_speed, d.corroboration.max_planar_speed);
+  EXPECT_EQ(f.corroboration.static_scan_similarity, d.corroboration.static_scan_similarity);
+  EXPECT_EQ(f.corroboration.moving_scan_similarity, d.corroboration.moving_scan_similarity);
+  EXPECT_EQ(f.corroboration.scan.absolute_tolerance, d.corroboration.scan.absolute_tolerance);
+  EXPECT_EQ(f.corroboration.scan.relative_tolerance, d.corroboration.scan.relative_tolerance);
+}
+
 TEST(FloorDetectorOptions, UnknownKeyAndBadValuesNameTheKey) {
   const std::string path = storey::test::sourceDir() + "/config/floor_detector.yaml";
   std::ifstream in(path);
