@@ -95,6 +95,17 @@ TEST(Bag, WriteThenReadGivesTheSameTopicsAndMessagesInTimeOrder) {
   expectSame(timeOrdered(written), readAll(reader));
 }
 
+TEST(Bag, BagWithoutMetadataYamlIsReadFromItsDatabase) {
+  // What a recorder killed before close() leaves behind.
+  const std::string folder = test::makeTempDir("bag") + "/killed";
+  const auto written = writeSample(folder, 40, 30);
+  fs::remove(folder + "/metadata.yaml");
+  BagReader reader(folder);
+  EXPECT_FALSE(reader.metadata().has_value());
+  EXPECT_EQ(reader.messageCount(), 40u);
+  expectSame(timeOrdered(written), readAll(reader));
+}
+
 TEST(Bag, SummaryCountsAndTimeSpan) {
   const std::string folder = test::makeTempDir("bag") + "/b";
   const auto written = writeSample(folder, 301, 20);
