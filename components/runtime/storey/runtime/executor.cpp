@@ -10,7 +10,12 @@ namespace storey::runtime {
 
 Executor::Executor(int threads) {
   if (threads < 1) throw std::invalid_argument("Executor needs at least one worker thread");
-  for (int i = 0; i < threads; ++i) workers_.emplace_back([this] { workerLoop(); });
+  // The ids are recorded before any task can run (nothing is queued yet), so
+  // onWorkerThread() reads them without a lock.
+  for (int i = 0; i < threads; ++i) {
+    workers_.emplace_back([this] { workerLoop(); });
+    worker_ids_.push_back(workers_.back().get_id());
+  }
   timer_thread_ = std::thread([this] { timerLoop(); });
 }
 
@@ -28,18 +33,20 @@ bool Executor::post(Task task) {
 
 void Executor::invoke(const Task& task) {
   if (onWorkerThread()) return task();
-  std::promise<void> done;
-  std::future<void> result = done.get_future();
-  const bool queued = post([&task, &done] {
+  // The queued task owns the promise: if shutdown() drops it, the future reports
+  // broken_promise instead of waiting forever.
+  auto done = std::make_shared<std::promise<void>>();
+  std::future<void> result = done->get_future();
+  const bool queued = post([&task, done] {
     try {
       task();
-      done.set_value();
+      done->set_value();
     } catch (...) {
-      done.set_exception(std::current_exception());
+      done->set_exception(std::current_exception());
     }
   });
   if (!queued) return task();
-  result.get();  // a shutdown that drops the task throws std::future_error here
+  result.get();
 }
 
 Executor::TimerId Executor::addTimer(double period_s, Task callback) {
@@ -63,9 +70,9 @@ void Executor::cancelTimer(TimerId id) {
 }
 
 void Executor::shutdown() {
+  std::lock_guard<std::mutex> serial(shutdown_mutex_);
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (stopping_ && workers_.empty() && !timer_thread_.joinable()) return;
     stopping_ = true;
     queue_.clear();
     timers_.clear();
@@ -76,7 +83,6 @@ void Executor::shutdown() {
   for (auto& worker : workers_) {
     if (worker.joinable()) worker.join();
   }
-  workers_.clear();
 }
 
 bool Executor::isShutDown() const {
@@ -86,8 +92,7 @@ bool Executor::isShutDown() const {
 
 bool Executor::onWorkerThread() const {
   const auto self = std::this_thread::get_id();
-  return std::any_of(workers_.begin(), workers_.end(),
-                     [&](const std::thread& t) { return t.get_id() == self; });
+  return std::find(worker_ids_.begin(), worker_ids_.end(), self) != worker_ids_.end();
 }
 
 void Executor::drain() {

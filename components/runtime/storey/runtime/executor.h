@@ -68,7 +68,9 @@ class Executor {
   TimerId next_timer_id_ = 1;
   bool stopping_ = false;
   std::vector<std::thread> workers_;
+  std::vector<std::thread::id> worker_ids_;  // fixed after construction
   std::thread timer_thread_;
+  std::mutex shutdown_mutex_;  // serialises shutdown() calls
 };
 
 }  // namespace storey::runtime
