@@ -60,13 +60,14 @@ LocalizationMap::LocalizationMap(const grid::OccupancyGrid& grid,
       }
     }
   }
-}
-
-bool LocalizationMap::isFree(double x, double y) const {
-  const grid::GridFrame& f = frame();
-  const double u = (x - f.origin_x) / f.resolution, v = (y - f.origin_y) / f.resolution;
-  if (!(u >= 0.0 && v >= 0.0 && u < f.width && v < f.height)) return false;
-  return free_mask_[f.index(static_cast<int>(u), static_cast<int>(v))] != 0;
+  const int stride = f.width + 2;
+  padded_.assign(static_cast<std::size_t>(stride) * static_cast<std::size_t>(f.height + 2),
+                 field_.outsideLogLikelihood());
+  const auto& table = field_.logLikelihood().data;
+  for (int cy = 0; cy < f.height; ++cy)
+    std::copy(table.begin() + static_cast<std::ptrdiff_t>(f.index(0, cy)),
+              table.begin() + static_cast<std::ptrdiff_t>(f.index(0, cy)) + f.width,
+              padded_.begin() + static_cast<std::ptrdiff_t>(cy + 1) * stride + 1);
 }
 
 double LocalizationMap::freeArea() const {
@@ -159,35 +160,35 @@ double ParticleFilter::update(const sensor::LaserScan& scan) {
   const std::vector<Eigen::Vector2d> beams = selectBeams(scan, options_.beams);
   const std::size_t nb = beams.size(), n = x_.size();
   if (nb == 0 || n == 0) return 0.0;
-  std::vector<double> bx(nb), by(nb);
+  std::vector<float> bx(nb), by(nb);
   for (std::size_t b = 0; b < nb; ++b) {
-    bx[b] = beams[b].x();
-    by[b] = beams[b].y();
+    bx[b] = static_cast<float>(beams[b].x());
+    by[b] = static_cast<float>(beams[b].y());
   }
-  const grid::LikelihoodField& field = map_.field();
-  const grid::GridFrame& f = field.frame();
-  const float* table = field.logLikelihood().data.data();
-  const double inv_res = 1.0 / f.resolution, ox = f.origin_x, oy = f.origin_y;
-  const double width = f.width, height = f.height;
-  const std::size_t stride = static_cast<std::size_t>(f.width);
-  const double outside = field.outsideLogLikelihood();
+  const grid::GridFrame& f = map_.frame();
+  const float* table = map_.paddedLogLikelihood().data();
+  const int istride = map_.paddedStride();
+  const double inv_res = 1.0 / f.resolution;
+  // Padded cell coordinates: the map's cell c is at c + 1; anything beyond lands on the
+  // border (the outside value) by clamping.
+  const double ox = f.origin_x - f.resolution, oy = f.origin_y - f.resolution;
+  const float max_u = static_cast<float>(f.width + 1), max_v = static_cast<float>(f.height + 1);
   const double inv_nb = 1.0 / static_cast<double>(nb);
   log_w_.resize(n);
   double sum_likelihood = 0.0, max_log = -std::numeric_limits<double>::infinity();
   for (std::size_t j = 0; j < n; ++j) {
     const double c = std::cos(theta_[j]), s = std::sin(theta_[j]);
-    const double px = (x_[j] - ox) * inv_res, py = (y_[j] - oy) * inv_res;
-    const double cr = c * inv_res, sr = s * inv_res;
-    double sum = 0.0;
+    const float px = static_cast<float>((x_[j] - ox) * inv_res);
+    const float py = static_cast<float>((y_[j] - oy) * inv_res);
+    const float cr = static_cast<float>(c * inv_res), sr = static_cast<float>(s * inv_res);
+    float sum = 0.0f;
     for (std::size_t b = 0; b < nb; ++b) {
-      const double u = px + cr * bx[b] - sr * by[b];
-      const double v = py + sr * bx[b] + cr * by[b];
-      if (u >= 0.0 && v >= 0.0 && u < width && v < height)
-        sum += table[static_cast<std::size_t>(v) * stride + static_cast<std::size_t>(u)];
-      else
-        sum += outside;
+      const float u = std::min(std::max(px + cr * bx[b] - sr * by[b], 0.0f), max_u);
+      const float v = std::min(std::max(py + sr * bx[b] + cr * by[b], 0.0f), max_v);
+      // float -> int (not -> size_t, which costs a branchy conversion on x86-64)
+      sum += table[static_cast<int>(v) * istride + static_cast<int>(u)];
     }
-    const double mean_log = sum * inv_nb;
+    const double mean_log = static_cast<double>(sum) * inv_nb;
     sum_likelihood += std::exp(mean_log);
     double lw = std::log(std::max(w_[j], 1e-300)) + options_.effective_beams * mean_log;
     if (!map_.isFree(x_[j], y_[j])) lw += options_.off_free_log_penalty;

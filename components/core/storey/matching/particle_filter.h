@@ -84,7 +84,17 @@ class LocalizationMap {
   const grid::LikelihoodField& field() const { return field_; }
   const grid::GridFrame& frame() const { return field_.frame(); }
   const std::vector<std::uint32_t>& freeCells() const { return free_cells_; }
-  bool isFree(double x, double y) const;
+  bool isFree(double x, double y) const {
+    const grid::GridFrame& f = field_.frame();
+    const double u = (x - f.origin_x) / f.resolution, v = (y - f.origin_y) / f.resolution;
+    if (!(u >= 0.0 && v >= 0.0 && u < f.width && v < f.height)) return false;
+    return free_mask_[static_cast<std::size_t>(v) * static_cast<std::size_t>(f.width) +
+                      static_cast<std::size_t>(u)] != 0;
+  }
+  // log p per cell with a one-cell border holding the outside value, so the sensor update
+  // clamps coordinates instead of branching: cell (cx, cy) is at (cx + 1, cy + 1).
+  const std::vector<float>& paddedLogLikelihood() const { return padded_; }
+  int paddedStride() const { return field_.frame().width + 2; }
   double freeArea() const;  // m^2
   std::size_t occupiedCells() const { return occupied_cells_; }
 
@@ -92,6 +102,7 @@ class LocalizationMap {
   grid::LikelihoodField field_;
   std::vector<std::uint8_t> free_mask_;  // per cell of the field's frame
   std::vector<std::uint32_t> free_cells_;
+  std::vector<float> padded_;
   std::size_t occupied_cells_ = 0;
 };
 
