@@ -23,7 +23,8 @@ int run_optimize(Args& args) {
               "none")
       .option("delta", "D", "robust kernel width (Huber/Cauchy) or DCS Phi", "1")
       .option("iterations", "N", "iteration cap", "100")
-      .option("linear-solver", "cholmod|eigen", "sparse Cholesky backend", "cholmod")
+      .option("linear-solver", "cholmod|cholmod_supernodal|eigen", "sparse Cholesky backend",
+              "cholmod")
       .option("config", "FILE", "optimizer options (YAML); overrides the options above")
       .flag("per-component", "fix the first node of every connected component lacking one")
       .flag("verbose", "log every iteration");
@@ -52,8 +53,9 @@ int run_optimize(Args& args) {
   if (iterations < 1) throw UsageError("--iterations must be at least 1");
   options.max_iterations = static_cast<int>(iterations);
   options.linear_solver = args.get("linear-solver");
-  if (options.linear_solver != "cholmod" && options.linear_solver != "eigen") {
-    throw UsageError("--linear-solver must be cholmod or eigen");
+  if (options.linear_solver != "cholmod" && options.linear_solver != "cholmod_supernodal" &&
+      options.linear_solver != "eigen") {
+    throw UsageError("--linear-solver must be cholmod, cholmod_supernodal or eigen");
   }
   if (args.flagSet("per-component")) options.gauge = graph::GaugeMode::kPerComponent;
   options.verbose = args.flagSet("verbose");

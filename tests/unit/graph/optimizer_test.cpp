@@ -32,7 +32,7 @@ TEST(Optimizer, GaussNewtonAndLevenbergMarquardtAgreeOnBothBackends) {
   const testing::Synthetic s = testing::makeLaps(3, 6, 0.05, 0.02, 11);
   std::vector<PoseGraph> results;
   for (Algorithm algorithm : {Algorithm::kGaussNewton, Algorithm::kLevenbergMarquardt}) {
-    for (const char* backend : {"cholmod", "eigen"}) {
+    for (const char* backend : {"cholmod", "cholmod_supernodal", "eigen"}) {
       PoseGraph g = s.graph;
       OptimizerOptions options;
       options.algorithm = algorithm;

@@ -1,7 +1,8 @@
-// CHOLMOD backend: supernodal Cholesky (simplicial where CHOLMOD judges it cheaper). The
-// fill-reducing ordering is computed by AMD on the block (pose) pattern, which is 9× smaller than
-// the scalar one, and expanded to the scalar variables; the symbolic factor is kept until the next
-// analyze().
+// CHOLMOD backend, simplicial LDLᵀ ("cholmod") or supernodal LLᵀ ("cholmod_supernodal").
+// Simplicial is the default: on intel, manhattan and city10000 it factorised 1.1-2.5× faster
+// than supernodal with Debian's BLAS (docs/optimizer.md). The fill-reducing ordering is AMD
+// on the block (pose) pattern, 9× smaller than the scalar one, expanded to the scalar
+// variables; the symbolic factor is kept until the next analyze().
 #include <cholmod.h>
 
 #include <cstring>
@@ -15,11 +16,9 @@ namespace {
 
 class CholmodSolver : public LinearSolver {
  public:
-  CholmodSolver() {
+  explicit CholmodSolver(bool supernodal) : supernodal_(supernodal) {
     cholmod_start(&common_);
-    // Supernodal (dense BLAS kernels on column groups) wherever CHOLMOD's flop-per-entry
-    // test says it pays; on small, chain-like graphs (intel) simplicial was 2× faster.
-    common_.supernodal = CHOLMOD_AUTO;
+    common_.supernodal = supernodal ? CHOLMOD_SUPERNODAL : CHOLMOD_SIMPLICIAL;
     common_.print = 0;
     common_.error_handler = nullptr;
     started_ = true;
@@ -33,7 +32,7 @@ class CholmodSolver : public LinearSolver {
   CholmodSolver(const CholmodSolver&) = delete;
   CholmodSolver& operator=(const CholmodSolver&) = delete;
 
-  const char* name() const override { return "cholmod"; }
+  const char* name() const override { return supernodal_ ? "cholmod_supernodal" : "cholmod"; }
 
   void analyze(const SparseUpper& matrix) override {
     if (factor_) cholmod_free_factor(&factor_, &common_);
@@ -123,12 +122,15 @@ class CholmodSolver : public LinearSolver {
 
   cholmod_common common_;
   cholmod_factor* factor_ = nullptr;
+  bool supernodal_;
   bool started_ = false;
   int n_ = -1;
 };
 
 }  // namespace
 
-std::unique_ptr<LinearSolver> makeCholmodSolver() { return std::make_unique<CholmodSolver>(); }
+std::unique_ptr<LinearSolver> makeCholmodSolver(bool supernodal) {
+  return std::make_unique<CholmodSolver>(supernodal);
+}
 
 }  // namespace storey::graph

@@ -1,9 +1,9 @@
 // Sparse symmetric positive-definite solvers for the optimiser's normal equations. The
 // matrix is given as its upper triangle in compressed sparse columns; the pattern is
 // analysed once (ordering, symbolic factorisation) and reused for every numeric
-// factorisation until analyze() is called again. Backends: "cholmod" (SuiteSparse
-// CHOLMOD, supernodal; the library stays private to its .cpp) and "eigen" (Eigen's
-// SimplicialLDLT, a dependency-free reference).
+// factorisation until analyze() is called again. Backends: "cholmod" (SuiteSparse CHOLMOD,
+// simplicial LDLᵀ), "cholmod_supernodal" (CHOLMOD supernodal LLᵀ on BLAS) — CHOLMOD stays
+// private to its .cpp — and "eigen" (Eigen's SimplicialLDLT, a dependency-free reference).
 #pragma once
 
 #include <Eigen/Core>
@@ -38,9 +38,9 @@ class LinearSolver {
   virtual void solve(const Eigen::MatrixXd& b, Eigen::MatrixXd* x) = 0;
 };
 
-// "cholmod" or "eigen"; throws std::invalid_argument for any other name.
+// "cholmod", "cholmod_supernodal" or "eigen"; throws std::invalid_argument otherwise.
 std::unique_ptr<LinearSolver> makeLinearSolver(const std::string& name);
-std::unique_ptr<LinearSolver> makeCholmodSolver();
+std::unique_ptr<LinearSolver> makeCholmodSolver(bool supernodal = false);
 std::unique_ptr<LinearSolver> makeEigenSolver();
 
 }  // namespace storey::graph

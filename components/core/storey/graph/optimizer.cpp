@@ -91,7 +91,7 @@ OptimizerOptions readOptimizerOptions(const common::ConfigNode& config) {
   OptimizerOptions o;
   const std::string algorithm = config.getChoice("algorithm", "lm", {"gn", "lm"});
   o.algorithm = algorithm == "gn" ? Algorithm::kGaussNewton : Algorithm::kLevenbergMarquardt;
-  o.linear_solver = config.getChoice("linear_solver", o.linear_solver, {"cholmod", "eigen"});
+  o.linear_solver = config.getChoice("linear_solver", o.linear_solver, {"cholmod", "cholmod_supernodal", "eigen"});
   o.max_iterations = config.getInt("max_iterations", o.max_iterations, 1, 1000000);
   o.relative_chi2_tolerance =
       config.getDouble("relative_chi2_tolerance", o.relative_chi2_tolerance, 0.0, 1.0);

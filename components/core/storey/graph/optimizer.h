@@ -42,7 +42,7 @@ void robustKernel(const RobustKernel& kernel, double s, double* rho, double* wei
 
 struct OptimizerOptions {
   Algorithm algorithm = Algorithm::kLevenbergMarquardt;
-  std::string linear_solver = "cholmod";  // "cholmod" or "eigen"
+  std::string linear_solver = "cholmod";  // "cholmod", "cholmod_supernodal" or "eigen"
   int max_iterations = 100;               // accepted + rejected steps
   // Stop when |Δχ²| / χ² of an accepted step falls below this.
   double relative_chi2_tolerance = 1e-10;
@@ -60,7 +60,7 @@ struct OptimizerOptions {
 
 // Reads, strictly (unknown keys fail), e.g.
 //   algorithm: lm            # gn | lm
-//   linear_solver: cholmod   # cholmod | eigen
+//   linear_solver: cholmod   # cholmod | cholmod_supernodal | eigen
 //   max_iterations: 100
 //   relative_chi2_tolerance: 1e-10
 //   step_tolerance: 1e-10
