@@ -63,8 +63,8 @@ int run_component(Args& args) {
   spec.name = args.get("name");
   spec.parameters_file = args.has("parameters") ? args.get("parameters") : "";
   if (!registry.has(spec.kind)) {
-    throw UsageError("unknown component kind '" + spec.kind + "' (known: " +
-                     registry.kindList() + ")");
+    throw UsageError("unknown component kind '" + spec.kind + "' (known: " + registry.kindList() +
+                     ")");
   }
   runtime::RunOptions options;
   options.domain_id = domain;

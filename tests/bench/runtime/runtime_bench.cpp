@@ -82,8 +82,7 @@ struct Arrivals {
 class RawNode : public fdds::DataReaderListener {
  public:
   // Writes on `out`, reads `in`; `echo` republishes each sample from the listener thread.
-  RawNode(int domain, const std::string& out, const std::string& in, bool echo,
-          Arrivals* arrivals)
+  RawNode(int domain, const std::string& out, const std::string& in, bool echo, Arrivals* arrivals)
       : echo_(echo), arrivals_(arrivals) {
     auto* factory = fdds::DomainParticipantFactory::get_instance();
     participant_ = factory->create_participant(domain, factory->get_default_participant_qos());
@@ -94,14 +93,14 @@ class RawNode : public fdds::DataReaderListener {
     auto* sub = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
     auto* out_topic = participant_->create_topic(Context::ddsTopicName(out), type.get_type_name(),
                                                  fdds::TOPIC_QOS_DEFAULT);
-    auto* in_topic = in == out ? out_topic
-                               : participant_->create_topic(Context::ddsTopicName(in),
-                                                            type.get_type_name(),
-                                                            fdds::TOPIC_QOS_DEFAULT);
+    auto* in_topic =
+        in == out ? out_topic
+                  : participant_->create_topic(Context::ddsTopicName(in), type.get_type_name(),
+                                               fdds::TOPIC_QOS_DEFAULT);
     if (!pub || !sub || !out_topic || !in_topic) throw std::runtime_error("raw: no topic");
     writer_ = pub->create_datawriter_with_profile(out_topic, Context::profileName(g_kind, true));
-    reader_ = sub->create_datareader_with_profile(in_topic, Context::profileName(g_kind, false),
-                                                  this);
+    reader_ =
+        sub->create_datareader_with_profile(in_topic, Context::profileName(g_kind, false), this);
     if (!pub || !sub || !out_topic || !in_topic || !writer_ || !reader_) {
       throw std::runtime_error("raw: cannot create the DDS entities");
     }
@@ -354,8 +353,8 @@ void registerBenchmarks() {
 
 void printRatios() {
   std::printf("\n%-22s %12s %12s %8s\n", "figure", "runtime", "raw DDS", "ratio");
-  for (const char* figure : {"latency_us 1proc", "latency_us 2proc", "msgs_per_s 1proc",
-                             "msgs_per_s 2proc"}) {
+  for (const char* figure :
+       {"latency_us 1proc", "latency_us 2proc", "msgs_per_s 1proc", "msgs_per_s 2proc"}) {
     const auto runtime = g_results.find(std::string(figure) + " runtime");
     const auto raw = g_results.find(std::string(figure) + " raw");
     if (runtime == g_results.end() || raw == g_results.end()) continue;

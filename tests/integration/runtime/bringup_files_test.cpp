@@ -1,7 +1,6 @@
 // Every shipped bringup file reads cleanly against storey's component catalog, and each
 // of its processes comes up (create, configure with strict parameters, activate) and down.
 #include <gtest/gtest.h>
-
 #include <sys/wait.h>
 
 #include <cstdio>
@@ -48,8 +47,8 @@ namespace {
 // ROS_DOMAIN_ID, a clean stop after --duration.
 TEST(ShippedBringupFiles, StoreyLaunchRunsAndStops) {
   const std::string bringup = storey::test::sourceDir() + "/bringup/floor_detector.yaml";
-  const std::string command = "ROS_DOMAIN_ID=131 " + std::string(STOREY_EXECUTABLE) +
-                              " launch " + bringup + " --duration 1.5 2>&1";
+  const std::string command = "ROS_DOMAIN_ID=131 " + std::string(STOREY_EXECUTABLE) + " launch " +
+                              bringup + " --duration 1.5 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   ASSERT_NE(pipe, nullptr);
   std::string output;

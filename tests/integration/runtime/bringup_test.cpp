@@ -1,4 +1,6 @@
 // Bringup files: what a good one gives, and that bad ones fail naming file, key and line.
+#include "storey/runtime/bringup.h"
+
 #include <gtest/gtest.h>
 
 #include <array>
@@ -6,7 +8,6 @@
 #include <filesystem>
 #include <fstream>
 
-#include "storey/runtime/bringup.h"
 #include "test_components.h"
 #include "test_support.h"
 
@@ -45,15 +46,16 @@ class BringupTest : public ::testing::Test {
 };
 
 TEST_F(BringupTest, ReadsProcessesAndResolvesParameterFiles) {
-  const auto path = write("bringup.yaml",
-                          "processes:\n"
-                          "  - name: robot\n"
-                          "    domain_id: 7\n"
-                          "    components:\n"
-                          "      - {kind: test_talker, name: talker, parameters: params/talker.yaml}\n"
-                          "  - name: server\n"
-                          "    components:\n"
-                          "      - {kind: test_listener, name: listener}\n");
+  const auto path =
+      write("bringup.yaml",
+            "processes:\n"
+            "  - name: robot\n"
+            "    domain_id: 7\n"
+            "    components:\n"
+            "      - {kind: test_talker, name: talker, parameters: params/talker.yaml}\n"
+            "  - name: server\n"
+            "    components:\n"
+            "      - {kind: test_listener, name: listener}\n");
   const Bringup bringup = readBringup(path, testRegistry());
   ASSERT_EQ(bringup.processes.size(), 2u);
   EXPECT_EQ(bringup.processes[0].name, "robot");

@@ -1,4 +1,6 @@
 // Components, their lifecycle, the registry and the in-process runner.
+#include "storey/runtime/component.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -7,7 +9,6 @@
 #include <fstream>
 #include <thread>
 
-#include "storey/runtime/component.h"
 #include "storey/runtime/runner.h"
 #include "storey_msgs/msg/FloorEvent.h"
 #include "storey_msgs/msg/FloorEventPubSubTypes.h"
@@ -57,8 +58,8 @@ TEST(RuntimeComponent, LifecycleRunsInOrderAndStopsInReverse) {
     group.stop();
   }
   const std::vector<std::string> expected{
-      "a:construct", "b:construct", "a:configure", "b:configure", "a:activate", "b:activate",
-      "b:deactivate", "a:deactivate", "b:cleanup", "a:cleanup", "b:destroy", "a:destroy"};
+      "a:construct",  "b:construct",  "a:configure", "b:configure", "a:activate", "b:activate",
+      "b:deactivate", "a:deactivate", "b:cleanup",   "a:cleanup",   "b:destroy",  "a:destroy"};
   EXPECT_EQ(test::lifecycleLog(), expected);
 }
 
@@ -180,11 +181,10 @@ TEST(RuntimeComponent, MissingOrBadParameterIsReported) {
 
 TEST(RuntimeComponent, RegistryRefusesDuplicatesAndNamesKnownKinds) {
   auto registry = testRegistry();
-  EXPECT_THROW(registry.add("test_talker",
-                            [](Context&, const common::ConfigNode&, const std::string&) {
-                              return std::unique_ptr<Component>();
-                            }),
-               std::invalid_argument);
+  EXPECT_THROW(
+      registry.add("test_talker", [](Context&, const common::ConfigNode&,
+                                     const std::string&) { return std::unique_ptr<Component>(); }),
+      std::invalid_argument);
   Context context(onDomain(116));
   try {
     registry.create("test_talkr", context, common::ConfigNode::loadString("{}"), "t");
@@ -198,15 +198,16 @@ TEST(RuntimeRunner, RunsUntilAComponentFinishes) {
   const auto dir = storey::test::makeTempDir("runtime_runner");
   const auto out = dir + "/received.txt";
   const auto talker = writeFile(dir, "talker.yaml", "topic: chatter\nrate_hz: 200\n");
-  const auto listener = writeFile(
-      dir, "listener.yaml", "topic: chatter\nfinish_after: 10\noutput_file: " + out + "\n");
+  const auto listener = writeFile(dir, "listener.yaml",
+                                  "topic: chatter\nfinish_after: 10\noutput_file: " + out + "\n");
   RunOptions options;
   options.domain_id = 117;
   options.duration_s = 15;  // safety net; the listener finishes long before
   const auto start = std::chrono::steady_clock::now();
-  EXPECT_EQ(runComponents({{"test_listener", "listener", listener}, {"test_talker", "talker", talker}},
-                          testRegistry(), options),
-            0);
+  EXPECT_EQ(
+      runComponents({{"test_listener", "listener", listener}, {"test_talker", "talker", talker}},
+                    testRegistry(), options),
+      0);
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(10));
   const auto floors = readInts(out);
   ASSERT_GE(floors.size(), 10u);

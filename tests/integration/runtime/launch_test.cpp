@@ -50,10 +50,12 @@ class LaunchTest : public ::testing::Test {
     const std::string d = "    domain_id: " + std::to_string(domain) + "\n";
     return write("bringup.yaml",
                  "processes:\n"
-                 "  - name: talker_process\n" + d +
+                 "  - name: talker_process\n" +
+                     d +
                      "    components:\n"
                      "      - {kind: test_talker, name: talker, parameters: talker.yaml}\n"
-                     "  - name: listener_process\n" + d +
+                     "  - name: listener_process\n" +
+                     d +
                      "    components:\n"
                      "      - {kind: test_listener, name: listener, parameters: listener.yaml}\n" +
                      extra);

@@ -3,8 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
-#include <cstdlib>
 #include <chrono>
+#include <cstdlib>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -20,7 +20,8 @@
 namespace storey::runtime {
 namespace {
 
-using FloorEventPub = Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>;
+using FloorEventPub =
+    Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>;
 using FloorEventSub =
     Subscription<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>;
 using ScanPub = Publisher<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType>;

@@ -25,7 +25,7 @@ void record(const std::string& entry) {
 
 TopicKind readKind(const common::ConfigNode& p) {
   return p.getChoice("qos", "graph", {"sensor", "graph"}) == "sensor" ? TopicKind::kSensor
-                                                                     : TopicKind::kGraph;
+                                                                      : TopicKind::kGraph;
 }
 
 class Talker : public Component {

@@ -48,8 +48,8 @@ Bringup readBringup(const std::string& path, const ComponentRegistry& registry) 
       ComponentSpec spec;
       spec.kind = c.get<std::string>("kind");
       if (!registry.has(spec.kind)) {
-        c.fail("kind", "unknown component kind '" + spec.kind + "' (known: " +
-                           registry.kindList() + ")");
+        c.fail("kind",
+               "unknown component kind '" + spec.kind + "' (known: " + registry.kindList() + ")");
       }
       spec.name = c.get<std::string>("name");
       if (spec.name.empty()) c.fail("name", "must not be empty");

@@ -68,8 +68,8 @@ class Component {
   template <typename MsgT, typename PubSubT>
   std::shared_ptr<Publisher<MsgT, PubSubT>> createPublisher(const std::string& topic,
                                                             TopicKind kind) {
-    auto publisher = std::make_shared<Publisher<MsgT, PubSubT>>(
-        context_, topic, kind, state() == LifecycleState::kActive);
+    auto publisher = std::make_shared<Publisher<MsgT, PubSubT>>(context_, topic, kind,
+                                                                state() == LifecycleState::kActive);
     std::lock_guard<std::mutex> lock(mutex_);
     publishers_.push_back(publisher);
     return publisher;

@@ -112,7 +112,7 @@ fdds::Topic* Context::topicFor(const std::string& name, const TypeFactory& facto
 }
 
 fdds::DataWriter* Context::createWriter(const std::string& name, TopicKind kind,
-                                       const TypeFactory& factory) {
+                                        const TypeFactory& factory) {
   std::lock_guard<std::mutex> lock(mutex_);
   fdds::Topic* topic = topicFor(name, factory);
   const std::string profile = profileName(kind, true);
@@ -122,8 +122,8 @@ fdds::DataWriter* Context::createWriter(const std::string& name, TopicKind kind,
 }
 
 fdds::DataReader* Context::createReader(const std::string& name, TopicKind kind,
-                                       const TypeFactory& factory,
-                                       fdds::DataReaderListener* listener) {
+                                        const TypeFactory& factory,
+                                        fdds::DataReaderListener* listener) {
   std::lock_guard<std::mutex> lock(mutex_);
   fdds::Topic* topic = topicFor(name, factory);
   const std::string profile = profileName(kind, false);

@@ -65,7 +65,8 @@ class Context {
   template <typename PubSubT>
   eprosima::fastdds::dds::DataReader* createReader(const std::string& name, TopicKind kind,
                                                    eprosima::fastdds::dds::DataReaderListener* l) {
-    return createReader(name, kind, [] { return new PubSubT(); }, l);
+    return createReader(
+        name, kind, [] { return new PubSubT(); }, l);
   }
   void deleteWriter(eprosima::fastdds::dds::DataWriter* writer);
   void deleteReader(eprosima::fastdds::dds::DataReader* reader);

@@ -49,8 +49,8 @@ pid_t spawn(const ChildCommand& command, const std::string& bringup_file,
   if (pid == 0) {
     pthread_sigmask(SIG_SETMASK, &child_mask, nullptr);
     execv(command.executable.c_str(), argv.data());
-    const std::string message = "storey launch: cannot execute " + command.executable + ": " +
-                                std::strerror(errno) + "\n";
+    const std::string message =
+        "storey launch: cannot execute " + command.executable + ": " + std::strerror(errno) + "\n";
     (void)!write(2, message.data(), message.size());
     _exit(127);
   }
@@ -83,8 +83,7 @@ void stopAll(std::vector<Child>& children, int signal, double timeout_s) {
   for (const auto& child : children) {
     if (child.running) kill(child.pid, signal);
   }
-  const auto deadline =
-      std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   while (anyRunning(children) && std::chrono::steady_clock::now() < deadline) {
     reap(children);
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -180,8 +179,8 @@ int launchProcesses(const Bringup& bringup, const ChildCommand& command,
     // Stopped by us: exiting 0 or dying of the signal we sent is a clean stop.
     const bool clean = child.ended_on_its_own
                            ? !failed(child.status)
-                           : !failed(child.status) ||
-                                 (WIFSIGNALED(child.status) && WTERMSIG(child.status) == stop_signal);
+                           : !failed(child.status) || (WIFSIGNALED(child.status) &&
+                                                       WTERMSIG(child.status) == stop_signal);
     if (!clean) {
       common::logError(common::str("process '", child.name, "' (pid ", child.pid, ") ",
                                    describeExit(child.status)));

@@ -44,8 +44,8 @@ void ComponentGroup::start() {
     for (i = 0; i < entries_.size(); ++i) entries_[i].component->activate();
   } catch (const std::exception& e) {
     const Entry& failed = entries_[i < entries_.size() ? i : entries_.size() - 1];
-    const std::string message = "component '" + failed.spec.name + "' (" + failed.spec.kind +
-                                "): " + e.what();
+    const std::string message =
+        "component '" + failed.spec.name + "' (" + failed.spec.kind + "): " + e.what();
     stop();
     throw std::runtime_error(message);
   }
@@ -87,8 +87,8 @@ int runComponents(const std::vector<ComponentSpec>& specs, const ComponentRegist
   Context context(context_options);
   ComponentGroup group(context, specs, registry);
   group.start();
-  common::logInfo(common::str("running ", group.size(), " component(s) on domain ",
-                              context.domainId()));
+  common::logInfo(
+      common::str("running ", group.size(), " component(s) on domain ", context.domainId()));
   const auto start = std::chrono::steady_clock::now();
   for (;;) {
     const int signal = blocked.wait(0.05);
@@ -100,8 +100,8 @@ int runComponents(const std::vector<ComponentSpec>& specs, const ComponentRegist
       common::logInfo("a component asked to finish: shutting down");
       break;
     }
-    if (options.duration_s > 0 &&
-        std::chrono::steady_clock::now() - start >= std::chrono::duration<double>(options.duration_s)) {
+    if (options.duration_s > 0 && std::chrono::steady_clock::now() - start >=
+                                      std::chrono::duration<double>(options.duration_s)) {
       break;
     }
   }

@@ -45,8 +45,8 @@ class ComponentGroup {
 };
 
 struct RunOptions {
-  int domain_id = -1;        // see ContextOptions
-  double duration_s = 0.0;   // > 0: stop after this many seconds
+  int domain_id = -1;       // see ContextOptions
+  double duration_s = 0.0;  // > 0: stop after this many seconds
   std::string participant_name = "storey";
   std::string qos_profiles_file;
   int executor_threads = 1;

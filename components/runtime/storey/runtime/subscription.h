@@ -84,8 +84,8 @@ class Subscription : public SubscriptionBase {
       try {
         state->callback(sample);
       } catch (const std::exception& e) {
-        common::logError(common::str("subscription on ", state->topic, ": callback failed: ",
-                                     e.what()));
+        common::logError(
+            common::str("subscription on ", state->topic, ": callback failed: ", e.what()));
       }
     }
   }
