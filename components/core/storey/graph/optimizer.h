@@ -44,8 +44,9 @@ struct OptimizerOptions {
   Algorithm algorithm = Algorithm::kLevenbergMarquardt;
   std::string linear_solver = "cholmod";  // "cholmod", "cholmod_supernodal" or "eigen"
   int max_iterations = 100;               // accepted + rejected steps
-  // Stop when |Δχ²| / χ² of an accepted step falls below this.
-  double relative_chi2_tolerance = 1e-10;
+  // Stop when |Δχ²| / χ² of an accepted step falls below this (Ceres's default function
+  // tolerance; on intel, manhattan and city10000 it stops within 2e-7 of the optimum).
+  double relative_chi2_tolerance = 1e-6;
   // Stop when ‖Δ‖ < step_tolerance · (‖x‖ + step_tolerance).
   double step_tolerance = 1e-10;
   // LM damping: (H + λ·diag(H)) Δ = −b, λ adapted by the gain ratio (Nielsen).
@@ -62,7 +63,7 @@ struct OptimizerOptions {
 //   algorithm: lm            # gn | lm
 //   linear_solver: cholmod   # cholmod | cholmod_supernodal | eigen
 //   max_iterations: 100
-//   relative_chi2_tolerance: 1e-10
+//   relative_chi2_tolerance: 1e-6
 //   step_tolerance: 1e-10
 //   initial_lambda: 1e-5
 //   max_lambda: 1e10
