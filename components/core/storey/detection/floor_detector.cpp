@@ -363,18 +363,22 @@ void FloorDetector::endTransit(int floor_index, bool changed, bool created, doub
     e.log_odds += 1.0 * (1.0 - residual / options_.floors.match_tolerance);
   }
   if (silent_transit_) e.log_odds -= 1.5;  // the ride fell in a gap of the barometer
-  if (peak_speed_ >= c.elevator_min_speed) e.elevator_votes += 1.0;
-  if (peak_speed_ <= c.stairs_max_speed) e.stairs_votes += 1.0;
   // Odometry and scans are judged over the core of the motion (vertical speed above half
-  // its peak), not the padded interval that also holds the boarding.
+  // its peak), not the padded interval that also holds the boarding. The typical speed
+  // there (a median: a noisy peak says little) tells a cabin from stairs.
   double core_start = onset_, core_end = motion_end;
   bool core_found = false;
+  std::vector<double> core_speeds;
   for (const auto& p : transit_velocity_) {
     if (std::abs(p.value) < 0.5 * peak_speed_) continue;
     if (!core_found) core_start = p.t;
     core_end = p.t;
     core_found = true;
+    core_speeds.push_back(std::abs(p.value));
   }
+  const double typical_speed = core_speeds.empty() ? 0.0 : medianOf(core_speeds);
+  if (typical_speed >= c.elevator_min_speed) e.elevator_votes += 1.0;
+  if (typical_speed <= c.stairs_max_speed) e.stairs_votes += 1.0;
   if (c.use_imu) imuEvidence(onset_, motion_end, e);
   if (c.use_odometry) odometryEvidence(core_start, core_end, e);
   if (c.use_scan) scanEvidence(core_start, core_end, e);

@@ -42,8 +42,8 @@ struct CorroborationOptions {
   bool use_imu = true;
   bool use_odometry = true;
   bool use_scan = true;
-  double elevator_min_speed = 0.3;   // m/s peak filtered vertical speed: elevator-like
-  double stairs_max_speed = 0.2;     // m/s peak filtered vertical speed: stairs-like
+  double elevator_min_speed = 0.3;   // m/s typical (median) vertical speed: elevator-like
+  double stairs_max_speed = 0.2;     // m/s typical (median) vertical speed: stairs-like
   double stationary_speed = 0.05;    // m/s mean planar odometry speed: standing still
   double max_planar_speed = 1.0;     // m/s; faster is implausible on stairs or in a cabin
   double static_scan_similarity = 0.8;  // mean similarity above: the walls moved along
