@@ -5,10 +5,13 @@
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <mutex>
 #include <thread>
 #include <vector>
 
+#include "sensor_msgs/msg/FluidPressure.h"
+#include "sensor_msgs/msg/FluidPressurePubSubTypes.h"
 #include "sensor_msgs/msg/LaserScan.h"
 #include "sensor_msgs/msg/LaserScanPubSubTypes.h"
 #include "storey/runtime/context.h"
@@ -211,6 +214,44 @@ TEST(RuntimeContext, MissingQosFileIsNamed) {
   } catch (const DdsError& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/qos.xml"), std::string::npos) << e.what();
   }
+}
+
+}  // namespace
+}  // namespace storey::runtime
+
+namespace storey::runtime {
+namespace {
+
+// The bytes ROS 2 puts on the wire for sensor_msgs/FluidPressure (little-endian CDR:
+// encapsulation header, Time, frame_id string with its NUL, padding to 8, two doubles).
+TEST(RuntimeWire, FluidPressureSerialisesAsRos2Does) {
+  sensor_msgs::msg::FluidPressure message;
+  message.header().stamp().sec(5);
+  message.header().stamp().nanosec(7);
+  message.header().frame_id("b");
+  message.fluid_pressure(101325.0);
+  message.variance(9.0);
+  sensor_msgs::msg::FluidPressurePubSubType type;
+  eprosima::fastrtps::rtps::SerializedPayload_t payload(type.getSerializedSizeProvider(&message)());
+  ASSERT_TRUE(type.serialize(&message, &payload));
+  std::vector<unsigned char> expected = {0x00, 0x01, 0x00, 0x00,  // CDR_LE
+                                         5,    0,    0,    0,     // sec
+                                         7,    0,    0,    0,     // nanosec
+                                         2,    0,    0,    0,     // frame_id length
+                                         'b',  0,    0,    0};    // "b\0" + padding to 8
+  auto append = [&](double value) {
+    unsigned char bytes[8];
+    std::memcpy(bytes, &value, 8);
+    expected.insert(expected.end(), bytes, bytes + 8);
+  };
+  append(101325.0);
+  append(9.0);
+  ASSERT_EQ(payload.length, expected.size());
+  EXPECT_EQ(std::vector<unsigned char>(payload.data, payload.data + payload.length), expected);
+
+  sensor_msgs::msg::FluidPressure back;
+  ASSERT_TRUE(type.deserialize(&payload, &back));
+  EXPECT_EQ(back, message);
 }
 
 }  // namespace
