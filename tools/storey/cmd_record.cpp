@@ -19,15 +19,17 @@ int run_record(Args& args) {
   args.usage("--topics A,B[:TYPE] --output BAG [--duration S]",
              "Subscribes to the topics (ROS 2 names, DDS topics rt/<name>) and writes every\n"
              "message into a new rosbag2 bag folder, stamped with its receive time. A topic's\n"
-             "type is inferred from its last name token (scan, odom, pressure, imu, tf,\n"
-             "tf_static) or given as NAME:TYPE. Stops on SIGINT/SIGTERM, after --duration, or\n"
-             "after --count messages. Types storey can record:" +
+             "type is given as NAME:TYPE, or inferred from its last name token (scan, odom,\n"
+             "pressure, imu, tf, tf_static), or else taken from a discovered publisher. Stops\n"
+             "on SIGINT/SIGTERM, after --duration, or after --count messages. Types storey\n"
+             "can record:" +
                  known)
       .option("topics", "A,B,...", "topics to record (comma-separated)")
       .option("output", "BAG", "bag folder to create (must not exist or be empty)")
       .option("duration", "SECONDS", "stop after this long (0: until stopped)", "0")
       .option("count", "N", "stop after N messages (0: no limit)", "0")
-      .option("domain", "ID", "DDS domain id (-1: ROS_DOMAIN_ID, else 0)", "-1");
+      .option("domain", "ID", "DDS domain id (-1: ROS_DOMAIN_ID, else 0)", "-1")
+      .option("discovery-timeout", "SECONDS", "wait for publishers to tell topic types", "5");
   if (!args.parse()) return 0;
   if (!args.positionals().empty())
     throw UsageError("unexpected argument " + args.positional(0, ""));
@@ -50,6 +52,11 @@ int run_record(Args& args) {
   options.domain_id = static_cast<int>(args.getInt("domain"));
   options.participant_name = "storey_record";
   runtime::Context context(options);
+  try {
+    runtime::resolveTopicTypes(context, topics, args.getDouble("discovery-timeout"));
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--topics: ") + e.what());
+  }
   runtime::BagRecorder recorder(context, args.get("output"), topics);
   common::logInfo(common::str("recording ", topics.size(), " topics on domain ", context.domainId(),
                               " into ", args.get("output")));

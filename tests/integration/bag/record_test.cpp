@@ -10,15 +10,18 @@
 #include "sensor_msgs/msg/FluidPressurePubSubTypes.h"
 #include "sensor_msgs/msg/LaserScanPubSubTypes.h"
 #include "storey/bag/bag_reader.h"
+#include "storey/runtime/bag_recorder.h"
 #include "storey/runtime/context.h"
 #include "storey/runtime/publisher.h"
 #include "storey/runtime/sensor_bag.h"
+#include "storey_msgs/msg/FloorEventPubSubTypes.h"
 #include "test_support.h"
 
 namespace storey::runtime {
 namespace {
 
 constexpr int kDomain = 147;  // distinct from every other DDS test
+constexpr int kDiscoveryDomain = 148;
 
 pid_t spawn(const std::vector<std::string>& argv) {
   const pid_t pid = fork();
@@ -110,11 +113,65 @@ TEST(Record, RecordsMessagesPublishedOverDds) {
   EXPECT_EQ(reader.stats().out_of_order, 0u);
 }
 
+TEST(Record, ParsesTopicListsAndInfersSensorTypes) {
+  const auto topics = parseRecordTopics("/a/scan,b/odom,/c:storey_msgs/msg/FloorEvent,/d,/e/imu");
+  ASSERT_EQ(topics.size(), 5u);
+  EXPECT_EQ(topics[0].type, "sensor_msgs/msg/LaserScan");
+  EXPECT_EQ(topics[1].name, "/b/odom");
+  EXPECT_EQ(topics[1].type, "nav_msgs/msg/Odometry");
+  EXPECT_EQ(topics[2].type, "storey_msgs/msg/FloorEvent");
+  EXPECT_EQ(topics[3].type, "");  // left to discovery
+  EXPECT_EQ(topics[4].type, "sensor_msgs/msg/Imu");
+  EXPECT_THROW(parseRecordTopics("/a:foo_msgs/msg/Bar"), std::invalid_argument);
+  EXPECT_THROW(parseRecordTopics("/a/scan,/a/scan"), std::invalid_argument);
+  EXPECT_THROW(parseRecordTopics(","), std::invalid_argument);
+}
+
+TEST(Record, TakesTheTypeOfAnUntypedTopicFromDiscovery) {
+  const std::string output = test::makeTempDir("record") + "/events";
+  const pid_t pid =
+      spawn({STOREY_COMMAND, "record", "--topics", "/rob2/floor_events", "--output", output,
+             "--count", "3", "--duration", "30", "--domain", std::to_string(kDiscoveryDomain)});
+  ASSERT_GT(pid, 0);
+  {
+    ContextOptions options;
+    options.domain_id = kDiscoveryDomain;
+    Context context(options);
+    Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType> events(
+        context, "/rob2/floor_events", TopicKind::kGraph);
+    ASSERT_TRUE(events.waitForSubscribers(1, 20.0)) << "storey record did not subscribe";
+    for (int i = 0; i < 3; ++i) {
+      storey_msgs::msg::FloorEvent event;
+      event.robot("rob2");
+      event.floor_id(i + 1);
+      event.floor_height(3.0 * (i + 1));
+      EXPECT_TRUE(events.publish(event));
+    }
+    ASSERT_EQ(waitFor(pid, 30.0), 0) << "storey record failed or did not stop";
+  }
+  bag::BagReader bag(output);
+  ASSERT_EQ(bag.topics().size(), 1u);
+  EXPECT_EQ(bag.topics()[0].type, "storey_msgs/msg/FloorEvent");
+  bag::BagMessage message;
+  std::vector<int> floors;
+  while (bag.next(message)) {
+    const auto event = deserializeCdr<storey_msgs::msg::FloorEvent>(message.data);
+    EXPECT_EQ(event.robot(), "rob2");
+    floors.push_back(event.floor_id());
+  }
+  EXPECT_EQ(floors, (std::vector<int>{1, 2, 3}));
+}
+
 TEST(Record, RejectsUnknownTopicTypes) {
   const std::string output = test::makeTempDir("record") + "/bad";
-  const pid_t pid = spawn({STOREY_COMMAND, "record", "--topics", "/x/unknown", "--output", output,
-                           "--duration", "1", "--domain", std::to_string(kDomain)});
+  const pid_t pid = spawn({STOREY_COMMAND, "record", "--topics", "/x:foo_msgs/msg/Bar", "--output",
+                           output, "--duration", "1", "--domain", std::to_string(kDomain)});
   EXPECT_EQ(waitFor(pid, 20.0), 2);  // a usage error
+  // No publisher tells the type of an untyped topic: a usage error after the timeout.
+  const pid_t lonely =
+      spawn({STOREY_COMMAND, "record", "--topics", "/nobody/here", "--output", output + "2",
+             "--discovery-timeout", "0.5", "--domain", std::to_string(kDomain)});
+  EXPECT_EQ(waitFor(lonely, 20.0), 2);
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 #include "storey/runtime/bag_recorder.h"
 
 #include <chrono>
+#include <condition_variable>
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
 #include <functional>
 #include <sstream>
 #include <stdexcept>
@@ -129,14 +131,10 @@ std::vector<RecordTopic> parseRecordTopics(const std::string& list) {
     if (!topic.name.empty() && topic.name.front() != '/') topic.name = "/" + topic.name;
     topic.type =
         colon == std::string::npos ? BagRecorder::inferType(topic.name) : entry.substr(colon + 1);
-    if (topic.name.size() < 2)
+    if (topic.name.size() < 2) {
       throw std::invalid_argument("topic entry '" + entry + "' has no name");
-    if (topic.type.empty()) {
-      throw std::invalid_argument("cannot tell the type of topic '" + topic.name +
-                                  "': write it as " + topic.name + ":<type>, one of " +
-                                  joinedKnownTypes());
     }
-    if (!knownTypeTable().count(topic.type)) {
+    if (!topic.type.empty() && !knownTypeTable().count(topic.type)) {
       throw std::invalid_argument("topic '" + topic.name + "': type '" + topic.type +
                                   "' is not one storey can record; known: " + joinedKnownTypes());
     }
@@ -149,6 +147,73 @@ std::vector<RecordTopic> parseRecordTopics(const std::string& list) {
   }
   if (topics.empty()) throw std::invalid_argument("no topics to record");
   return topics;
+}
+
+namespace {
+
+// Collects the type of every DDS writer discovered, by DDS topic name.
+class WriterTypes : public eprosima::fastdds::dds::DomainParticipantListener {
+ public:
+  void on_publisher_discovery(eprosima::fastdds::dds::DomainParticipant*,
+                              eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) override {
+    if (info.status != eprosima::fastrtps::rtps::WriterDiscoveryInfo::DISCOVERED_WRITER) return;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      types_[info.info.topicName().to_string()] = info.info.typeName().to_string();
+    }
+    changed_.notify_all();
+  }
+
+  // Waits until every name has a type or the deadline passes.
+  std::map<std::string, std::string> waitFor(const std::vector<std::string>& dds_names,
+                                             double timeout_s) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] {
+      for (const std::string& name : dds_names) {
+        if (!types_.count(name)) return false;
+      }
+      return true;
+    });
+    return types_;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::map<std::string, std::string> types_;
+};
+
+}  // namespace
+
+void resolveTopicTypes(Context& context, std::vector<RecordTopic>& topics, double timeout_s) {
+  std::vector<std::string> wanted;
+  for (const RecordTopic& topic : topics) {
+    if (topic.type.empty()) wanted.push_back(Context::ddsTopicName(topic.name));
+  }
+  if (wanted.empty()) return;
+  WriterTypes listener;
+  // Discovery callbacks are not filtered by the status mask.
+  context.participant().set_listener(&listener, eprosima::fastdds::dds::StatusMask::none());
+  const std::map<std::string, std::string> found = listener.waitFor(wanted, timeout_s);
+  context.participant().set_listener(nullptr);
+  std::string missing;
+  for (RecordTopic& topic : topics) {
+    if (!topic.type.empty()) continue;
+    const auto it = found.find(Context::ddsTopicName(topic.name));
+    if (it == found.end()) {
+      missing += (missing.empty() ? "" : ", ") + topic.name;
+      continue;
+    }
+    topic.type = rosTypeName(it->second);
+    if (!knownTypeTable().count(topic.type)) {
+      throw std::invalid_argument("topic '" + topic.name + "' has type '" + topic.type +
+                                  "', which storey cannot record; known: " + joinedKnownTypes());
+    }
+  }
+  if (!missing.empty()) {
+    throw std::invalid_argument("no publisher discovered within " + std::to_string(timeout_s) +
+                                " s to tell the type of " + missing + ": give it as NAME:TYPE");
+  }
 }
 
 BagRecorder::BagRecorder(Context& context, const std::string& output_folder,

@@ -21,10 +21,16 @@ struct RecordTopic {
   std::string type;  // "sensor_msgs/msg/LaserScan"; "" to infer it from the name
 };
 
-// Parses "a,b:pkg/msg/T" into topics; types left empty are inferred from the last name
-// token (scan, odom, pressure, imu, tf, tf_static). Throws std::invalid_argument naming
-// the entry when the type is unknown or cannot be inferred.
+// Parses "a,b:pkg/msg/T" into topics; types not given are inferred from the last name
+// token (scan, odom, pressure, imu, tf, tf_static), else left empty for
+// resolveTopicTypes. Throws std::invalid_argument naming the entry for a type storey
+// cannot record, an empty name or a topic listed twice.
 std::vector<RecordTopic> parseRecordTopics(const std::string& list);
+
+// Fills the empty types from DDS discovery: waits up to timeout_s for a writer on each
+// such topic and takes its type (as `ros2 bag record` does). Throws std::invalid_argument
+// naming the topics still unresolved, or a discovered type storey cannot record.
+void resolveTopicTypes(Context& context, std::vector<RecordTopic>& topics, double timeout_s);
 
 class BagRecorder {
  public:
