@@ -63,7 +63,8 @@ int run_evaluate(Args& args) {
   const std::string result_dir = args.positional(0, "RESULT_DIR");
   std::string truth_dir = args.positional(1, "GROUND_TRUTH_DIR");
   if (args.positionals().size() > 2) throw UsageError("too many arguments (see --help)");
-  if (fs::is_directory(fs::path(truth_dir) / "ground_truth")) truth_dir = (fs::path(truth_dir) / "ground_truth").string();
+  if (fs::is_directory(fs::path(truth_dir) / "ground_truth"))
+    truth_dir = (fs::path(truth_dir) / "ground_truth").string();
 
   eval::EvaluateOptions options;
   options.max_gap = args.getDouble("max-gap");

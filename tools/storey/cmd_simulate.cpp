@@ -44,10 +44,14 @@ void writeBag(const sim::Simulation& run, const std::string& folder) {
       const double ti = i < robot.imu.size() ? robot.imu[i].stamp : kEnd;
       const double next = std::min({ts, to, tp, ti});
       if (next == kEnd) break;
-      if (ts == next) bag.write(robot.name, robot.scans[s++]);
-      else if (to == next) bag.write(robot.name, robot.odometry[o++]);
-      else if (tp == next) bag.write(robot.name, robot.pressure[p++]);
-      else bag.write(robot.name, robot.imu[i++]);
+      if (ts == next)
+        bag.write(robot.name, robot.scans[s++]);
+      else if (to == next)
+        bag.write(robot.name, robot.odometry[o++]);
+      else if (tp == next)
+        bag.write(robot.name, robot.pressure[p++]);
+      else
+        bag.write(robot.name, robot.imu[i++]);
     }
   }
   bag.close();
@@ -94,7 +98,8 @@ int run_simulate(Args& args) {
   if (!args.flagSet("no-bag")) writeBag(run, (fs::path(out) / "bag").string());
   sim::writeGroundTruth(run, (fs::path(out) / "ground_truth").string());
   sim::writeOdometryBaseline(run, (fs::path(out) / "baseline_odometry").string());
-  if (!args.flagSet("no-pictures")) sim::writePictures(run.building, (fs::path(out) / "pictures").string());
+  if (!args.flagSet("no-pictures"))
+    sim::writePictures(run.building, (fs::path(out) / "pictures").string());
   fs::copy_file(path, fs::path(out) / "scenario.yaml", fs::copy_options::overwrite_existing);
 
   std::size_t scans = 0;
@@ -106,11 +111,11 @@ int run_simulate(Args& args) {
                 robot.name.c_str(), robot.scans.size(), robot.odometry.size(),
                 robot.pressure.size(), robot.imu.size(), robot.transits.size());
   }
-  std::printf("%s (seed %llu): %zu robots, %zu floors, %zu scans, %.1f s of robot time "
-              "simulated in %.2f s; written to %s\n",
-              scenario.name.c_str(), static_cast<unsigned long long>(options.seed),
-              run.robots.size(), run.building.floors.size(), scans, robot_time,
-              simulated_seconds, out.c_str());
+  std::printf(
+      "%s (seed %llu): %zu robots, %zu floors, %zu scans, %.1f s of robot time "
+      "simulated in %.2f s; written to %s\n",
+      scenario.name.c_str(), static_cast<unsigned long long>(options.seed), run.robots.size(),
+      run.building.floors.size(), scans, robot_time, simulated_seconds, out.c_str());
   return 0;
 }
 

@@ -44,8 +44,8 @@ void BM_SimulateOneRobotHour(benchmark::State& state) {
   state.counters["scans"] = static_cast<double>(scans);
   state.counters["robot_s_per_s"] =
       benchmark::Counter(robot_seconds * state.iterations(), benchmark::Counter::kIsRate);
-  state.counters["beams_per_s"] =
-      benchmark::Counter(static_cast<double>(beams) * state.iterations(), benchmark::Counter::kIsRate);
+  state.counters["beams_per_s"] = benchmark::Counter(
+      static_cast<double>(beams) * state.iterations(), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_SimulateOneRobotHour)->Unit(benchmark::kMillisecond)->Iterations(3);
 
@@ -58,7 +58,8 @@ void BM_CastRays(benchmark::State& state) {
   std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> rays;
   for (int i = 0; i < 4096; ++i) {
     const double angle = rng.uniform(0.0, 6.283185307179586);
-    rays.push_back({{rng.uniform(1.0, 29.0), rng.uniform(7.3, 8.7)}, {std::cos(angle), std::sin(angle)}});
+    rays.push_back(
+        {{rng.uniform(1.0, 29.0), rng.uniform(7.3, 8.7)}, {std::cos(angle), std::sin(angle)}});
   }
   std::size_t i = 0;
   for (auto _ : state) {

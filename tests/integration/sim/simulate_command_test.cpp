@@ -20,8 +20,8 @@ std::string small2() { return test::sourceDir() + "/config/buildings/small2.yaml
 
 void runSimulate(const std::string& out, int seed) {
   const std::string command = std::string(STOREY_EXECUTABLE) + " simulate " + small2() +
-                              " --output " + out + " --seed " + std::to_string(seed) + " > " +
-                              out + ".log 2>&1";
+                              " --output " + out + " --seed " + std::to_string(seed) + " > " + out +
+                              ".log 2>&1";
   ASSERT_EQ(std::system(command.c_str()), 0) << command;
 }
 

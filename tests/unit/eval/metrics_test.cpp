@@ -20,10 +20,14 @@ std::vector<PoseRow> squareWalk() {
     for (int i = 0; i < 40; ++i) {
       const double s = i / 40.0 * 28.0;  // perimeter 28 m
       double x, y, th;
-      if (s < 10) x = s, y = 0, th = 0;
-      else if (s < 14) x = 10, y = s - 10, th = kPi / 2;
-      else if (s < 24) x = 24 - s, y = 4, th = kPi;
-      else x = 0, y = 28 - s, th = -kPi / 2;
+      if (s < 10)
+        x = s, y = 0, th = 0;
+      else if (s < 14)
+        x = 10, y = s - 10, th = kPi / 2;
+      else if (s < 24)
+        x = 24 - s, y = 4, th = kPi;
+      else
+        x = 0, y = 28 - s, th = -kPi / 2;
       rows.push_back({t, "r", floor, geometry::Pose2(x, y, th), floor[0] == 'A' ? 0.0 : 3.0});
       t += 1.0;
     }
@@ -80,8 +84,8 @@ TEST(Evaluate, OneFloorRotatedShowsUpOnThatFloor) {
   const auto truth = squareWalk();
   // Floor B turned by 2 degrees about its centroid (5, 2): the global fit shares the error,
   // the per-floor residuals must together undo the 2 degrees.
-  const geometry::Pose2 turn = geometry::Pose2(5, 2, 0) * geometry::Pose2(0, 0, 2 * kPi / 180) *
-                               geometry::Pose2(-5, -2, 0);
+  const geometry::Pose2 turn =
+      geometry::Pose2(5, 2, 0) * geometry::Pose2(0, 0, 2 * kPi / 180) * geometry::Pose2(-5, -2, 0);
   const Evaluation e = evaluate(transformed(truth, turn, "B"), truth);
   ASSERT_EQ(e.floors.size(), 2u);
   EXPECT_NEAR(e.floors[0].residual_rotation + e.floors[1].residual_rotation, 2 * kPi / 180, 1e-9);
@@ -153,13 +157,15 @@ TEST(TrajectoryCsv, RoundTripsAndNamesBadCells) {
   EXPECT_NEAR(back[17].pose.theta(), rows[17].pose.theta(), 1e-9);
   EXPECT_EQ(back[45].floor, "B");
   try {
-    parseTrajectoryCsv("stamp,robot,floor,x,y,theta,z\n0,r,A,1,2,0,0\n1,r,A,1,abc,0,0\n", "bad.csv");
+    parseTrajectoryCsv("stamp,robot,floor,x,y,theta,z\n0,r,A,1,2,0,0\n1,r,A,1,abc,0,0\n",
+                       "bad.csv");
     FAIL() << "expected an error";
   } catch (const TrajectoryError& e) {
     EXPECT_STREQ(e.what(), "bad.csv:3: y: expected a finite number, got 'abc'");
   }
   EXPECT_THROW(parseTrajectoryCsv("t,x\n", "h.csv"), TrajectoryError);
-  EXPECT_THROW(parseTrajectoryCsv("stamp,robot,floor,x,y,theta,z\n0,r,A,1,2\n", "c.csv"), TrajectoryError);
+  EXPECT_THROW(parseTrajectoryCsv("stamp,robot,floor,x,y,theta,z\n0,r,A,1,2\n", "c.csv"),
+               TrajectoryError);
 }
 
 }  // namespace

@@ -28,7 +28,8 @@ TEST(RayCaster, HitsAWallAtTheHandComputedDistance) {
 }
 
 TEST(RayCaster, ReturnsTheNearestOfSeveralSegments) {
-  RayCaster caster({{{8.0, -1.0}, {8.0, 1.0}}, {{3.0, -1.0}, {3.0, 1.0}}, {{6.0, -1.0}, {6.0, 1.0}}});
+  RayCaster caster(
+      {{{8.0, -1.0}, {8.0, 1.0}}, {{3.0, -1.0}, {3.0, 1.0}}, {{6.0, -1.0}, {6.0, 1.0}}});
   EXPECT_DOUBLE_EQ(caster.cast({0.0, 0.0}, {1.0, 0.0}, 30.0), 3.0);
   EXPECT_DOUBLE_EQ(caster.cast({4.0, 0.0}, {1.0, 0.0}, 30.0), 2.0);
   EXPECT_DOUBLE_EQ(caster.cast({10.0, 0.5}, {-1.0, 0.0}, 30.0), 2.0);
@@ -40,7 +41,8 @@ TEST(RayCaster, GridAgreesWithBruteForceOnRandomRays) {
   for (int i = 0; i < 300; ++i) {
     const Eigen::Vector2d a(rng.uniform(-20, 20), rng.uniform(-20, 20));
     const double angle = rng.uniform(0, 2 * kPi);
-    segments.push_back({a, a + rng.uniform(0.1, 6.0) * Eigen::Vector2d(std::cos(angle), std::sin(angle))});
+    segments.push_back(
+        {a, a + rng.uniform(0.1, 6.0) * Eigen::Vector2d(std::cos(angle), std::sin(angle))});
   }
   RayCaster caster(segments, 0.7);
   int hits = 0;
@@ -62,7 +64,8 @@ TEST(RayCaster, GridAgreesWithBruteForceOnRandomRays) {
 
 TEST(CastScan, RangesInASquareRoomMatchHandComputation) {
   // A 10 m x 10 m room centred on the origin; the laser sits 0.5 m ahead of the robot.
-  const std::vector<Segment> room = {{{-5, -5}, {5, -5}}, {{5, -5}, {5, 5}}, {{5, 5}, {-5, 5}}, {{-5, 5}, {-5, -5}}};
+  const std::vector<Segment> room = {
+      {{-5, -5}, {5, -5}}, {{5, -5}, {5, 5}}, {{5, 5}, {-5, 5}}, {{-5, 5}, {-5, -5}}};
   LaserOptions laser;
   laser.fov = kPi;  // -90 .. +90 degrees
   laser.beams = 5;  // -90, -45, 0, 45, 90

@@ -83,32 +83,40 @@ TEST(ScenarioErrors, TheBaseScenarioLoads) {
 TEST(ScenarioErrors, DegenerateWall) {
   const std::string text = replaceLine("WALL", "        - {polyline: [[8.0, 0.0], [8.0, 0.01]]}");
   const std::string error = errorOf(text);
-  EXPECT_NE(error.find("test.yaml:" + std::to_string(lineOf(text, "[8.0, 0.01]"))), std::string::npos) << error;
+  EXPECT_NE(error.find("test.yaml:" + std::to_string(lineOf(text, "[8.0, 0.01]"))),
+            std::string::npos)
+      << error;
   EXPECT_NE(error.find("degenerate segment"), std::string::npos) << error;
   EXPECT_NE(error.find("floors[0].walls[1].polyline"), std::string::npos) << error;
 }
 
 TEST(ScenarioErrors, DoorNotOnAWall) {
-  const std::string text = replaceLine("DOOR", "        - {id: d, span: [[9.0, 0.5], [9.0, 1.5]], open: true}");
+  const std::string text =
+      replaceLine("DOOR", "        - {id: d, span: [[9.0, 0.5], [9.0, 1.5]], open: true}");
   const std::string error = errorOf(text);
-  EXPECT_NE(error.find("test.yaml:" + std::to_string(lineOf(text, "[9.0, 0.5]"))), std::string::npos) << error;
+  EXPECT_NE(error.find("test.yaml:" + std::to_string(lineOf(text, "[9.0, 0.5]"))),
+            std::string::npos)
+      << error;
   EXPECT_NE(error.find("does not lie on a wall"), std::string::npos) << error;
 }
 
 TEST(ScenarioErrors, FurnitureThroughAWall) {
-  const std::string text = replaceLine("FURNITURE", "        - {id: table, center: [8.0, 1.8], size: [1.0, 1.0]}");
-  EXPECT_NE(errorOf(text).find("furniture 'table' on floor A overlaps a wall"), std::string::npos) << errorOf(text);
+  const std::string text =
+      replaceLine("FURNITURE", "        - {id: table, center: [8.0, 1.8], size: [1.0, 1.0]}");
+  EXPECT_NE(errorOf(text).find("furniture 'table' on floor A overlaps a wall"), std::string::npos)
+      << errorOf(text);
 }
 
 TEST(ScenarioErrors, FurnitureInsideAShaft) {
-  const std::string text = replaceLine("FURNITURE", "        - {id: table, center: [5.0, 5.0], size: [0.5, 0.5]}");
+  const std::string text =
+      replaceLine("FURNITURE", "        - {id: table, center: [5.0, 5.0], size: [0.5, 0.5]}");
   EXPECT_NE(errorOf(text).find("inside shaft 'E'"), std::string::npos) << errorOf(text);
 }
 
 TEST(ScenarioErrors, WallIntoAShaft) {
-  const std::string text = replaceLine(
-      "WALL",
-      "        - {polyline: [[8.0, 0.0], [8.0, 2.0]]}\n        - {polyline: [[3.0, 5.0], [5.0, 5.0]]}");
+  const std::string text = replaceLine("WALL",
+                                       "        - {polyline: [[8.0, 0.0], [8.0, 2.0]]}\n        - "
+                                       "{polyline: [[3.0, 5.0], [5.0, 5.0]]}");
   EXPECT_NE(errorOf(text).find("runs into shaft 'E'"), std::string::npos) << errorOf(text);
 }
 
@@ -122,14 +130,17 @@ TEST(ScenarioErrors, FloorsOutOfOrder) {
 TEST(ScenarioErrors, UnknownKeyIsNamedWithItsLine) {
   const std::string text = replaceLine("HEIGHT", "      height: 3.0\n      colour: red");
   const std::string error = errorOf(text);
-  EXPECT_NE(error.find("test.yaml:" + std::to_string(lineOf(text, "colour"))), std::string::npos) << error;
+  EXPECT_NE(error.find("test.yaml:" + std::to_string(lineOf(text, "colour"))), std::string::npos)
+      << error;
   EXPECT_NE(error.find("floors[1].colour: unknown key"), std::string::npos) << error;
 }
 
 TEST(ScenarioErrors, WaypointInsideAWall) {
   const std::string text = replaceLine("STEP1", "      - {go: [8.05, 1.8]}");
   const std::string error = errorOf(text);
-  EXPECT_NE(error.find("test.yaml:" + std::to_string(lineOf(text, "[8.05, 1.8]"))), std::string::npos) << error;
+  EXPECT_NE(error.find("test.yaml:" + std::to_string(lineOf(text, "[8.05, 1.8]"))),
+            std::string::npos)
+      << error;
   EXPECT_NE(error.find("mission[0]"), std::string::npos) << error;
   EXPECT_NE(error.find("waypoint (8.05, 1.8)"), std::string::npos) << error;
 }
@@ -163,12 +174,14 @@ TEST(ScenarioErrors, RideToAFloorTheElevatorDoesNotReach) {
 }
 
 TEST(ScenarioErrors, RideInAStairwellOrToAnUnknownFloor) {
-  EXPECT_NE(errorOf(replaceLine("STEP2", "      - {elevator: S, to: B}")).find("'S' is not an elevator"),
-            std::string::npos);
+  EXPECT_NE(
+      errorOf(replaceLine("STEP2", "      - {elevator: S, to: B}")).find("'S' is not an elevator"),
+      std::string::npos);
   EXPECT_NE(errorOf(replaceLine("STEP2", "      - {elevator: E, to: Z}")).find("no floor 'Z'"),
             std::string::npos);
-  EXPECT_NE(errorOf(replaceLine("STEP2", "      - {elevator: E, to: A}")).find("already on floor A"),
-            std::string::npos);
+  EXPECT_NE(
+      errorOf(replaceLine("STEP2", "      - {elevator: E, to: A}")).find("already on floor A"),
+      std::string::npos);
 }
 
 TEST(ScenarioErrors, RobotModelFileMissing) {

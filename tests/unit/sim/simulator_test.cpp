@@ -28,10 +28,12 @@ std::string serialize(const Simulation& run) {
       appendBytes(&out, scan.stamp);
       appendBytes(&out, scan.angle_min);
       appendBytes(&out, scan.angle_increment);
-      out.append(reinterpret_cast<const char*>(scan.ranges.data()), scan.ranges.size() * sizeof(float));
+      out.append(reinterpret_cast<const char*>(scan.ranges.data()),
+                 scan.ranges.size() * sizeof(float));
     }
     for (const auto& o : robot.odometry) {
-      for (double v : {o.stamp, o.pose.x(), o.pose.y(), o.pose.theta(), o.linear_velocity, o.angular_velocity})
+      for (double v :
+           {o.stamp, o.pose.x(), o.pose.y(), o.pose.theta(), o.linear_velocity, o.angular_velocity})
         appendBytes(&out, v);
     }
     for (const auto& p : robot.pressure) {
@@ -94,10 +96,14 @@ TEST_F(Small2, SameSeedGivesIdenticalBytesAndAnotherSeedDoesNot) {
 
 TEST_F(Small2, StreamsAreTimeOrdered) {
   for (const auto& robot : run_->robots) {
-    for (std::size_t i = 1; i < robot.scans.size(); ++i) EXPECT_GT(robot.scans[i].stamp, robot.scans[i - 1].stamp);
-    for (std::size_t i = 1; i < robot.odometry.size(); ++i) EXPECT_GT(robot.odometry[i].stamp, robot.odometry[i - 1].stamp);
-    for (std::size_t i = 1; i < robot.pressure.size(); ++i) EXPECT_GT(robot.pressure[i].stamp, robot.pressure[i - 1].stamp);
-    for (std::size_t i = 1; i < robot.imu.size(); ++i) EXPECT_GT(robot.imu[i].stamp, robot.imu[i - 1].stamp);
+    for (std::size_t i = 1; i < robot.scans.size(); ++i)
+      EXPECT_GT(robot.scans[i].stamp, robot.scans[i - 1].stamp);
+    for (std::size_t i = 1; i < robot.odometry.size(); ++i)
+      EXPECT_GT(robot.odometry[i].stamp, robot.odometry[i - 1].stamp);
+    for (std::size_t i = 1; i < robot.pressure.size(); ++i)
+      EXPECT_GT(robot.pressure[i].stamp, robot.pressure[i - 1].stamp);
+    for (std::size_t i = 1; i < robot.imu.size(); ++i)
+      EXPECT_GT(robot.imu[i].stamp, robot.imu[i - 1].stamp);
   }
 }
 
@@ -114,7 +120,9 @@ TEST_F(Small2, TransitsAreOneElevatorRideUpAndOneStairClimbDown) {
   EXPECT_NEAR(robot.transits[0].end - robot.transits[0].start, 5.5, 1e-9);
   // Truth follows: floor F0 before the ride, F1 between ride and climb, F0 after.
   for (const auto& t : robot.truth) {
-    const int expected = t.stamp < robot.transits[0].end ? 0 : t.stamp < robot.transits[1].end ? 1 : 0;
+    const int expected = t.stamp < robot.transits[0].end   ? 0
+                         : t.stamp < robot.transits[1].end ? 1
+                                                           : 0;
     EXPECT_EQ(t.floor, expected) << "at " << t.stamp;
     if (t.stamp <= robot.transits[0].start) {
       EXPECT_DOUBLE_EQ(t.z, 0.0);
@@ -139,7 +147,9 @@ TEST_F(Small2, PressureFallsAboutTwelvePascalPerMetreUpstairs) {
   ASSERT_GT(n_above, 50);
   const double per_metre = (below / n_below - above / n_above) / 3.5;
   EXPECT_NEAR(per_metre, 12.0, 0.6);
-  EXPECT_NEAR(pressureAt(scenario_->building.atmosphere, 0.0) - pressureAt(scenario_->building.atmosphere, 1.0), 12.0, 0.3);
+  EXPECT_NEAR(pressureAt(scenario_->building.atmosphere, 0.0) -
+                  pressureAt(scenario_->building.atmosphere, 1.0),
+              12.0, 0.3);
   // Weather drift stays within the declared bound.
   EXPECT_LE(std::abs(run_->pressure_drift) * 3600.0, 50.0 + 1e-9);
   (void)down;
@@ -151,8 +161,10 @@ TEST_F(Small2, ImuFeelsGravityAndTheRide) {
   double rest = 0.0, accelerating = 0.0;
   int n_rest = 0, n_acc = 0;
   for (const auto& s : robot.imu) {
-    if (s.stamp < up.start - 0.5 && s.stamp > up.start - 2.0) rest += s.linear_acceleration.z(), ++n_rest;
-    if (s.stamp > up.start + 0.1 && s.stamp < up.start + 1.9) accelerating += s.linear_acceleration.z(), ++n_acc;
+    if (s.stamp < up.start - 0.5 && s.stamp > up.start - 2.0)
+      rest += s.linear_acceleration.z(), ++n_rest;
+    if (s.stamp > up.start + 0.1 && s.stamp < up.start + 1.9)
+      accelerating += s.linear_acceleration.z(), ++n_acc;
   }
   ASSERT_GT(n_rest, 10);
   ASSERT_GT(n_acc, 10);

@@ -80,8 +80,8 @@ std::vector<PosePair> associate(const std::vector<PoseRow>& estimate,
     } else if (before && std::abs(before->stamp - t.stamp) <= stamp_tolerance) {
       pair.estimate = before->pose;
     } else if (before && after && after->stamp - before->stamp <= max_gap) {
-      pair.estimate = geometry::interpolate(before->pose, after->pose,
-                                            (t.stamp - before->stamp) / (after->stamp - before->stamp));
+      pair.estimate = geometry::interpolate(
+          before->pose, after->pose, (t.stamp - before->stamp) / (after->stamp - before->stamp));
     } else {
       ++missing;
       continue;
@@ -112,7 +112,8 @@ geometry::Pose2 alignPoints(const std::vector<Eigen::Vector2d>& from,
     cross += a.x() * b.y() - a.y() * b.x();
   }
   if (std::abs(dot) + std::abs(cross) < 1e-12)
-    throw std::invalid_argument("alignPoints: the points are all the same, the rotation is undefined");
+    throw std::invalid_argument(
+        "alignPoints: the points are all the same, the rotation is undefined");
   const double theta = std::atan2(cross, dot);
   const Eigen::Vector2d t = mean_to - geometry::Pose2(0.0, 0.0, theta).rotation() * mean_from;
   return geometry::Pose2(t.x(), t.y(), theta);
@@ -124,7 +125,8 @@ Evaluation evaluate(const std::vector<PoseRow>& estimate, const std::vector<Pose
   std::vector<PosePair> pairs =
       associate(estimate, truth, options.stamp_tolerance, options.max_gap, &result.unmatched);
   result.matched = pairs.size();
-  if (pairs.size() < 2) throw std::invalid_argument("fewer than two estimated poses match the ground truth stamps");
+  if (pairs.size() < 2)
+    throw std::invalid_argument("fewer than two estimated poses match the ground truth stamps");
 
   std::vector<Eigen::Vector2d> from, to;
   for (const auto& p : pairs) {
@@ -135,7 +137,8 @@ Evaluation evaluate(const std::vector<PoseRow>& estimate, const std::vector<Pose
   for (auto& p : pairs) p.estimate = result.global_alignment * p.estimate;
 
   double sum_sq = 0.0;
-  for (const auto& p : pairs) sum_sq += (p.estimate.translation() - p.truth.translation()).squaredNorm();
+  for (const auto& p : pairs)
+    sum_sq += (p.estimate.translation() - p.truth.translation()).squaredNorm();
   result.ate_rmse = std::sqrt(sum_sq / static_cast<double>(pairs.size()));
 
   // Per floor, in order of first appearance in the ground truth.
@@ -240,13 +243,16 @@ std::string toJson(const Evaluation& e) {
   out << "  \"ate_rmse\": " << jsonNumber(e.ate_rmse) << ",\n  \"floors\": [";
   for (std::size_t i = 0; i < e.floors.size(); ++i) {
     const FloorError& f = e.floors[i];
-    out << (i ? ",\n" : "\n") << "    {\"floor\": " << jsonString(f.floor) << ", \"poses\": " << f.poses
+    out << (i ? ",\n" : "\n") << "    {\"floor\": " << jsonString(f.floor)
+        << ", \"poses\": " << f.poses
         << ", \"alignment_translation\": " << jsonNumber(f.residual_translation)
         << ", \"alignment_rotation\": " << jsonNumber(f.residual_rotation)
         << ", \"alignment_rotation_deg\": " << jsonNumber(f.residual_rotation * 180.0 / kPi)
-        << ", \"residual\": {\"x\": " << jsonNumber(f.residual.x()) << ", \"y\": "
-        << jsonNumber(f.residual.y()) << ", \"theta\": " << jsonNumber(f.residual.theta())
-        << "}, \"ate_rmse\": " << jsonNumber(f.ate_rmse) << ", \"ate_mean\": " << jsonNumber(f.ate_mean)
+        << ", \"residual\": {\"x\": " << jsonNumber(f.residual.x())
+        << ", \"y\": " << jsonNumber(f.residual.y())
+        << ", \"theta\": " << jsonNumber(f.residual.theta())
+        << "}, \"ate_rmse\": " << jsonNumber(f.ate_rmse)
+        << ", \"ate_mean\": " << jsonNumber(f.ate_mean)
         << ", \"ate_max\": " << jsonNumber(f.ate_max) << "}";
   }
   out << "\n  ],\n  \"relations\": [";
@@ -261,11 +267,13 @@ std::string toJson(const Evaluation& e) {
   out << "\n  ],\n  \"corridors\": [";
   for (std::size_t i = 0; i < e.corridors.size(); ++i) {
     const CorridorError& c = e.corridors[i];
-    out << (i ? ",\n" : "\n") << "    {\"name\": " << jsonString(c.name) << ", \"floor\": "
-        << jsonString(c.floor) << ", \"measured\": " << (c.measured ? "true" : "false");
+    out << (i ? ",\n" : "\n") << "    {\"name\": " << jsonString(c.name)
+        << ", \"floor\": " << jsonString(c.floor)
+        << ", \"measured\": " << (c.measured ? "true" : "false");
     if (c.measured)
-      out << ", \"stamp_from\": " << jsonNumber(c.stamp_from) << ", \"stamp_to\": "
-          << jsonNumber(c.stamp_to) << ", \"true_length\": " << jsonNumber(c.true_length)
+      out << ", \"stamp_from\": " << jsonNumber(c.stamp_from)
+          << ", \"stamp_to\": " << jsonNumber(c.stamp_to)
+          << ", \"true_length\": " << jsonNumber(c.true_length)
           << ", \"estimated_length\": " << jsonNumber(c.estimated_length)
           << ", \"ratio\": " << jsonNumber(c.ratio);
     out << "}";
@@ -280,7 +288,8 @@ std::string toTable(const Evaluation& e) {
       << fixed(e.global_alignment.x(), 3) << " m, " << fixed(e.global_alignment.y(), 3) << " m, "
       << fixed(e.global_alignment.theta() * 180.0 / kPi, 3) << " deg); ATE RMSE "
       << fixed(e.ate_rmse, 3) << " m\n\n";
-  out << "floor        poses   align.trans[m]  align.rot[deg]  ATE.rmse[m]  ATE.mean[m]  ATE.max[m]\n";
+  out << "floor        poses   align.trans[m]  align.rot[deg]  ATE.rmse[m]  ATE.mean[m]  "
+         "ATE.max[m]\n";
   for (const auto& f : e.floors) {
     char line[256];
     std::snprintf(line, sizeof(line), "%-12s %5zu %16.3f %15.3f %12.3f %12.3f %11.3f\n",
@@ -291,8 +300,8 @@ std::string toTable(const Evaluation& e) {
   out << "\nrelations  count   trans.mean[m]  trans.std[m]  rot.mean[deg]  rot.std[deg]\n";
   for (const auto& r : e.relations) {
     char line[256];
-    std::snprintf(line, sizeof(line), "step %-5d %5zu %15.4f %13.4f %14.4f %13.4f\n", r.step, r.count,
-                  r.translation_mean, r.translation_std, r.rotation_mean * 180.0 / kPi,
+    std::snprintf(line, sizeof(line), "step %-5d %5zu %15.4f %13.4f %14.4f %13.4f\n", r.step,
+                  r.count, r.translation_mean, r.translation_std, r.rotation_mean * 180.0 / kPi,
                   r.rotation_std * 180.0 / kPi);
     out << line;
   }
@@ -304,7 +313,8 @@ std::string toTable(const Evaluation& e) {
         std::snprintf(line, sizeof(line), "%-20s %-12s %7.2f %14.2f %7.3f\n", c.name.c_str(),
                       c.floor.c_str(), c.true_length, c.estimated_length, c.ratio);
       else
-        std::snprintf(line, sizeof(line), "%-20s %-12s not measured (trajectory never near both ends)\n",
+        std::snprintf(line, sizeof(line),
+                      "%-20s %-12s not measured (trajectory never near both ends)\n",
                       c.name.c_str(), c.floor.c_str());
       out << line;
     }

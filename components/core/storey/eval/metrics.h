@@ -38,7 +38,7 @@ geometry::Pose2 alignPoints(const std::vector<Eigen::Vector2d>& from,
 struct FloorError {
   std::string floor;
   std::size_t poses = 0;
-  geometry::Pose2 residual;           // best map of this floor's (globally aligned) estimate onto truth
+  geometry::Pose2 residual;  // best map of this floor's (globally aligned) estimate onto truth
   double residual_translation = 0.0;  // how far it moves the floor's centroid, m
   double residual_rotation = 0.0;     // |angle|, rad
   double ate_rmse = 0.0;              // after the global alignment, m
@@ -64,17 +64,18 @@ struct CorridorSpec {
 struct CorridorError {
   std::string name;
   std::string floor;
-  bool measured = false;          // false when the robot never came near both ends
+  bool measured = false;                    // false when the robot never came near both ends
   double stamp_from = 0.0, stamp_to = 0.0;  // the nearest true poses to the two points
   double true_length = 0.0, estimated_length = 0.0;
-  double ratio = 0.0;             // estimated / true
+  double ratio = 0.0;  // estimated / true
 };
 
 struct EvaluateOptions {
   double stamp_tolerance = 1e-3;
   double max_gap = 1.0;
   std::vector<int> relation_steps = {1, 10};
-  double corridor_max_distance = 2.0;  // an end point farther than this from the trajectory is not measured
+  double corridor_max_distance =
+      2.0;  // an end point farther than this from the trajectory is not measured
 };
 
 struct Evaluation {

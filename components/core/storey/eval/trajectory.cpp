@@ -45,7 +45,8 @@ std::vector<PoseRow> parseTrajectoryCsv(const std::string& text, const std::stri
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty() || line[0] == '#') continue;
     if (!header) {
-      if (line != kHeader) fail(name, number_of_line, "", std::string("expected the header '") + kHeader + "'");
+      if (line != kHeader)
+        fail(name, number_of_line, "", std::string("expected the header '") + kHeader + "'");
       header = true;
       continue;
     }
@@ -68,7 +69,9 @@ std::vector<PoseRow> parseTrajectoryCsv(const std::string& text, const std::stri
     row.z = number(fields[6], name, number_of_line, kColumns[6]);
     rows.push_back(row);
   }
-  if (!header) fail(name, number_of_line, "", std::string("empty table: expected the header '") + kHeader + "'");
+  if (!header)
+    fail(name, number_of_line, "",
+         std::string("empty table: expected the header '") + kHeader + "'");
   return rows;
 }
 

@@ -46,8 +46,8 @@ std::vector<std::string> readStrings(const common::ConfigNode& node, const std::
 void checkSegment(const common::ConfigNode& node, const std::string& key, const Segment& s) {
   if (s.length() < kMinSegmentLength) {
     std::ostringstream out;
-    out << "degenerate segment from (" << s.a.x() << ", " << s.a.y() << ") to (" << s.b.x()
-        << ", " << s.b.y() << "): shorter than " << kMinSegmentLength << " m";
+    out << "degenerate segment from (" << s.a.x() << ", " << s.a.y() << ") to (" << s.b.x() << ", "
+        << s.b.y() << "): shorter than " << kMinSegmentLength << " m";
     node.fail(key, out.str());
   }
 }
@@ -98,7 +98,8 @@ Furniture readFurniture(const common::ConfigNode& node) {
   item.id = node.get<std::string>("id", "");
   item.center = readPoint(node, "center");
   item.size = readPoint(node, "size");
-  if (item.size.minCoeff() < kMinSegmentLength) node.fail("size", "furniture must be at least 0.05 m");
+  if (item.size.minCoeff() < kMinSegmentLength)
+    node.fail("size", "furniture must be at least 0.05 m");
   item.yaw = node.getDouble("yaw_deg", 0.0, -360.0, 360.0) * kPi / 180.0;
   node.finish();
   return item;
@@ -117,15 +118,15 @@ Shaft readShaft(const common::ConfigNode& node) {
   shaft.origin = originOf(node);
   shaft.id = node.get<std::string>("id");
   shaft.kind = node.getChoice("kind", {"elevator", "stairs"}) == "elevator" ? ShaftKind::kElevator
-                                                                              : ShaftKind::kStairs;
+                                                                            : ShaftKind::kStairs;
   shaft.center = readPoint(node, "center");
   shaft.size = readPoint(node, "size");
   if (shaft.size.minCoeff() < 1.0) node.fail("size", "a shaft must be at least 1 m wide");
   shaft.door_side = readSide(node, "door_side");
   shaft.door_width = node.getDouble("door_width", 1.0, 0.6, 5.0);
-  const double side_length =
-      (shaft.door_side == Side::kNorth || shaft.door_side == Side::kSouth) ? shaft.size.x()
-                                                                           : shaft.size.y();
+  const double side_length = (shaft.door_side == Side::kNorth || shaft.door_side == Side::kSouth)
+                                 ? shaft.size.x()
+                                 : shaft.size.y();
   if (shaft.door_width > side_length - 0.1)
     node.fail("door_width", "the door is wider than the shaft side it is on");
   if (node.has("floors")) shaft.floors = readStrings(node, "floors");
@@ -194,7 +195,8 @@ void validateFloor(const Building& building, const Floor& floor) {
         if (doorInterval(segment, door.span, &t0, &t1)) on_wall = true;
       }
     if (!on_wall)
-      failAt(door.origin, "door '" + door.id + "' on floor " + floor.id + " does not lie on a wall");
+      failAt(door.origin,
+             "door '" + door.id + "' on floor " + floor.id + " does not lie on a wall");
   }
   for (const auto& item : floor.furniture) {
     const geometry::Pose2 pose(item.center.x(), item.center.y(), item.yaw);
@@ -206,7 +208,8 @@ void validateFloor(const Building& building, const Floor& floor) {
       bool overlaps = inside(wall.a) || inside(wall.b);
       for (const auto& edge : item.outline()) overlaps = overlaps || segmentsCross(edge, wall);
       if (overlaps)
-        failAt(item.origin, "furniture '" + item.id + "' on floor " + floor.id + " overlaps a wall");
+        failAt(item.origin,
+               "furniture '" + item.id + "' on floor " + floor.id + " overlaps a wall");
     }
   }
   for (std::size_t i = 0; i < floor.furniture.size(); ++i)
@@ -215,8 +218,8 @@ void validateFloor(const Building& building, const Floor& floor) {
         for (const auto& e2 : floor.furniture[j].outline())
           if (segmentsCross(e1, e2))
             failAt(floor.furniture[j].origin, "furniture '" + floor.furniture[j].id +
-                                                  "' overlaps furniture '" +
-                                                  floor.furniture[i].id + "' on floor " + floor.id);
+                                                  "' overlaps furniture '" + floor.furniture[i].id +
+                                                  "' on floor " + floor.id);
   for (const auto& shaft : building.shafts) {
     if (!shaft.serves(floor.id)) continue;
     for (const auto& wall : walls) {
@@ -250,10 +253,9 @@ std::string Origin::describe() const {
 std::vector<Segment> Furniture::outline() const {
   const geometry::Pose2 pose(center.x(), center.y(), yaw);
   const Eigen::Vector2d h = size / 2.0;
-  const Eigen::Vector2d c[4] = {pose.transformPoint({-h.x(), -h.y()}),
-                                pose.transformPoint({h.x(), -h.y()}),
-                                pose.transformPoint({h.x(), h.y()}),
-                                pose.transformPoint({-h.x(), h.y()})};
+  const Eigen::Vector2d c[4] = {
+      pose.transformPoint({-h.x(), -h.y()}), pose.transformPoint({h.x(), -h.y()}),
+      pose.transformPoint({h.x(), h.y()}), pose.transformPoint({-h.x(), h.y()})};
   return {{c[0], c[1]}, {c[1], c[2]}, {c[2], c[3]}, {c[3], c[0]}};
 }
 
@@ -294,8 +296,8 @@ std::vector<Segment> Shaft::wallsWithGap() const {
   const Eigen::Vector2d ne = center + Eigen::Vector2d(h.x(), h.y());
   const Eigen::Vector2d nw = center + Eigen::Vector2d(-h.x(), h.y());
   std::vector<Segment> sides = {{sw, se}, {se, ne}, {ne, nw}, {nw, sw}};
-  const int door_index = door_side == Side::kSouth ? 0
-                         : door_side == Side::kEast ? 1
+  const int door_index = door_side == Side::kSouth   ? 0
+                         : door_side == Side::kEast  ? 1
                          : door_side == Side::kNorth ? 2
                                                      : 3;
   std::vector<Segment> result;
@@ -368,7 +370,8 @@ Building readBuilding(const common::ConfigNode& node) {
   if (node.has("shafts"))
     for (const auto& element : node.sequence("shafts")) {
       Shaft shaft = readShaft(element);
-      if (building.shaftIndex(shaft.id) >= 0) element.fail("id", "duplicate shaft id '" + shaft.id + "'");
+      if (building.shaftIndex(shaft.id) >= 0)
+        element.fail("id", "duplicate shaft id '" + shaft.id + "'");
       building.shafts.push_back(std::move(shaft));
     }
 
@@ -376,7 +379,8 @@ Building readBuilding(const common::ConfigNode& node) {
     Floor floor;
     floor.origin = originOf(element);
     floor.id = element.get<std::string>("id");
-    if (building.floorIndex(floor.id) >= 0) element.fail("id", "duplicate floor id '" + floor.id + "'");
+    if (building.floorIndex(floor.id) >= 0)
+      element.fail("id", "duplicate floor id '" + floor.id + "'");
     floor.height = element.getDouble("height", -1000.0, 1000.0);
     if (!building.floors.empty() && floor.height <= building.floors.back().height + 1.0)
       element.fail("height", "floors must be listed bottom up, at least 1 m apart");
@@ -425,7 +429,8 @@ Building readBuilding(const common::ConfigNode& node) {
     if (element.has("doors"))
       for (const auto& d : element.sequence("doors")) floor.doors.push_back(readDoor(d));
     if (element.has("furniture"))
-      for (const auto& f : element.sequence("furniture")) floor.furniture.push_back(readFurniture(f));
+      for (const auto& f : element.sequence("furniture"))
+        floor.furniture.push_back(readFurniture(f));
     std::set<std::string> ids;
     const auto checkId = [&](const std::string& id, const Origin& origin) {
       if (!id.empty() && !ids.insert(id).second)
@@ -456,7 +461,8 @@ Building readBuilding(const common::ConfigNode& node) {
   // Shafts: known floors, no overlap, elevators serve at least two floors.
   for (auto& shaft : building.shafts) {
     for (const auto& id : shaft.floors)
-      if (building.floorIndex(id) < 0) failAt(shaft.origin, "shaft '" + shaft.id + "' lists unknown floor '" + id + "'");
+      if (building.floorIndex(id) < 0)
+        failAt(shaft.origin, "shaft '" + shaft.id + "' lists unknown floor '" + id + "'");
     int served = 0;
     for (const auto& floor : building.floors) served += shaft.serves(floor.id) ? 1 : 0;
     if (served < 2) failAt(shaft.origin, "shaft '" + shaft.id + "' serves fewer than two floors");
@@ -481,8 +487,8 @@ Building readBuilding(const common::ConfigNode& node) {
     Rng rng(building.floor_rotation_seed);
     for (std::size_t i = 1; i < building.floors.size(); ++i) {
       const double angle = rng.gaussian() * building.floor_rotation_sigma;
-      const geometry::Pose2 turn =
-          geometry::Pose2(pivot.x(), pivot.y(), angle) * geometry::Pose2(-pivot.x(), -pivot.y(), 0.0);
+      const geometry::Pose2 turn = geometry::Pose2(pivot.x(), pivot.y(), angle) *
+                                   geometry::Pose2(-pivot.x(), -pivot.y(), 0.0);
       building.floors[i].frame = turn * building.floors[i].frame;
     }
   }

@@ -94,7 +94,7 @@ struct Corridor {
 
 // The air: standard atmosphere at the building's altitude, and a slow weather drift.
 struct Atmosphere {
-  double sea_level_pressure = 101325.0;  // Pa
+  double sea_level_pressure = 101325.0;   // Pa
   double sea_level_temperature = 288.15;  // K
   double altitude = 0.0;                  // building origin above sea level, m
   double max_drift_hpa_per_hour = 0.5;    // |drift slope| is drawn up to this, per run
@@ -111,8 +111,8 @@ struct Building {
   std::uint64_t floor_rotation_seed = 0;
 
   const Floor& floor(const std::string& id) const;  // throws std::invalid_argument
-  int floorIndex(const std::string& id) const;       // -1 when unknown
-  const Shaft& shaft(const std::string& id) const;   // throws std::invalid_argument
+  int floorIndex(const std::string& id) const;      // -1 when unknown
+  const Shaft& shaft(const std::string& id) const;  // throws std::invalid_argument
   int shaftIndex(const std::string& id) const;
 };
 

@@ -51,12 +51,13 @@ void writeGroundTruth(const Simulation& simulation, const std::string& dir) {
           << format("%.6f", s.pose.y()) << ',' << format("%.9f", s.pose.theta()) << ','
           << format("%.6f", s.z) << '\n';
     }
-    if (!out) throw std::runtime_error("cannot write " + (fs::path(dir) / "trajectory.csv").string());
+    if (!out)
+      throw std::runtime_error("cannot write " + (fs::path(dir) / "trajectory.csv").string());
   }
   {
     auto out = openOut(fs::path(dir) / "floors.yaml");
-    out << "# True floors of simulated building " << building.name << " (seed "
-        << simulation.seed << "). frame: the floor frame in the building frame,\n"
+    out << "# True floors of simulated building " << building.name << " (seed " << simulation.seed
+        << "). frame: the floor frame in the building frame,\n"
         << "# [x, y, theta] in metres and radians; height in metres.\n";
     out << "building: " << building.name << "\n";
     out << "scenario: " << simulation.scenario << "\n";

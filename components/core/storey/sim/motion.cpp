@@ -192,7 +192,8 @@ class MissionPlanner {
         fail("the path from " + point(frame.inverseTransformPoint(from)) + " to " +
              point(frame.inverseTransformPoint(to)) + " on " + sceneName(scene) +
              " crosses or grazes a wall or obstacle near " +
-             point(frame.inverseTransformPoint(s.a)) + "-" + point(frame.inverseTransformPoint(s.b)));
+             point(frame.inverseTransformPoint(s.a)) + "-" +
+             point(frame.inverseTransformPoint(s.b)));
       }
   }
 
@@ -252,8 +253,10 @@ class MissionPlanner {
     if (*to_floor < 0) fail("there is no floor '" + step.to_floor + "'");
     if (*to_floor == floor_) fail("the robot is already on floor " + step.to_floor);
     const std::string here = building_.floors[floor_].id;
-    if (!s.serves(here)) fail("shaft '" + s.id + "' does not reach floor " + here + " (robot is there)");
-    if (!s.serves(step.to_floor)) fail("shaft '" + s.id + "' does not reach floor " + step.to_floor);
+    if (!s.serves(here))
+      fail("shaft '" + s.id + "' does not reach floor " + here + " (robot is there)");
+    if (!s.serves(step.to_floor))
+      fail("shaft '" + s.id + "' does not reach floor " + step.to_floor);
     return shaft;
   }
 

@@ -17,9 +17,9 @@ namespace storey::sim {
 struct SceneKey {
   enum class Kind { kFloor, kInsideShaft };
   Kind kind = Kind::kFloor;
-  int floor = 0;          // kFloor
+  int floor = 0;           // kFloor
   std::string open_shaft;  // kFloor: elevator whose landing door is open ("" none)
-  int shaft = -1;         // kInsideShaft
+  int shaft = -1;          // kInsideShaft
   bool operator==(const SceneKey& o) const {
     return kind == o.kind && floor == o.floor && open_shaft == o.open_shaft && shaft == o.shaft;
   }
@@ -51,7 +51,7 @@ struct Transit {
   std::string robot;
   double start = 0.0, end = 0.0;
   int from_floor = 0, to_floor = 0;
-  std::string mode;  // "elevator" or "stairs"
+  std::string mode;                     // "elevator" or "stairs"
   double odometry_heading_error = 0.0;  // rad added to the odometry heading by this ride
 };
 
@@ -63,8 +63,8 @@ class Trajectory {
     double t0 = 0.0;
     geometry::Pose2 start;
     double z0 = 0.0;
-    double sign = 1.0;   // direction of a turn or lift
-    double dz = 0.0;     // height change while translating (stairs)
+    double sign = 1.0;     // direction of a turn or lift
+    double dz = 0.0;       // height change while translating (stairs)
     double seconds = 0.0;  // kWait
     Profile profile;
     int floor = 0, scene = 0;

@@ -26,7 +26,8 @@ Frame frameFor(const Building& building, const PictureOptions& options) {
   Frame frame;
   frame.resolution = options.resolution;
   frame.min = lo - Eigen::Vector2d::Constant(options.margin);
-  const Eigen::Vector2d size = (hi - lo) / options.resolution + Eigen::Vector2d::Constant(2.0 * options.margin / options.resolution);
+  const Eigen::Vector2d size = (hi - lo) / options.resolution +
+                               Eigen::Vector2d::Constant(2.0 * options.margin / options.resolution);
   frame.width = std::max(1, static_cast<int>(std::ceil(size.x())));
   frame.height = std::max(1, static_cast<int>(std::ceil(size.y())));
   return frame;
@@ -39,7 +40,8 @@ void drawSegments(const Frame& frame, const std::vector<Segment>& segments, Pain
     for (int k = 0; k <= steps; ++k) {
       const Eigen::Vector2d p = s.a + (s.b - s.a) * (static_cast<double>(k) / steps);
       const int x = static_cast<int>(std::floor((p.x() - frame.min.x()) / frame.resolution));
-      const int y = frame.height - 1 - static_cast<int>(std::floor((p.y() - frame.min.y()) / frame.resolution));
+      const int y = frame.height - 1 -
+                    static_cast<int>(std::floor((p.y() - frame.min.y()) / frame.resolution));
       if (x >= 0 && y >= 0 && x < frame.width && y < frame.height) paint(x, y);
     }
   }
@@ -56,8 +58,12 @@ grid::Image renderFloor(const Building& building, int floor, const PictureOption
 
 grid::Image renderOverlay(const Building& building, const std::vector<int>& floors,
                           const PictureOptions& options) {
-  static const std::array<std::array<std::uint8_t, 3>, 6> kColours = {{
-      {{200, 30, 30}}, {{30, 90, 200}}, {{30, 150, 60}}, {{200, 130, 0}}, {{140, 40, 170}}, {{0, 150, 150}}}};
+  static const std::array<std::array<std::uint8_t, 3>, 6> kColours = {{{{200, 30, 30}},
+                                                                       {{30, 90, 200}},
+                                                                       {{30, 150, 60}},
+                                                                       {{200, 130, 0}},
+                                                                       {{140, 40, 170}},
+                                                                       {{0, 150, 150}}}};
   const Frame frame = frameFor(building, options);
   grid::Image image(frame.width, frame.height, 3, 255);
   for (std::size_t i = 0; i < floors.size(); ++i) {
@@ -66,7 +72,8 @@ grid::Image renderOverlay(const Building& building, const std::vector<int>& floo
       std::uint8_t* px = image.at(x, y);
       // Where floors agree the colours mix (darken), where they differ each shows alone.
       const bool blank = px[0] == 255 && px[1] == 255 && px[2] == 255;
-      for (int c = 0; c < 3; ++c) px[c] = blank ? colour[c] : static_cast<std::uint8_t>((px[c] + colour[c]) / 3);
+      for (int c = 0; c < 3; ++c)
+        px[c] = blank ? colour[c] : static_cast<std::uint8_t>((px[c] + colour[c]) / 3);
     });
   }
   return image;
@@ -85,7 +92,8 @@ std::vector<std::string> writePictures(const Building& building, const std::stri
   std::vector<int> all;
   for (std::size_t f = 0; f < building.floors.size(); ++f) {
     all.push_back(static_cast<int>(f));
-    save("floor_" + building.floors[f].id + ".png", renderFloor(building, static_cast<int>(f), options));
+    save("floor_" + building.floors[f].id + ".png",
+         renderFloor(building, static_cast<int>(f), options));
     if (f > 0)
       save("overlay_" + building.floors[f - 1].id + "_" + building.floors[f].id + ".png",
            renderOverlay(building, {static_cast<int>(f - 1), static_cast<int>(f)}, options));

@@ -32,8 +32,10 @@ RayCaster::RayCaster(std::vector<Segment> segments, double cell_size)
   const auto forCells = [&](const Segment& s, auto&& visit) {
     const Eigen::Vector2d a = (s.a.cwiseMin(s.b) - min_) / cell_;
     const Eigen::Vector2d b = (s.a.cwiseMax(s.b) - min_) / cell_;
-    for (int y = std::max(0, static_cast<int>(a.y())); y <= std::min(ny_ - 1, static_cast<int>(b.y())); ++y)
-      for (int x = std::max(0, static_cast<int>(a.x())); x <= std::min(nx_ - 1, static_cast<int>(b.x())); ++x) {
+    for (int y = std::max(0, static_cast<int>(a.y()));
+         y <= std::min(ny_ - 1, static_cast<int>(b.y())); ++y)
+      for (int x = std::max(0, static_cast<int>(a.x()));
+           x <= std::min(nx_ - 1, static_cast<int>(b.x())); ++x) {
         const Eigen::Vector2d center = min_ + Eigen::Vector2d(x + 0.5, y + 0.5) * cell_;
         if (pointSegmentDistance(center, s) <= half_diagonal) visit(y * nx_ + x);
       }
@@ -78,8 +80,12 @@ double RayCaster::cast(const Eigen::Vector2d& origin, const Eigen::Vector2d& dir
   const int step_y = dir.y() > 0 ? 1 : -1;
   const double delta_x = dir.x() != 0.0 ? cell_ / std::abs(dir.x()) : kInf;
   const double delta_y = dir.y() != 0.0 ? cell_ / std::abs(dir.y()) : kInf;
-  double next_x = dir.x() != 0.0 ? ((step_x > 0 ? x + 1 - g.x() : g.x() - x) * cell_) / std::abs(dir.x()) : kInf;
-  double next_y = dir.y() != 0.0 ? ((step_y > 0 ? y + 1 - g.y() : g.y() - y) * cell_) / std::abs(dir.y()) : kInf;
+  double next_x = dir.x() != 0.0
+                      ? ((step_x > 0 ? x + 1 - g.x() : g.x() - x) * cell_) / std::abs(dir.x())
+                      : kInf;
+  double next_y = dir.y() != 0.0
+                      ? ((step_y > 0 ? y + 1 - g.y() : g.y() - y) * cell_) / std::abs(dir.y())
+                      : kInf;
   double best = kInf;
   while (true) {
     const int c = y * nx_ + x;

@@ -34,8 +34,8 @@ MissionStep readStep(const common::ConfigNode& node) {
   for (const char* key : {"elevator", "stairs"}) {
     if (!node.has(key)) continue;
     ++kinds;
-    step.kind = std::string(key) == "elevator" ? MissionStep::Kind::kElevator
-                                               : MissionStep::Kind::kStairs;
+    step.kind =
+        std::string(key) == "elevator" ? MissionStep::Kind::kElevator : MissionStep::Kind::kStairs;
     step.shaft = node.get<std::string>(key);
     step.to_floor = node.get<std::string>("to");
   }
@@ -65,9 +65,11 @@ Scenario readScenario(const common::ConfigNode& root, const std::string& robots_
     robot.origin = {element.file(), element.line(), element.path()};
     robot.name = element.get<std::string>("name");
     for (const auto& other : scenario.robots)
-      if (other.name == robot.name) element.fail("name", "duplicate robot name '" + robot.name + "'");
+      if (other.name == robot.name)
+        element.fail("name", "duplicate robot name '" + robot.name + "'");
     if (robot.name.empty() || robot.name.find_first_of("/ \t") != std::string::npos)
-      element.fail("name", "a robot name must be non-empty, without '/' or spaces (it names topics)");
+      element.fail("name",
+                   "a robot name must be non-empty, without '/' or spaces (it names topics)");
     if (element.has("model") && element.yaml()["model"].IsMap()) {
       robot.model = readRobotModel(element.child("model"));
       robot.model.name = robot.name + "-inline";
@@ -76,8 +78,7 @@ Scenario readScenario(const common::ConfigNode& root, const std::string& robots_
       if (robots_dir.empty())
         element.fail("model", "robot model '" + model + "' must be given inline here");
       const std::string path = (std::filesystem::path(robots_dir) / (model + ".yaml")).string();
-      if (!std::filesystem::exists(path))
-        element.fail("model", "no robot model file " + path);
+      if (!std::filesystem::exists(path)) element.fail("model", "no robot model file " + path);
       robot.model = readRobotModel(common::ConfigNode::loadFile(path));
       robot.model.name = model;
     }

@@ -13,7 +13,7 @@
 namespace storey::sim {
 
 struct LaserOptions {
-  double rate = 5.0;  // Hz
+  double rate = 5.0;              // Hz
   double fov = 4.71238898038469;  // radians, centred on the sensor's x axis
   int beams = 271;
   double min_range = 0.1;
@@ -30,7 +30,7 @@ struct OdometryOptions {
   double translation_sigma = 0.02;         // m per sqrt(m) driven
   double rotation_sigma = 0.02;            // rad per sqrt(rad) turned
   double rotation_per_metre_sigma = 0.01;  // rad per sqrt(m) driven
-  double elevator_heading_sigma = 0.0;    // extra heading error per elevator ride, rad
+  double elevator_heading_sigma = 0.0;     // extra heading error per elevator ride, rad
 };
 
 struct BarometerOptions {
@@ -45,15 +45,15 @@ struct ImuOptions {
 };
 
 struct MotionOptions {
-  double speed = 0.6;                // m/s on floors
-  double acceleration = 0.5;         // m/s^2
-  double turn_rate = 1.0;            // rad/s
+  double speed = 0.6;                 // m/s on floors
+  double acceleration = 0.5;          // m/s^2
+  double turn_rate = 1.0;             // rad/s
   double angular_acceleration = 2.0;  // rad/s^2
-  double stairs_speed = 0.25;        // m/s along the stairs
-  double elevator_speed = 1.0;       // m/s
+  double stairs_speed = 0.25;         // m/s along the stairs
+  double elevator_speed = 1.0;        // m/s
   double elevator_acceleration = 0.5;
-  double door_time = 2.0;            // s for a door to open or close
-  double radius = 0.25;              // clearance kept from every obstacle, m
+  double door_time = 2.0;  // s for a door to open or close
+  double radius = 0.25;    // clearance kept from every obstacle, m
 };
 
 struct RobotModel {

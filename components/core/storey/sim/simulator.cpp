@@ -140,7 +140,8 @@ RobotRun simulateRobot(const Scenario& scenario, std::size_t index, std::uint64_
         // Rides are the elevator transits, in order.
         std::size_t ride = 0;
         for (auto& transit : run.transits)
-          if (transit.mode == "elevator" && ride++ == next_ride) transit.odometry_heading_error = error;
+          if (transit.mode == "elevator" && ride++ == next_ride)
+            transit.odometry_heading_error = error;
         ++next_ride;
       }
       estimate = estimate * geometry::Pose2(delta.x() * scale, delta.y() * scale, dtheta);
@@ -162,7 +163,8 @@ RobotRun simulateRobot(const Scenario& scenario, std::size_t index, std::uint64_
       const MotionState state = trajectory.at(t);
       sensor::PressureSample sample;
       sample.stamp = t;
-      sample.pascal = pressureAt(building.atmosphere, state.z) + drift * t + noise.gaussian() * sigma;
+      sample.pascal =
+          pressureAt(building.atmosphere, state.z) + drift * t + noise.gaussian() * sigma;
       sample.variance = sigma * sigma;
       run.pressure.push_back(sample);
     }
@@ -178,9 +180,9 @@ RobotRun simulateRobot(const Scenario& scenario, std::size_t index, std::uint64_
       sample.stamp = t;
       const double n1 = noise.gaussian(), n2 = noise.gaussian(), n3 = noise.gaussian();
       const double n4 = noise.gaussian(), n5 = noise.gaussian(), n6 = noise.gaussian();
-      sample.linear_acceleration = Eigen::Vector3d(state.a + n1 * o.accel_sigma,
-                                                   state.v * state.omega + n2 * o.accel_sigma,
-                                                   kGravity + state.az + n3 * o.accel_sigma);
+      sample.linear_acceleration =
+          Eigen::Vector3d(state.a + n1 * o.accel_sigma, state.v * state.omega + n2 * o.accel_sigma,
+                          kGravity + state.az + n3 * o.accel_sigma);
       sample.angular_velocity =
           Eigen::Vector3d(n4 * o.gyro_sigma, n5 * o.gyro_sigma, state.omega + n6 * o.gyro_sigma);
       run.imu.push_back(sample);
@@ -211,7 +213,8 @@ Simulation simulate(const Scenario& scenario, const SimulateOptions& options) {
   for (const auto& name : options.robots) {
     bool found = false;
     for (const auto& robot : scenario.robots) found = found || robot.name == name;
-    if (!found) throw std::invalid_argument("scenario " + scenario.name + " has no robot '" + name + "'");
+    if (!found)
+      throw std::invalid_argument("scenario " + scenario.name + " has no robot '" + name + "'");
   }
   std::vector<std::unique_ptr<RayCaster>> casters;
   std::vector<SceneKey> keys;

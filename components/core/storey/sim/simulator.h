@@ -20,9 +20,9 @@ namespace storey::sim {
 // The true state of a robot at one scan.
 struct TruthSample {
   double stamp = 0.0;
-  int floor = 0;          // index into Building::floors (the floor the robot counts as on)
-  geometry::Pose2 pose;   // building frame
-  double z = 0.0;         // height above the building origin
+  int floor = 0;         // index into Building::floors (the floor the robot counts as on)
+  geometry::Pose2 pose;  // building frame
+  double z = 0.0;        // height above the building origin
 };
 
 struct RobotRun {
