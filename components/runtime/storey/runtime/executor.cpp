@@ -96,6 +96,7 @@ bool Executor::onWorkerThread() const {
 }
 
 void Executor::drain() {
+  if (onWorkerThread()) return;  // a worker cannot wait for the queue it is draining
   std::mutex done_mutex;
   std::condition_variable done_cv;
   bool done = false;

@@ -46,7 +46,8 @@ class Executor {
   bool isShutDown() const;
   // True when the calling thread is one of this executor's workers.
   bool onWorkerThread() const;
-  // Blocks until every task queued before the call has run (test helper). Not from a task.
+  // Blocks until every task queued before the call has run. Returns at once when called
+  // from a worker (which cannot wait for its own queue).
   void drain();
 
  private:
