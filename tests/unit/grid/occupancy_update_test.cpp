@@ -1,0 +1,79 @@
+// The update rule of insertScan, checked on single cells: one update per cell per scan, an
+// endpoint is never cleared by a beam through it, and growth keeps the rule.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "storey/grid/occupancy_grid.h"
+
+namespace storey::grid {
+namespace {
+
+sensor::LaserScan beams(std::vector<float> ranges, double angle_min, double increment) {
+  sensor::LaserScan scan;
+  scan.angle_min = angle_min;
+  scan.angle_increment = increment;
+  scan.range_min = 0.01;
+  scan.range_max = 30.0;
+  scan.ranges = std::move(ranges);
+  return scan;
+}
+
+float logOddsAtWorld(const OccupancyGrid& grid, double x, double y) {
+  const Eigen::Vector2i c = grid.frame().cellOf({x, y});
+  return grid.logOddsAt(c.x(), c.y());
+}
+
+TEST(OccupancyUpdate, OneUpdatePerCellPerScanAndEndpointsWin) {
+  OccupancyGridOptions options;
+  options.resolution = 0.1;
+  OccupancyGrid grid(options);
+  // Three beams along +x from (0.05, 0.05): two end in the cell at x = 1.05 (one of them
+  // twice over, as a duplicate beam), one passes through it and ends at x = 2.05.
+  const auto scan = beams({1.0f, 1.0f, 2.0f}, 0.0, 1e-9);
+  grid.insertScan(scan, geometry::Pose2(0.05, 0.05, 0.0));
+  EXPECT_FLOAT_EQ(logOddsAtWorld(grid, 1.05, 0.05), static_cast<float>(options.hit_log_odds));
+  EXPECT_FLOAT_EQ(logOddsAtWorld(grid, 2.05, 0.05), static_cast<float>(options.hit_log_odds));
+  // Traversed by all three beams, updated once.
+  EXPECT_FLOAT_EQ(logOddsAtWorld(grid, 0.55, 0.05), static_cast<float>(options.miss_log_odds));
+  EXPECT_FLOAT_EQ(logOddsAtWorld(grid, 1.55, 0.05), static_cast<float>(options.miss_log_odds));
+  EXPECT_EQ(logOddsAtWorld(grid, 0.55, 0.35), 0.0f);  // never observed
+  // A second scan updates every cell again, once.
+  grid.insertScan(scan, geometry::Pose2(0.05, 0.05, 0.0));
+  EXPECT_FLOAT_EQ(logOddsAtWorld(grid, 1.05, 0.05), static_cast<float>(2 * options.hit_log_odds));
+  EXPECT_FLOAT_EQ(logOddsAtWorld(grid, 0.55, 0.05), static_cast<float>(2 * options.miss_log_odds));
+}
+
+TEST(OccupancyUpdate, ClampsAndKeepsObservedCellsNonZero) {
+  OccupancyGridOptions options;
+  options.resolution = 0.1;
+  options.hit_log_odds = 0.4;
+  options.miss_log_odds = -0.4;
+  OccupancyGrid grid(options);
+  grid.insertScan(beams({1.0f}, 0.0, 0.1), geometry::Pose2(0.05, 0.05, 0.0));
+  // A miss that brings the cell back to exactly zero keeps it "observed".
+  grid.insertScan(beams({2.0f}, 0.0, 0.1), geometry::Pose2(0.05, 0.05, 0.0));
+  EXPECT_NE(logOddsAtWorld(grid, 1.05, 0.05), 0.0f);
+  EXPECT_NE(grid.stateAt(grid.frame().cellOf({1.05, 0.05}).x(), grid.frame().cellOf({1.05, 0.05}).y()),
+            CellState::kOccupied);
+  for (int i = 0; i < 50; ++i) grid.insertScan(beams({2.0f}, 0.0, 0.1), geometry::Pose2(0.05, 0.05, 0.0));
+  EXPECT_FLOAT_EQ(logOddsAtWorld(grid, 2.05, 0.05), static_cast<float>(options.max_log_odds));
+  EXPECT_FLOAT_EQ(logOddsAtWorld(grid, 1.05, 0.05), static_cast<float>(options.min_log_odds));
+}
+
+TEST(OccupancyUpdate, RuleHoldsAcrossGrowth) {
+  OccupancyGridOptions options;
+  options.resolution = 0.1;
+  OccupancyGrid grid(options);
+  grid.insertScan(beams({1.0f}, 0.0, 0.1), geometry::Pose2(0.05, 0.05, 0.0));
+  const int width_before = grid.frame().width;
+  // Far away: the grid grows, then the same scan pattern must update once per cell.
+  grid.insertScan(beams({1.0f, 1.0f, 2.0f}, 0.0, 1e-9), geometry::Pose2(40.05, 0.05, 0.0));
+  ASSERT_GT(grid.frame().width, width_before);
+  EXPECT_FLOAT_EQ(logOddsAtWorld(grid, 41.05, 0.05), static_cast<float>(options.hit_log_odds));
+  EXPECT_FLOAT_EQ(logOddsAtWorld(grid, 40.55, 0.05), static_cast<float>(options.miss_log_odds));
+  EXPECT_FLOAT_EQ(logOddsAtWorld(grid, 1.05, 0.05), static_cast<float>(options.hit_log_odds));
+}
+
+}  // namespace
+}  // namespace storey::grid
