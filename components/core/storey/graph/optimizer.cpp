@@ -98,6 +98,8 @@ OptimizerOptions readOptimizerOptions(const common::ConfigNode& config) {
   o.step_tolerance = config.getDouble("step_tolerance", o.step_tolerance, 0.0, 1.0);
   o.initial_lambda = config.getDouble("initial_lambda", o.initial_lambda, 1e-20, 1e10);
   o.max_lambda = config.getDouble("max_lambda", o.max_lambda, 1e-10, 1e30);
+  o.lambda_decrease_limit =
+      config.getDouble("lambda_decrease_limit", o.lambda_decrease_limit, 1e-6, 1.0);
   const std::string gauge =
       config.getChoice("gauge", "first_node", {"first_node", "per_component"});
   o.gauge = gauge == "first_node" ? GaugeMode::kFirstNode : GaugeMode::kPerComponent;
@@ -486,7 +488,7 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
     if (std::isfinite(trial_cost) && trial_cost < cost && rho > 0.0) {
       ++result.accepted_steps;
       const double change = (cost - trial_cost) / cost;
-      lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+      lambda *= std::max(options_.lambda_decrease_limit, 1.0 - std::pow(2.0 * rho - 1.0, 3));
       lambda = std::max(lambda, 1e-15);
       nu = 2.0;
       phase = Clock::now();

@@ -52,6 +52,9 @@ struct OptimizerOptions {
   // LM damping: (H + λ·diag(H)) Δ = −b, λ adapted by the gain ratio (Nielsen).
   double initial_lambda = 1e-5;
   double max_lambda = 1e10;
+  // After a good step λ shrinks by max(this, 1 − (2ρ − 1)³) (Nielsen's rule uses 1/3; 0.1
+  // saved 1-3 steps on intel and city10000 and 30 on MIT, costing 5 on manhattan).
+  double lambda_decrease_limit = 0.1;
   GaugeMode gauge = GaugeMode::kFirstNode;
   std::array<RobustKernel, kEdgeKindCount> robust{};  // indexed by EdgeKind
   // Edges whose final robust weight is below this are reported as down-weighted.
@@ -67,6 +70,7 @@ struct OptimizerOptions {
 //   step_tolerance: 1e-10
 //   initial_lambda: 1e-5
 //   max_lambda: 1e10
+//   lambda_decrease_limit: 0.1
 //   gauge: first_node        # first_node | per_component
 //   downweight_threshold: 0.5
 //   verbose: false
