@@ -46,9 +46,11 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
       node.getDouble("ransac_rotation_tolerance", o.ransac_rotation_tolerance, 1e-5, M_PI);
   o.min_constraints = node.getInt("min_constraints", o.min_constraints, 1, 100000);
   o.ambiguity_ratio = node.getDouble("ambiguity_ratio", o.ambiguity_ratio, 0.0, 1.0);
+  o.ambiguity_fit_margin = node.getDouble("ambiguity_fit_margin", o.ambiguity_fit_margin, 0.0, 1.0);
   o.constraint_sigma_xy = node.getDouble("constraint_sigma_xy", o.constraint_sigma_xy, 1e-6, 100.0);
   o.constraint_sigma_theta =
       node.getDouble("constraint_sigma_theta", o.constraint_sigma_theta, 1e-6, M_PI);
+  o.self_check = node.get<bool>("self_check", o.self_check);
   o.threads = node.getInt("threads", o.threads, 1, 256);
   o.seed = static_cast<std::uint64_t>(node.get<std::int64_t>("seed", 1));
   node.finish();
@@ -329,20 +331,41 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_
       result.candidates[i].reason = why;
     }
   };
+  // Two consistent sets: the one whose alignment lets *all* of g_i's scans fit the
+  // reference map clearly better wins (a periodic layout fits locally, not at its ends);
+  // otherwise the floor is ambiguous.
+  double fit_best = -1.0, fit_second = -1.0;
+  auto wholeFloorPrefersBest = [&]() {
+    auto fitOf = [&](const std::vector<std::size_t>& set) {
+      std::vector<Pose2> alignments;
+      for (std::size_t i : set) alignments.push_back(result.candidates[i].alignment);
+      Pose2 a = meanAlignment(alignments);
+      return refineAlignment(reference.map->field(), g, {{0, count - 1}}, o.refine_beams / 3 + 1,
+                             o.refine_iterations, &a);
+    };
+    fit_best = fitOf(best);
+    fit_second = fitOf(second);
+    return fit_best >= fit_second + o.ambiguity_fit_margin;
+  };
   if (static_cast<int>(best.size()) < o.min_constraints) {
     result.reason = common::str("largest consistent set has ", best.size(), " of ", pool.size(),
                                 " gated candidates (need ", o.min_constraints, ")");
     markAll(pool, CandidateStatus::kTooFew, result.reason);
   } else if (second.size() >= 2 &&
-             static_cast<double>(second.size()) >= o.ambiguity_ratio * static_cast<double>(best.size())) {
+             static_cast<double>(second.size()) >= o.ambiguity_ratio * static_cast<double>(best.size()) &&
+             !wholeFloorPrefersBest()) {
     result.ambiguous = true;
     result.reason = common::str("ambiguous: two disjoint consistent sets of ", best.size(), " and ",
-                                second.size(), " candidates");
+                                second.size(), " candidates, whole-floor fit ", fit_best, " vs ",
+                                fit_second);
     markAll(pool, CandidateStatus::kAmbiguous, result.reason);
   } else {
     result.accepted = true;
     result.reason = common::str("accepted: ", best.size(), " consistent of ", pool.size(),
                                 " gated candidates");
+    if (fit_best >= 0.0)
+      result.reason += common::str(" (a second set of ", second.size(), " loses on whole-floor fit ",
+                                   fit_best, " vs ", fit_second, ")");
     markAll(rest, CandidateStatus::kOutlier, "disagrees with the largest consistent set");
     markAll(best, CandidateStatus::kAccepted, "inlier of the largest consistent set");
     std::vector<Pose2> alignments;
@@ -359,6 +382,31 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_
   result.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
+}
+
+FloorCheck checkSelfSimilarity(const PreparedFloor& floor_data, const FloorMatcherOptions& o,
+                               std::uint64_t seed) {
+  FloorCheck check;
+  check.graph_id = floor_data.graph->graph_id;
+  check.structure = floor_data.structure;
+  check.l_min = floor_data.l_min;
+  const PairResult own = matchPair(floor_data, floor_data, o, seed);
+  std::vector<std::size_t> elsewhere;
+  for (std::size_t i = 0; i < own.candidates.size(); ++i) {
+    const Candidate& c = own.candidates[i];
+    if (c.status == CandidateStatus::kLowLikelihood || c.status == CandidateStatus::kPoorFit) continue;
+    const Pose2& pk = floor_data.graph->nodes[c.first_index].pose;
+    if (agrees(Pose2(), c.alignment, pk, o.ransac_translation_tolerance, o.ransac_rotation_tolerance))
+      ++check.at_identity;
+    else
+      elsewhere.push_back(i);
+  }
+  std::mt19937_64 rng(seed);
+  check.elsewhere = static_cast<int>(
+      largestConsistentSet(own.candidates, elsewhere, *floor_data.graph, o, &rng).size());
+  check.self_similar =
+      check.elsewhere >= 2 && check.elsewhere >= o.ambiguity_ratio * static_cast<double>(check.at_identity);
+  return check;
 }
 
 namespace {
@@ -387,9 +435,38 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs, const Floo
   std::vector<PreparedFloor> prepared(graphs.size());
   parallelFor(n, o.threads, [&](int i) { prepared[i] = prepareFloor(graphs[i], o); });
 
-  // Reference: the floor with the most structure (occupied cells), ties by graph id.
-  std::vector<int> order(n);
-  std::iota(order.begin(), order.end(), 0);
+  result.floors.resize(graphs.size());
+  for (int i = 0; i < n; ++i) {
+    result.floors[i].graph_id = graphs[i].graph_id;
+    result.floors[i].structure = prepared[i].structure;
+    result.floors[i].l_min = prepared[i].l_min;
+  }
+  if (o.self_check) {
+    parallelFor(n, o.threads, [&](int i) {
+      result.floors[i] = checkSelfSimilarity(
+          prepared[i], o, mixSeed(o.seed, 0x5E1F, static_cast<std::uint64_t>(graphs[i].graph_id)));
+    });
+  }
+  // Reference: the floor with the most structure (occupied cells), ties by graph id;
+  // self-similar floors take no part.
+  std::vector<int> order;
+  for (int i = 0; i < n; ++i) {
+    if (!result.floors[i].self_similar) continue;
+    PairResult skipped;
+    skipped.graph_id = graphs[i].graph_id;
+    skipped.reference_graph_id = graphs[i].graph_id;
+    skipped.ambiguous = true;
+    skipped.reason = common::str("self-similar floor: ", result.floors[i].elsewhere,
+                                 " of its own sequences agree on another alignment, ",
+                                 result.floors[i].at_identity, " on the identity");
+    result.pairs.push_back(std::move(skipped));
+  }
+  for (int i = 0; i < n; ++i)
+    if (!result.floors[i].self_similar) order.push_back(i);
+  if (order.size() < 2) {
+    result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return result;
+  }
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
     if (prepared[a].structure != prepared[b].structure)
       return prepared[a].structure > prepared[b].structure;
@@ -457,6 +534,10 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs, const Floo
 }
 
 void printMatchReport(std::ostream& out, const MatchResult& result) {
+  for (const auto& f : result.floors)
+    out << "graph " << f.graph_id << ": structure " << f.structure << " cells, l_min " << f.l_min
+        << ", own sequences at identity " << f.at_identity << ", elsewhere " << f.elsewhere
+        << (f.self_similar ? "  SELF-SIMILAR" : "") << "\n";
   out << "reference floor graph: " << result.reference_graph_id << "\n";
   for (const auto& p : result.pairs) {
     out << "graph " << p.graph_id << " in reference " << p.reference_graph_id << ": " << p.reason

@@ -77,9 +77,17 @@ struct FloorMatcherOptions {
   // A floor whose second-largest consistent set (disjoint from the largest) has at least
   // max(2, ambiguity_ratio * largest) candidates is ambiguous: no constraint.
   double ambiguity_ratio = 0.5;
+  // ...unless the largest set's alignment makes all of g_i's scans fit the reference map
+  // better by this much (mean likelihood-field score, in [0, 1]) than the second's.
+  double ambiguity_fit_margin = 0.05;
   // Information of each accepted constraint: diag(1/sigma_xy^2, 1/sigma_xy^2, 1/sigma_theta^2).
   double constraint_sigma_xy = 0.05;
   double constraint_sigma_theta = 0.01;
+  // Self-similarity check: every floor's own scans are matched against its own map. A
+  // floor where a consistent set of them localises at another alignment, at least
+  // max(2, ambiguity_ratio * the set at the identity), is symmetric or periodic: it is
+  // never a reference and never gets a constraint.
+  bool self_check = true;
   int threads = 2;
   std::uint64_t seed = 1;
 };
@@ -145,8 +153,19 @@ struct PairResult {
   double seconds = 0.0;
 };
 
+// What the self-similarity check found for one floor graph.
+struct FloorCheck {
+  int graph_id = 0;
+  std::size_t structure = 0;
+  double l_min = 0.0;
+  int at_identity = 0;  // own candidates consistent with the identity
+  int elsewhere = 0;    // largest consistent set of own candidates at another alignment
+  bool self_similar = false;
+};
+
 struct MatchResult {
   int reference_graph_id = -1;
+  std::vector<FloorCheck> floors;
   std::vector<PairResult> pairs;
   std::vector<InterFloorConstraint> constraints;  // every accepted candidate
   std::uint64_t beam_evaluations = 0;
@@ -171,7 +190,12 @@ double learnLikelihoodThreshold(const floor::FloorGraph& graph, const FloorMatch
 PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor,
                      const FloorMatcherOptions& options, std::uint64_t seed);
 
-// All floor graphs: the reference is the graph with most structure; every other graph
+// The self-similarity check of one floor (see FloorMatcherOptions::self_check).
+FloorCheck checkSelfSimilarity(const PreparedFloor& floor, const FloorMatcherOptions& options,
+                               std::uint64_t seed);
+
+// All floor graphs: the reference is the graph with most structure (among those not
+// self-similar); every other graph
 // is matched to it (in parallel), and a graph that fails for too few consistent
 // candidates (not one found ambiguous) tries the others in order of structure until one
 // accepts.
