@@ -104,8 +104,8 @@ int run_floors(Args& args) {
     if (stats.pressure_samples == 0) {
       std::printf("  no pressure: floor changes cannot be detected\n");
     }
-    std::string sequence = std::to_string(list.empty() ? detector->currentFloor()
-                                                       : list.front().from_floor);
+    std::string sequence =
+        std::to_string(list.empty() ? detector->currentFloor() : list.front().from_floor);
     for (const auto& e : list) {
       if (e.type != detection::FloorEventType::kTransitEnded) continue;
       printEvent(e);
@@ -122,10 +122,11 @@ int run_floors(Args& args) {
         if (t.robot == robot) mine.push_back(t);
       }
       const detection::FloorComparison c = detection::compareWithTruth(list, mine);
-      std::printf("  vs ground truth: %d true transits, %d reported, %d missed, %d spurious, "
-                  "%d wrong floors, height-change RMSE %.3f m, mode right %d/%d%s\n",
-                  c.true_transits, c.reported, c.missed, c.spurious, c.wrong_floor,
-                  c.height_rmse, c.mode_correct, c.matched, c.exact() ? " (exact)" : "");
+      std::printf(
+          "  vs ground truth: %d true transits, %d reported, %d missed, %d spurious, "
+          "%d wrong floors, height-change RMSE %.3f m, mode right %d/%d%s\n",
+          c.true_transits, c.reported, c.missed, c.spurious, c.wrong_floor, c.height_rmse,
+          c.mode_correct, c.matched, c.exact() ? " (exact)" : "");
       for (const auto& p : c.problems) std::printf("    %s\n", p.c_str());
       total_transits += c.true_transits;
       total_missed += c.missed;
@@ -137,11 +138,11 @@ int run_floors(Args& args) {
     }
   }
   if (args.has("ground-truth")) {
-    std::printf("total: %d true transits, %d missed, %d spurious, %d wrong floors, "
-                "height-change RMSE %.3f m, mode right %d/%d\n",
-                total_transits, total_missed, total_spurious, total_wrong,
-                total_matched ? std::sqrt(total_squared / total_matched) : 0.0, total_mode,
-                total_matched);
+    std::printf(
+        "total: %d true transits, %d missed, %d spurious, %d wrong floors, "
+        "height-change RMSE %.3f m, mode right %d/%d\n",
+        total_transits, total_missed, total_spurious, total_wrong,
+        total_matched ? std::sqrt(total_squared / total_matched) : 0.0, total_mode, total_matched);
   }
   return 0;
 }

@@ -38,7 +38,8 @@ std::vector<FloorEvent> detect(const sim::RobotRun& run, FloorDetector& detector
     std::size_t index;
   };
   std::vector<Item> items;
-  for (std::size_t i = 0; i < run.pressure.size(); ++i) items.push_back({run.pressure[i].stamp, 0, i});
+  for (std::size_t i = 0; i < run.pressure.size(); ++i)
+    items.push_back({run.pressure[i].stamp, 0, i});
   if (corroborate) {
     for (std::size_t i = 0; i < run.imu.size(); ++i) items.push_back({run.imu[i].stamp, 1, i});
     for (std::size_t i = 0; i < run.odometry.size(); ++i)
@@ -50,10 +51,18 @@ std::vector<FloorEvent> detect(const sim::RobotRun& run, FloorDetector& detector
   std::vector<FloorEvent> events;
   for (const auto& item : items) {
     switch (item.stream) {
-      case 0: detector.addPressure(run.pressure[item.index]); break;
-      case 1: detector.addImu(run.imu[item.index]); break;
-      case 2: detector.addOdometry(run.odometry[item.index]); break;
-      default: detector.addScan(run.scans[item.index]); break;
+      case 0:
+        detector.addPressure(run.pressure[item.index]);
+        break;
+      case 1:
+        detector.addImu(run.imu[item.index]);
+        break;
+      case 2:
+        detector.addOdometry(run.odometry[item.index]);
+        break;
+      default:
+        detector.addScan(run.scans[item.index]);
+        break;
     }
     for (auto& e : detector.takeEvents()) events.push_back(e);
   }
@@ -196,8 +205,7 @@ robots:
       - {elevator: E, to: L3}
       - {go: [4.0, 6.0]}
 )";
-  return sim::loadScenarioString(text, "tower4.yaml",
-                                 storey::test::sourceDir() + "/config/robots");
+  return sim::loadScenarioString(text, "tower4.yaml", storey::test::sourceDir() + "/config/robots");
 }
 
 TEST(FloorDetectorScenario, TowerAllSensorsSeeds) {

@@ -287,7 +287,9 @@ TEST(FloorDetector, GapsOnAFloorAreLoggedNotFloors) {
   Script script;
   script.wait(200.0);
   SensorSetup setup = barometerOnly(2);
-  setup.tamper = [](double t, double&) { return !(t > 50.0 && t < 58.0) && !(t > 120 && t < 121.5); };
+  setup.tamper = [](double t, double&) {
+    return !(t > 50.0 && t < 58.0) && !(t > 120 && t < 121.5);
+  };
   const auto events = test::run(script, setup, detector);
   EXPECT_TRUE(events.empty());
   EXPECT_EQ(detector.stats().gaps, 2u);

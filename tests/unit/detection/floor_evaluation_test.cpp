@@ -49,9 +49,9 @@ TEST(FloorEvaluation, ExactSequenceAndHeightError) {
 TEST(FloorEvaluation, MissedSpuriousAndWrongFloors) {
   // Truth: A -> B -> C -> A. Reported: a spurious change before the first ride, the
   // second ride missed, and the return to A reported as a new floor.
-  const std::vector<FloorEvent> events = {
-      change(0, 3, 0, 1, 1.5, true), change(8, 20, 1, 2, 1.5, true),
-      change(148, 160, 2, 3, -6.0, true)};
+  const std::vector<FloorEvent> events = {change(0, 3, 0, 1, 1.5, true),
+                                          change(8, 20, 1, 2, 1.5, true),
+                                          change(148, 160, 2, 3, -6.0, true)};
   const std::vector<TrueTransit> t = {truth(30, 35, "A", "B", 3.0), truth(90, 95, "B", "C", 3.0),
                                       truth(150, 155, "C", "A", -6.0)};
   const FloorComparison c = compareWithTruth(events, t, 5.0);

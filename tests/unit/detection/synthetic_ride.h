@@ -123,8 +123,8 @@ class Script {
 };
 
 // Ranges from (x, 0) heading +x to the walls of the box [x0, x1] x [y0, y1].
-inline sensor::LaserScan boxScan(double stamp, double x, double x0, double x1, double y0,
-                                 double y1, std::mt19937& rng) {
+inline sensor::LaserScan boxScan(double stamp, double x, double x0, double x1, double y0, double y1,
+                                 std::mt19937& rng) {
   sensor::LaserScan scan;
   scan.stamp = stamp;
   scan.angle_min = -M_PI / 2;
@@ -170,16 +170,16 @@ inline std::vector<FloorEvent> run(const Script& script, const SensorSetup& setu
     const auto s = script.eval(tick.t);
     if (tick.stream == 0) {
       const double p0 = kReferencePressure + setup.drift_pa_per_hour / 3600.0 * tick.t;
-      double pascal = pressureAtHeight(s.z, setup.temperature_kelvin, p0) +
-                      setup.pressure_sigma * unit(rng);
+      double pascal =
+          pressureAtHeight(s.z, setup.temperature_kelvin, p0) + setup.pressure_sigma * unit(rng);
       if (setup.tamper && !setup.tamper(tick.t, pascal)) continue;
       detector.addPressure({tick.t, pascal, setup.pressure_sigma * setup.pressure_sigma});
     } else if (tick.stream == 1) {
       sensor::ImuSample imu;
       imu.stamp = tick.t;
-      imu.linear_acceleration = Eigen::Vector3d(
-          setup.accel_sigma * unit(rng), setup.accel_sigma * unit(rng),
-          kStandardGravity + s.az + setup.accel_sigma * unit(rng));
+      imu.linear_acceleration =
+          Eigen::Vector3d(setup.accel_sigma * unit(rng), setup.accel_sigma * unit(rng),
+                          kStandardGravity + s.az + setup.accel_sigma * unit(rng));
       detector.addImu(imu);
     } else if (tick.stream == 2) {
       x += s.planar_speed * (tick.t - last_odom);

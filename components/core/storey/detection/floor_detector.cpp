@@ -239,8 +239,8 @@ void FloorDetector::onVelocity(double t_v, double v, double /*now*/) {
       } else {
         // Too short to be a ride: a door slam that outlived the median, a bump.
         ++stats_.cancelled_candidates;
-        common::logDebug(str("floor_detector: vertical motion at t=", candidate_since_,
-                             " too short, ignored"));
+        common::logDebug(
+            str("floor_detector: vertical motion at t=", candidate_since_, " too short, ignored"));
         state_ = State::kOnFloor;
         transit_velocity_.clear();
       }
@@ -302,8 +302,8 @@ void FloorDetector::confirmTransit() {
     e.floor_id = e.from_floor;
     e.floor_height = e.from_height;
     events_.push_back(e);
-    common::logInfo(str("floor_detector: transit started at t=", onset_, " from floor ",
-                        e.from_floor));
+    common::logInfo(
+        str("floor_detector: transit started at t=", onset_, " from floor ", e.from_floor));
   }
 }
 
@@ -414,15 +414,15 @@ void FloorDetector::endTransit(int floor_index, bool changed, bool created, doub
     ev.floor_changed = changed;
     ev.new_floor = created;
     ev.confidence = sigmoid(e.log_odds);
-    ev.mode = e.elevator_votes > e.stairs_votes
-                  ? TransitMode::kElevator
-                  : (e.stairs_votes > e.elevator_votes ? TransitMode::kStairs
-                                                       : TransitMode::kUnknown);
+    ev.mode =
+        e.elevator_votes > e.stairs_votes
+            ? TransitMode::kElevator
+            : (e.stairs_votes > e.elevator_votes ? TransitMode::kStairs : TransitMode::kUnknown);
     events_.push_back(ev);
     common::logInfo(str("floor_detector: transit ended at t=", motion_end, ": floor ",
-                        ev.from_floor, " -> ", ev.floor_id, created ? " (new)" : "",
-                        ", dz=", dh, " +- ", stddev, ", ", transitModeName(ev.mode),
-                        ", confidence ", ev.confidence));
+                        ev.from_floor, " -> ", ev.floor_id, created ? " (new)" : "", ", dz=", dh,
+                        " +- ", stddev, ", ", transitModeName(ev.mode), ", confidence ",
+                        ev.confidence));
   }
   current_floor_ = floor_index;
   height_offset_ = changed ? 0.0 : arrival - floors_[floor_index].height;
@@ -434,8 +434,8 @@ void FloorDetector::endTransit(int floor_index, bool changed, bool created, doub
 
 void FloorDetector::handleGap(double gap_start, double gap_end) {
   ++stats_.gaps;
-  common::logWarn(str("floor_detector: no pressure between t=", gap_start, " and t=", gap_end,
-                      " (", gap_end - gap_start, " s); filter restarted"));
+  common::logWarn(str("floor_detector: no pressure between t=", gap_start, " and t=", gap_end, " (",
+                      gap_end - gap_start, " s); filter restarted"));
   raw_.clear();
   velocity_valid_ = false;
   if (state_ == State::kOnFloor) {
@@ -584,8 +584,7 @@ bool FloorDetector::addOdometry(const sensor::OdometrySample& sample) {
     return false;
   }
   if (sample.stamp <= last_odom_stamp_) {
-    rejectLog(str("odometry sample at t=", sample.stamp, " out of order"),
-              stats_.rejected_other);
+    rejectLog(str("odometry sample at t=", sample.stamp, " out of order"), stats_.rejected_other);
     return false;
   }
   last_odom_stamp_ = sample.stamp;
@@ -625,8 +624,8 @@ bool FloorDetector::addScan(const sensor::LaserScan& scan) {
     if (sim >= 0.0) scan_similarity_.push_back({scan.stamp, sim});
   }
   scans_.push_back(scan);
-  while (scans_.size() > 1 && (scans_.front().stamp < scan.stamp - 3.0 * kScanLag ||
-                               scans_.size() > kMaxScansKept)) {
+  while (scans_.size() > 1 &&
+         (scans_.front().stamp < scan.stamp - 3.0 * kScanLag || scans_.size() > kMaxScansKept)) {
     scans_.pop_front();
   }
   return true;

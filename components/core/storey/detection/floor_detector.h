@@ -27,24 +27,24 @@ enum class FloorEventType { kTransitStarted = 0, kTransitEnded = 1 };
 // everything.
 struct FloorEvent {
   FloorEventType type = FloorEventType::kTransitStarted;
-  double stamp = 0.0;          // s: start of the vertical motion, or its end
-  double start_stamp = 0.0;    // s: start of the ride (TransitEnded)
+  double stamp = 0.0;        // s: start of the vertical motion, or its end
+  double start_stamp = 0.0;  // s: start of the ride (TransitEnded)
   int from_floor = 0;
   double from_height = 0.0;    // m, building frame
   double height_change = 0.0;  // m, measured by the barometer (up is positive)
   double height_change_stddev = 0.0;
-  int floor_id = 0;            // floor reached (== from_floor when the floor did not change)
-  double floor_height = 0.0;   // m, that floor's height estimate
+  int floor_id = 0;           // floor reached (== from_floor when the floor did not change)
+  double floor_height = 0.0;  // m, that floor's height estimate
   bool floor_changed = false;
-  bool new_floor = false;      // the floor was created by this ride
-  double confidence = 0.0;     // in (0, 1), see docs/floor_detector.md
+  bool new_floor = false;   // the floor was created by this ride
+  double confidence = 0.0;  // in (0, 1), see docs/floor_detector.md
   TransitMode mode = TransitMode::kUnknown;
 };
 
 struct Floor {
   int id = 0;
-  double height = 0.0;    // m, building frame
-  int arrivals = 0;       // rides that ended here
+  double height = 0.0;  // m, building frame
+  int arrivals = 0;     // rides that ended here
   // Height kept fixed: from the building's configuration, or the starting floor (datum).
   bool configured = false;
 };
@@ -138,8 +138,8 @@ class FloorDetector {
   double onset_ = 0.0;           // start of vertical motion (s)
   double start_height_ = 0.0;    // filtered barometric height before the motion
   double start_height_stddev_ = 0.0;
-  double quiet_since_ = -1.0;    // velocity time at which the robot became quiet, or < 0
-  double quiet_height_ = 0.0;    // window height when the robot became quiet
+  double quiet_since_ = -1.0;     // velocity time at which the robot became quiet, or < 0
+  double quiet_height_ = 0.0;     // window height when the robot became quiet
   double candidate_since_ = 0.0;  // velocity time at which the candidate began
   double candidate_sign_ = 0.0;
   double last_pressure_ = kReferencePressure;

@@ -10,14 +10,14 @@
 namespace storey::detection {
 
 struct BarometerOptions {
-  double temperature_kelvin = 288.15;  // air temperature for the hypsometric equation
+  double temperature_kelvin = 288.15;           // air temperature for the hypsometric equation
   double temperature_uncertainty_kelvin = 5.0;  // scales the reported std-dev
-  double min_pressure = 30000.0;   // Pa; readings outside are rejected
-  double max_pressure = 110000.0;  // Pa
-  double median_window = 1.0;      // s; Hampel window: spikes (door slams) shorter than half of it go
-  double velocity_window = 6.0;    // s; least-squares slope of the filtered height
-  double max_gap = 1.0;            // s; a longer silence restarts the filter
-  double max_drift_rate = 100.0;   // Pa/h of weather drift assumed for the std-dev
+  double min_pressure = 30000.0;                // Pa; readings outside are rejected
+  double max_pressure = 110000.0;               // Pa
+  double median_window = 1.0;    // s; Hampel window: spikes (door slams) shorter than half of it go
+  double velocity_window = 6.0;  // s; least-squares slope of the filtered height
+  double max_gap = 1.0;          // s; a longer silence restarts the filter
+  double max_drift_rate = 100.0;  // Pa/h of weather drift assumed for the std-dev
 };
 
 struct TransitOptions {
@@ -31,21 +31,21 @@ struct TransitOptions {
 };
 
 struct FloorIdentityOptions {
-  double storey_height = 3.0;        // m; nominal, for the minimum change
+  double storey_height = 3.0;         // m; nominal, for the minimum change
   double min_change_fraction = 0.65;  // of storey_height, to reach a new floor
-  double match_tolerance = 1.0;      // m; arrival within this of a known floor resumes it
-  std::vector<double> heights;       // building floor heights from config (may be empty)
-  int initial_floor = 0;             // index into heights (ignored when empty)
+  double match_tolerance = 1.0;       // m; arrival within this of a known floor resumes it
+  std::vector<double> heights;        // building floor heights from config (may be empty)
+  int initial_floor = 0;              // index into heights (ignored when empty)
 };
 
 struct CorroborationOptions {
   bool use_imu = true;
   bool use_odometry = true;
   bool use_scan = true;
-  double elevator_min_speed = 0.3;   // m/s typical (median) vertical speed: elevator-like
-  double stairs_max_speed = 0.2;     // m/s typical (median) vertical speed: stairs-like
-  double stationary_speed = 0.05;    // m/s mean planar odometry speed: standing still
-  double max_planar_speed = 1.0;     // m/s; faster is implausible on stairs or in a cabin
+  double elevator_min_speed = 0.3;      // m/s typical (median) vertical speed: elevator-like
+  double stairs_max_speed = 0.2;        // m/s typical (median) vertical speed: stairs-like
+  double stationary_speed = 0.05;       // m/s mean planar odometry speed: standing still
+  double max_planar_speed = 1.0;        // m/s; faster is implausible on stairs or in a cabin
   double static_scan_similarity = 0.8;  // mean similarity above: the walls moved along
   double moving_scan_similarity = 0.5;  // below: the surroundings changed
   ScanSimilarityOptions scan;

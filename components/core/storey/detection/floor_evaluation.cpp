@@ -106,7 +106,8 @@ FloorComparison compareWithTruth(const std::vector<FloorEvent>& events,
   }
   c.reported = static_cast<int>(changes.size());
   std::map<int, std::string> identity;  // detector floor id -> true floor id
-  if (!truth.empty()) identity[events.empty() ? 0 : events.front().from_floor] = truth.front().from_floor;
+  if (!truth.empty())
+    identity[events.empty() ? 0 : events.front().from_floor] = truth.front().from_floor;
   std::vector<bool> used(changes.size(), false);
   double squared = 0.0;
   std::size_t next = 0;  // both lists are in time order
@@ -122,8 +123,8 @@ FloorComparison compareWithTruth(const std::vector<FloorEvent>& events,
     }
     if (found < 0) {
       ++c.missed;
-      c.problems.push_back(str("missed: ", t.from_floor, " -> ", t.to_floor, " (", t.mode,
-                               ") at ", t.start, "..", t.end, " s"));
+      c.problems.push_back(str("missed: ", t.from_floor, " -> ", t.to_floor, " (", t.mode, ") at ",
+                               t.start, "..", t.end, " s"));
       continue;
     }
     for (int i = static_cast<int>(next); i < found; ++i) {
@@ -154,8 +155,7 @@ FloorComparison compareWithTruth(const std::vector<FloorEvent>& events,
     if (!right) {
       ++c.wrong_floor;
       c.problems.push_back(str("wrong floor: ", t.from_floor, " -> ", t.to_floor,
-                               " reported as detector floor ", e.floor_id, " at ", t.start,
-                               " s"));
+                               " reported as detector floor ", e.floor_id, " at ", t.start, " s"));
     }
   }
   for (std::size_t i = next; i < changes.size(); ++i) {

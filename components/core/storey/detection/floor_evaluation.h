@@ -25,13 +25,13 @@ std::vector<TrueTransit> readTrueTransits(const std::string& dir);
 
 struct FloorComparison {
   int true_transits = 0;
-  int reported = 0;      // TransitEnded events that changed the floor
-  int matched = 0;       // true transits with an overlapping reported change
-  int missed = 0;        // true transits without one
-  int spurious = 0;      // reported changes without a true transit
-  int wrong_floor = 0;   // matched, but the floor reached is not the true one
-  int mode_correct = 0;  // matched with the right elevator/stairs mode
-  double height_rmse = 0.0;  // over matched transits, m
+  int reported = 0;                   // TransitEnded events that changed the floor
+  int matched = 0;                    // true transits with an overlapping reported change
+  int missed = 0;                     // true transits without one
+  int spurious = 0;                   // reported changes without a true transit
+  int wrong_floor = 0;                // matched, but the floor reached is not the true one
+  int mode_correct = 0;               // matched with the right elevator/stairs mode
+  double height_rmse = 0.0;           // over matched transits, m
   std::vector<std::string> problems;  // one line per miss, spurious or wrong floor
   bool exact() const { return missed == 0 && spurious == 0 && wrong_floor == 0; }
 };

@@ -41,8 +41,8 @@ detection::FloorEvent fromMessage(const storey_msgs::msg::FloorEvent& m) {
   namespace k = storey_msgs::msg::FloorEvent_Constants;
   detection::FloorEvent e;
   const bool ended = m.kind() == k::KIND_TRANSIT_ENDED;
-  e.type = ended ? detection::FloorEventType::kTransitEnded
-                 : detection::FloorEventType::kTransitStarted;
+  e.type =
+      ended ? detection::FloorEventType::kTransitEnded : detection::FloorEventType::kTransitStarted;
   e.stamp = runtime::fromTimeMessage(m.stamp());
   e.start_stamp = e.stamp;
   e.floor_id = m.floor_id();

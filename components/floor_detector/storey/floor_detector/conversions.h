@@ -8,8 +8,8 @@
 
 namespace storey::floor_detector {
 
-// TransitStarted carries floor_id FLOOR_UNKNOWN (-1); TransitEnded the floor reached
-// (the floor it left when the ride did not change floor).
+// TransitStarted carries floor_id FLOOR_UNKNOWN (-1) and the height of the floor left;
+// TransitEnded the floor reached (the floor it left when the ride did not change floor).
 storey_msgs::msg::FloorEvent toMessage(const detection::FloorEvent& event,
                                        const std::string& robot);
 // The fields the message has; from_floor, start_stamp and floor_changed are not on the

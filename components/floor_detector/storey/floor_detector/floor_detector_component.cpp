@@ -47,8 +47,9 @@ void FloorDetectorComponent::onConfigure() {
     published_ = 0;
   }
   const std::string& robot = options_.robot;
-  publisher_ = createPublisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>(
-      runtime::robotTopic(robot, options_.events_topic), runtime::TopicKind::kGraph);
+  publisher_ =
+      createPublisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>(
+          runtime::robotTopic(robot, options_.events_topic), runtime::TopicKind::kGraph);
   // Samples that arrive before activation are dropped: their events could not be sent.
   auto active = [this] { return state() == runtime::LifecycleState::kActive; };
   createSubscription<sensor_msgs::msg::FluidPressure, sensor_msgs::msg::FluidPressurePubSubType>(

@@ -45,8 +45,8 @@ class FloorDetectorComponent : public runtime::Component {
   FloorDetectorComponentOptions options_;
   mutable std::mutex mutex_;  // guards detector_ (callbacks may run on several threads)
   std::unique_ptr<detection::FloorDetector> detector_;
-  std::shared_ptr<runtime::Publisher<storey_msgs::msg::FloorEvent,
-                                     storey_msgs::msg::FloorEventPubSubType>>
+  std::shared_ptr<
+      runtime::Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>>
       publisher_;
   std::uint64_t published_ = 0;
 };
