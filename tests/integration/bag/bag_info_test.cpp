@@ -1,0 +1,63 @@
+// `storey bag info` on a bag written here, and on files that are not bags.
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <fstream>
+
+#include "storey/runtime/sensor_bag.h"
+#include "test_support.h"
+
+namespace storey::runtime {
+namespace {
+
+// Runs a shell command; returns (exit status, stdout + stderr).
+std::pair<int, std::string> run(const std::string& command) {
+  std::string output;
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
+  if (!pipe) return {-1, ""};
+  char buffer[4096];
+  while (std::size_t n = fread(buffer, 1, sizeof(buffer), pipe)) output.append(buffer, n);
+  const int status = pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
+}
+
+TEST(BagInfo, PrintsTopicsTypesCountsAndDuration) {
+  const std::string folder = test::makeTempDir("bag_info") + "/walk";
+  {
+    SensorBagWriter writer(folder);
+    for (int i = 0; i < 11; ++i) {
+      writer.write("r1", sensor::PressureSample{100.0 + 0.5 * i, 101000.0, 0.0});
+      sensor::OdometrySample odom;
+      odom.stamp = 100.0 + 0.5 * i;
+      writer.write("r1", odom);
+    }
+  }
+  const auto [status, out] = run(std::string(STOREY_COMMAND) + " bag info " + folder);
+  ASSERT_EQ(status, 0) << out;
+  EXPECT_NE(out.find("walk_0.db3"), std::string::npos) << out;
+  EXPECT_NE(out.find("Duration:    5.000 s"), std::string::npos) << out;
+  EXPECT_NE(out.find("Messages:    22"), std::string::npos) << out;
+  EXPECT_NE(out.find("schema 3, humble"), std::string::npos) << out;
+  EXPECT_NE(out.find("/r1/pressure  sensor_msgs/msg/FluidPressure        11  cdr  2.0 Hz"),
+            std::string::npos)
+      << out;
+  EXPECT_NE(out.find("/r1/odom      nav_msgs/msg/Odometry                11"), std::string::npos)
+      << out;
+}
+
+TEST(BagInfo, NonBagsFailNamingTheFile) {
+  const std::string dir = test::makeTempDir("bag_info");
+  std::ofstream(dir + "/junk.db3") << "this is not sqlite";
+  auto [status, out] = run(std::string(STOREY_COMMAND) + " bag info " + dir + "/junk.db3");
+  EXPECT_EQ(status, 1);
+  EXPECT_NE(out.find(dir + "/junk.db3: not a readable sqlite3 database"), std::string::npos)
+      << out;
+  std::tie(status, out) = run(std::string(STOREY_COMMAND) + " bag info " + dir + "/missing");
+  EXPECT_EQ(status, 1);
+  EXPECT_NE(out.find(dir + "/missing: no such bag folder or file"), std::string::npos) << out;
+  std::tie(status, out) = run(std::string(STOREY_COMMAND) + " bag list " + dir);
+  EXPECT_EQ(status, 2) << out;
+}
+
+}  // namespace
+}  // namespace storey::runtime
