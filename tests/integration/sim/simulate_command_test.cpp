@@ -106,6 +106,31 @@ TEST(SimulateCommand, TheBagReplaysTheSimulatedSamples) {
   EXPECT_EQ(imu, robot.imu.size());
 }
 
+TEST(EvaluateCommand, TruthScoresZeroAndDeadReckoningDoesNot) {
+  const std::string dir = test::makeTempDir("sim_eval");
+  runSimulate(dir + "/out", 4);
+  const auto evaluate = [&](const std::string& result, const std::string& json) {
+    const std::string command = std::string(STOREY_EXECUTABLE) + " evaluate " + result + " " + dir +
+                                "/out --json " + json + " > " + json + ".txt 2>&1";
+    EXPECT_EQ(std::system(command.c_str()), 0) << readFile(json + ".txt");
+    return readFile(json);
+  };
+  const std::string truth = evaluate(dir + "/out/ground_truth", dir + "/truth.json");
+  EXPECT_NE(truth.find("\"ate_rmse\": 0,"), std::string::npos) << truth;
+  EXPECT_NE(truth.find("\"ratio\": 1}"), std::string::npos) << truth;
+  const std::string baseline = evaluate(dir + "/out/baseline_odometry", dir + "/odom.json");
+  EXPECT_EQ(baseline.find("\"ate_rmse\": 0,"), std::string::npos) << baseline;
+  EXPECT_NE(baseline.find("\"matched\": 579"), std::string::npos) << baseline;
+  EXPECT_NE(readFile(dir + "/odom.json.txt").find("relations"), std::string::npos);
+  // A malformed result names its file and line.
+  std::ofstream(dir + "/bad.csv") << "stamp,robot,floor,x,y,theta,z\n0,robot1,F0,1,2,x,0\n";
+  const std::string command = std::string(STOREY_EXECUTABLE) + " evaluate " + dir + "/bad.csv " +
+                              dir + "/out > " + dir + "/bad.txt 2>&1";
+  EXPECT_NE(std::system(command.c_str()), 0);
+  EXPECT_NE(readFile(dir + "/bad.txt").find("bad.csv:2: theta"), std::string::npos)
+      << readFile(dir + "/bad.txt");
+}
+
 TEST(SimulateCommand, ImpossibleMissionFailsWithTheLine) {
   const std::string dir = test::makeTempDir("sim_bad");
   std::string text = readFile(small2());
