@@ -9,20 +9,23 @@
 
 namespace storey::cli {
 
-extern const char* const summary_convert = "convert a CARMEN/GMapping log into a rosbag2 bag (scan, odom)";
+extern const char* const summary_convert =
+    "convert a CARMEN/GMapping log into a rosbag2 bag (scan, odom)";
 
 int run_convert(Args& args) {
-  args.usage("LOG OUT_BAG",
-             "Writes the scans of a CARMEN log (FLASER, RLASER, ROBOTLASER, RAWLASER; plain or .gz)\n"
-             "or a GMapping .gfs log to a new rosbag2 folder: /<robot>/scan (sensor_msgs/LaserScan),\n"
-             "/<robot>/odom (nav_msgs/Odometry) and the laser mounting on /tf_static.\n"
-             "--odom scans pairs every scan with the odometry pose on its own line (in corrected\n"
-             "logs that is the corrected pose); --odom lines writes the log's ODOM lines instead,\n"
-             "dropping those stamped zero. Stamps are the log's own (out-of-order ones reported).")
+  args.usage(
+          "LOG OUT_BAG",
+          "Writes the scans of a CARMEN log (FLASER, RLASER, ROBOTLASER, RAWLASER; plain or .gz)\n"
+          "or a GMapping .gfs log to a new rosbag2 folder: /<robot>/scan (sensor_msgs/LaserScan),\n"
+          "/<robot>/odom (nav_msgs/Odometry) and the laser mounting on /tf_static.\n"
+          "--odom scans pairs every scan with the odometry pose on its own line (in corrected\n"
+          "logs that is the corrected pose); --odom lines writes the log's ODOM lines instead,\n"
+          "dropping those stamped zero. Stamps are the log's own (out-of-order ones reported).")
       .option("robot", "NAME", "robot namespace of the topics", "robot")
       .option("laser", "ID", "laser to convert: 1 front, 2 rear, ..., 0 every laser", "1")
       .option("odom", "scans|lines", "odometry from each scan line, or the ODOM lines", "scans")
-      .option("ros-distro", "NAME", "ROS 2 distribution recorded in the bag (humble, jazzy)", "humble")
+      .option("ros-distro", "NAME", "ROS 2 distribution recorded in the bag (humble, jazzy)",
+              "humble")
       .flag("lenient", "skip malformed lines (counted) instead of stopping at the first");
   if (!args.parse()) return 0;
   const std::string log_path = args.positional(0, "LOG");
@@ -71,7 +74,8 @@ int run_convert(Args& args) {
   common::logInfo(common::str(log_path, ": ", reader.stats().summary()));
   for (const std::string& problem : reader.stats().problems) common::logDebug(problem);
   if (scans == 0) common::logWarn(log_path + ": no scan of the selected laser in the log");
-  std::cout << "wrote " << scans << " scans and " << odometry << " odometry messages to " << bag_path;
+  std::cout << "wrote " << scans << " scans and " << odometry << " odometry messages to "
+            << bag_path;
   if (zero_stamped > 0) std::cout << " (dropped " << zero_stamped << " ODOM lines stamped zero)";
   std::cout << "\n";
   return 0;

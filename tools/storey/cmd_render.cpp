@@ -10,7 +10,8 @@
 
 namespace storey::cli {
 
-extern const char* const summary_render = "draw the map of a CARMEN/GMapping log from its poses (PNG, nav2)";
+extern const char* const summary_render =
+    "draw the map of a CARMEN/GMapping log from its poses (PNG, nav2)";
 
 int run_render(Args& args) {
   args.usage("LOG OUT.png",
@@ -38,10 +39,14 @@ int run_render(Args& args) {
   if (!(options.grid.resolution > 0.0) || options.grid.resolution > 10.0)
     throw UsageError("--resolution must be in (0, 10] metres");
   const std::string pose = args.get("pose");
-  if (pose == "corrected") options.pose = io::LogPose::kCorrected;
-  else if (pose == "odometry") options.pose = io::LogPose::kOdometry;
-  else throw UsageError("--pose must be corrected or odometry, got '" + pose + "'");
-  const long laser = args.getInt("laser"), first = args.getInt("first-scan"), max = args.getInt("max-scans");
+  if (pose == "corrected")
+    options.pose = io::LogPose::kCorrected;
+  else if (pose == "odometry")
+    options.pose = io::LogPose::kOdometry;
+  else
+    throw UsageError("--pose must be corrected or odometry, got '" + pose + "'");
+  const long laser = args.getInt("laser"), first = args.getInt("first-scan"),
+             max = args.getInt("max-scans");
   if (laser < 0 || laser > 4) throw UsageError("--laser must be 0..4");
   if (first < 0 || max < 0) throw UsageError("--first-scan and --max-scans must not be negative");
   options.laser_id = static_cast<int>(laser);
@@ -56,13 +61,15 @@ int run_render(Args& args) {
   common::logInfo(common::str(log_path, ": ", stats.summary()));
   for (const std::string& problem : stats.problems) common::logDebug(problem);
   if (options.pose == io::LogPose::kCorrected && stats.recordCount("LASER_READING") > 0)
-    common::logWarn("LASER_READING lines carry only the raw odometry pose: the map is drawn from odometry");
+    common::logWarn(
+        "LASER_READING lines carry only the raw odometry pose: the map is drawn from odometry");
   if (map.scans_inserted == 0 || map.grid.empty())
     throw std::runtime_error(log_path + ": no scan with a pose and a return to draw");
   grid::writePng(png_path, grid::renderGrey(map.grid));
   const grid::GridFrame& f = map.grid.frame();
-  std::cout << "drew " << map.scans_inserted << " scans into " << f.width << "x" << f.height << " cells at "
-            << f.resolution << " m, origin (" << f.origin_x << ", " << f.origin_y << "): " << png_path << "\n";
+  std::cout << "drew " << map.scans_inserted << " scans into " << f.width << "x" << f.height
+            << " cells at " << f.resolution << " m, origin (" << f.origin_x << ", " << f.origin_y
+            << "): " << png_path << "\n";
   if (args.has("map-server")) {
     const std::string stem = args.get("map-server");
     grid::writeMapServerFiles(map.grid, stem);

@@ -50,8 +50,8 @@ void BM_InsertScan(benchmark::State& state) {
   }
   state.SetItemsProcessed(state.iterations());  // scans
   state.counters["cells_per_scan"] = static_cast<double>(updated);
-  state.counters["cells/s"] =
-      benchmark::Counter(static_cast<double>(updated) * state.iterations(), benchmark::Counter::kIsRate);
+  state.counters["cells/s"] = benchmark::Counter(static_cast<double>(updated) * state.iterations(),
+                                                 benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_InsertScan)->Unit(benchmark::kMicrosecond);
 
@@ -145,8 +145,10 @@ void BM_DistanceTransform2000(benchmark::State& state) {
     benchmark::DoNotOptimize(d.data.data());
   }
   const double cells = static_cast<double>(f.cellCount());
-  state.counters["cells/s"] = benchmark::Counter(cells * state.iterations(), benchmark::Counter::kIsRate);
-  state.SetBytesProcessed(state.iterations() * static_cast<std::int64_t>(f.cellCount() * sizeof(float)));
+  state.counters["cells/s"] =
+      benchmark::Counter(cells * state.iterations(), benchmark::Counter::kIsRate);
+  state.SetBytesProcessed(state.iterations() *
+                          static_cast<std::int64_t>(f.cellCount() * sizeof(float)));
 }
 BENCHMARK(BM_DistanceTransform2000)->Unit(benchmark::kMillisecond);
 
@@ -157,8 +159,8 @@ void BM_LikelihoodFieldBuild2000(benchmark::State& state) {
     grid::LikelihoodField field(f, mask, grid::LikelihoodFieldOptions{});
     benchmark::DoNotOptimize(field.logLikelihood().data.data());
   }
-  state.counters["cells/s"] =
-      benchmark::Counter(static_cast<double>(f.cellCount()) * state.iterations(), benchmark::Counter::kIsRate);
+  state.counters["cells/s"] = benchmark::Counter(
+      static_cast<double>(f.cellCount()) * state.iterations(), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_LikelihoodFieldBuild2000)->Unit(benchmark::kMillisecond);
 
@@ -171,8 +173,8 @@ void BM_MemcpyFloatGrid2000(benchmark::State& state) {
     benchmark::DoNotOptimize(b.data());
     benchmark::ClobberMemory();
   }
-  state.counters["cells/s"] = benchmark::Counter(static_cast<double>(kDtSide) * kDtSide * state.iterations(),
-                                                 benchmark::Counter::kIsRate);
+  state.counters["cells/s"] = benchmark::Counter(
+      static_cast<double>(kDtSide) * kDtSide * state.iterations(), benchmark::Counter::kIsRate);
   state.SetBytesProcessed(state.iterations() * static_cast<std::int64_t>(bytes));
 }
 BENCHMARK(BM_MemcpyFloatGrid2000)->Unit(benchmark::kMillisecond);
@@ -194,7 +196,8 @@ void parseLog(benchmark::State& state, const std::string& path) {
     lines += reader.stats().lines;
     bytes += reader.stats().bytes;
   }
-  state.counters["lines/s"] = benchmark::Counter(static_cast<double>(lines), benchmark::Counter::kIsRate);
+  state.counters["lines/s"] =
+      benchmark::Counter(static_cast<double>(lines), benchmark::Counter::kIsRate);
   state.SetBytesProcessed(static_cast<std::int64_t>(bytes));  // uncompressed text
 }
 
@@ -215,7 +218,8 @@ void BM_CarmenParseIntelPlain(benchmark::State& state) {
     return;
   }
   // Decompressed once into a temporary file, to separate parsing from inflating.
-  const std::string plain = (std::filesystem::temp_directory_path() / "storey_bench_intel.log").string();
+  const std::string plain =
+      (std::filesystem::temp_directory_path() / "storey_bench_intel.log").string();
   {
     gzFile in = gzopen(gz.c_str(), "rb");
     std::ofstream out(plain, std::ios::binary);

@@ -1,12 +1,12 @@
 // Exactness of the distance transform on shapes the first tests do not cover: empty
 // columns and rows, single lines, one source, and grids wide enough for 64-bit arithmetic.
+#include "storey/grid/distance_transform.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
 #include <random>
-
-#include "storey/grid/distance_transform.h"
 
 namespace storey::grid {
 namespace {
@@ -23,7 +23,8 @@ void expectExact(const GridFrame& f, const std::vector<std::uint8_t>& src) {
       double best = std::numeric_limits<double>::infinity();
       for (const auto& [sx, sy] : sources)
         best = std::min(best, double(sx - x) * (sx - x) + double(sy - y) * (sy - y));
-      ASSERT_EQ(d2.at(x, y), static_cast<float>(best)) << f.width << "x" << f.height << " at " << x << "," << y;
+      ASSERT_EQ(d2.at(x, y), static_cast<float>(best))
+          << f.width << "x" << f.height << " at " << x << "," << y;
     }
 }
 

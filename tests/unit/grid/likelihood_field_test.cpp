@@ -1,11 +1,12 @@
 // The likelihood field's tables give exactly what the per-cell formulas give.
+#include "storey/grid/likelihood_field.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
 #include "storey/grid/distance_transform.h"
-#include "storey/grid/likelihood_field.h"
 
 namespace storey::grid {
 namespace {
@@ -31,7 +32,8 @@ void expectMatchesFormula(double resolution, double max_distance, double obstacl
     const double gauss = std::exp(-d * d / (2.0 * options.sigma_hit * options.sigma_hit));
     ASSERT_EQ(field.score().data[i], static_cast<float>(gauss)) << i;
     ASSERT_EQ(field.logLikelihood().data[i],
-              static_cast<float>(std::log(options.z_hit * norm * gauss + options.z_rand / options.range_max)))
+              static_cast<float>(
+                  std::log(options.z_hit * norm * gauss + options.z_rand / options.range_max)))
         << i;
   }
 }

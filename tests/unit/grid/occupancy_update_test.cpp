@@ -54,9 +54,11 @@ TEST(OccupancyUpdate, ClampsAndKeepsObservedCellsNonZero) {
   // A miss that brings the cell back to exactly zero keeps it "observed".
   grid.insertScan(beams({2.0f}, 0.0, 0.1), geometry::Pose2(0.05, 0.05, 0.0));
   EXPECT_NE(logOddsAtWorld(grid, 1.05, 0.05), 0.0f);
-  EXPECT_NE(grid.stateAt(grid.frame().cellOf({1.05, 0.05}).x(), grid.frame().cellOf({1.05, 0.05}).y()),
-            CellState::kOccupied);
-  for (int i = 0; i < 50; ++i) grid.insertScan(beams({2.0f}, 0.0, 0.1), geometry::Pose2(0.05, 0.05, 0.0));
+  EXPECT_NE(
+      grid.stateAt(grid.frame().cellOf({1.05, 0.05}).x(), grid.frame().cellOf({1.05, 0.05}).y()),
+      CellState::kOccupied);
+  for (int i = 0; i < 50; ++i)
+    grid.insertScan(beams({2.0f}, 0.0, 0.1), geometry::Pose2(0.05, 0.05, 0.0));
   EXPECT_FLOAT_EQ(logOddsAtWorld(grid, 2.05, 0.05), static_cast<float>(options.max_log_odds));
   EXPECT_FLOAT_EQ(logOddsAtWorld(grid, 1.05, 0.05), static_cast<float>(options.min_log_odds));
 }

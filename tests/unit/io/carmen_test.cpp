@@ -54,8 +54,9 @@ CarmenReaderOptions lenient() {
 }
 
 TEST(CarmenReader, FlaserWithDefaultAnglesAndBothPoses) {
-  const std::string path = writeText(
-      "a.log", "# a comment\n\n" + flaserLine(180, 1.0, "1 2 0.5 1.1 2.1 0.6 12.5 host7 12.75") + "\n");
+  const std::string path =
+      writeText("a.log", "# a comment\n\n" +
+                             flaserLine(180, 1.0, "1 2 0.5 1.1 2.1 0.6 12.5 host7 12.75") + "\n");
   CarmenStats stats;
   const auto records = readAll(path, {}, &stats);
   ASSERT_EQ(records.size(), 1u);
@@ -98,15 +99,15 @@ TEST(CarmenReader, OddBeamCountSpansTheFieldOfViewInclusive) {
 }
 
 TEST(CarmenReader, ParamsSetFieldOfViewRangeLimitAndLaserOffset) {
-  const std::string path = writeText(
-      "a.log",
-      "PARAM laser_front_laser_fov 100 1.0 host 1.0\n"  // degrees in some logs
-      "PARAM robot_front_laser_max 50\n"
-      "PARAM robot_frontlaser_offset 0.25 1.0 host 1.0\n"
-      "PARAM robot_rearlaser_offset 0.1\n"
-      "PARAM laser_rear_laser_fov 3.14159265358979\n" +
-          flaserLine(101, 1.0, "1 0 1.5707963267948966 0 0 0 1 h 1") + "\n" +
-          "RLASER 4 1 1 1 1 0 0 0 0 0 0 2 h 2\n");
+  const std::string path =
+      writeText("a.log",
+                "PARAM laser_front_laser_fov 100 1.0 host 1.0\n"  // degrees in some logs
+                "PARAM robot_front_laser_max 50\n"
+                "PARAM robot_frontlaser_offset 0.25 1.0 host 1.0\n"
+                "PARAM robot_rearlaser_offset 0.1\n"
+                "PARAM laser_rear_laser_fov 3.14159265358979\n" +
+                    flaserLine(101, 1.0, "1 0 1.5707963267948966 0 0 0 1 h 1") + "\n" +
+                    "RLASER 4 1 1 1 1 0 0 0 0 0 0 2 h 2\n");
   CarmenReader reader(path);
   CarmenRecord r;
   std::vector<CarmenRecord> lasers;
@@ -134,12 +135,12 @@ TEST(CarmenReader, ParamsSetFieldOfViewRangeLimitAndLaserOffset) {
   EXPECT_NEAR(std::abs(rear.scan.sensor_offset.theta()), M_PI, 1e-12);
   EXPECT_DOUBLE_EQ(rear.scan.sensor_offset.x(), -0.1);
   EXPECT_NEAR(rear.scan.angle_increment, M_PI / 4, 1e-9);  // 4 beams (even) over pi
-  EXPECT_DOUBLE_EQ(rear.scan.range_max, 80.0);  // no robot_rear_laser_max: the default
+  EXPECT_DOUBLE_EQ(rear.scan.range_max, 80.0);             // no robot_rear_laser_max: the default
 }
 
 TEST(CarmenReader, NanAndInfiniteRangesAreKeptAsNoReturn) {
-  const std::string path =
-      writeText("a.log", "FLASER 4 1.5 nan inf 81.91 0 0 0 0 0 0 3 h 3\nFLASER 2 NaN -inf 0 0 0 0 0 0 4\n");
+  const std::string path = writeText(
+      "a.log", "FLASER 4 1.5 nan inf 81.91 0 0 0 0 0 0 3 h 3\nFLASER 2 NaN -inf 0 0 0 0 0 0 4\n");
   const auto records = readAll(path, {});
   ASSERT_EQ(records.size(), 2u);
   const auto& scan = records[0].laser.scan;
@@ -157,10 +158,10 @@ TEST(CarmenReader, NanAndInfiniteRangesAreKeptAsNoReturn) {
 TEST(CarmenReader, RobotLaserCarriesItsOwnAnglesPosesAndRemissions) {
   // type start fov res max accuracy mode n ranges m remissions laser pose robot pose
   // tv rv fsd ssd turn stamp host logger
-  const std::string path = writeText(
-      "a.log",
-      "ROBOTLASER1 0 -1.0 2.0 0.5 30 0.01 0 5 1 2 3 4 5 2 0.5 0.7 "
-      "1.2 2.0 0.0 1.0 2.0 0.0 0.1 0.2 0.3 0.4 0.5 100.5 robot 100.6\n");
+  const std::string path =
+      writeText("a.log",
+                "ROBOTLASER1 0 -1.0 2.0 0.5 30 0.01 0 5 1 2 3 4 5 2 0.5 0.7 "
+                "1.2 2.0 0.0 1.0 2.0 0.0 0.1 0.2 0.3 0.4 0.5 100.5 robot 100.6\n");
   const auto records = readAll(path, {});
   ASSERT_EQ(records.size(), 1u);
   const CarmenLaser& laser = records[0].laser;
@@ -183,7 +184,8 @@ TEST(CarmenReader, RobotLaserCarriesItsOwnAnglesPosesAndRemissions) {
 }
 
 TEST(CarmenReader, RawLaserHasNoPose) {
-  const std::string path = writeText("a.log", "RAWLASER3 0 -1.5 3.0 1.0 8 0.01 0 4 1 2 3 4 0 7.5 h 7.5\n");
+  const std::string path =
+      writeText("a.log", "RAWLASER3 0 -1.5 3.0 1.0 8 0.01 0 4 1 2 3 4 0 7.5 h 7.5\n");
   const auto records = readAll(path, {});
   ASSERT_EQ(records.size(), 1u);
   EXPECT_EQ(records[0].laser.laser_id, 3);
@@ -214,7 +216,8 @@ TEST(CarmenReader, OdometryInCarmenAndGfsLayouts) {
 TEST(CarmenReader, GfsLaserReadingCarriesTheOdometryPose) {
   std::ostringstream line;
   line << "LASER_READING 3 1 2 3 576.48 -0.103 -1.487635 1134864642.914187\n";
-  const std::string path = writeText("a.gfs", "PARAM maxrange 20\n" + line.str() + "SM_UPDATE 1 2 3\n");
+  const std::string path =
+      writeText("a.gfs", "PARAM maxrange 20\n" + line.str() + "SM_UPDATE 1 2 3\n");
   CarmenStats stats;
   const auto records = readAll(path, {}, &stats);
   ASSERT_EQ(records.size(), 2u);
@@ -286,7 +289,8 @@ TEST(CarmenReader, MalformedLinesThrowInStrictModeWithFileAndLine) {
     EXPECT_EQ(stats.skipped, 1u) << c.line;
     EXPECT_EQ(stats.skip_reasons.count(c.reason), 1u) << c.line << " reasons: " << stats.summary();
     ASSERT_FALSE(stats.problems.empty());
-    EXPECT_NE(stats.problems.back().find(path + ":3: "), std::string::npos) << stats.problems.back();
+    EXPECT_NE(stats.problems.back().find(path + ":3: "), std::string::npos)
+        << stats.problems.back();
   }
 }
 
@@ -327,7 +331,8 @@ TEST(CarmenReader, WindowsLineEndingsAndTabs) {
 TEST(CarmenReader, LinesLongerThanTheReadBuffer) {
   const std::string line = flaserLine(30000, 1.0, "0 0 0 0 0 0 1 h 1");  // > 64 KiB
   ASSERT_GT(line.size(), 1u << 17);
-  const std::string path = writeGzip("long.log.gz", "ODOM 0 0 0 0 0 0 1\n" + line + "\nODOM 0 0 0 0 0 0 2\n");
+  const std::string path =
+      writeGzip("long.log.gz", "ODOM 0 0 0 0 0 0 1\n" + line + "\nODOM 0 0 0 0 0 0 2\n");
   CarmenStats stats;
   const auto records = readAll(path, {}, &stats);
   ASSERT_EQ(records.size(), 3u);
@@ -365,19 +370,21 @@ TEST(CarmenReader, MissingFileNamesThePath) {
 }
 
 TEST(CarmenReader, ZeroAndOutOfOrderStampsAreReportedButKept) {
-  const std::string path = writeText("a.log",
-                                     "ODOM 0 0 0 0 0 0 0 h 0\n"
-                                     "ODOM 0 0 0 0 0 0 5\n"
-                                     "ODOM 0 0 0 0 0 0 4\n"  // earlier than 5
-                                     "FLASER 1 1 0 0 0 0 0 0 3\n"  // FLASER stamps are checked on their own
-                                     "ODOM 0 0 0 0 0 0 6\n");
+  const std::string path =
+      writeText("a.log",
+                "ODOM 0 0 0 0 0 0 0 h 0\n"
+                "ODOM 0 0 0 0 0 0 5\n"
+                "ODOM 0 0 0 0 0 0 4\n"        // earlier than 5
+                "FLASER 1 1 0 0 0 0 0 0 3\n"  // FLASER stamps are checked on their own
+                "ODOM 0 0 0 0 0 0 6\n");
   CarmenStats stats;
   const auto records = readAll(path, {}, &stats);
   EXPECT_EQ(records.size(), 5u);
   EXPECT_EQ(stats.zero_stamps, 1u);
   EXPECT_EQ(stats.out_of_order_stamps, 1u);
   ASSERT_EQ(stats.problems.size(), 2u);
-  EXPECT_NE(stats.problems[1].find(":3: ODOM stamp 4 is earlier than the previous 5"), std::string::npos)
+  EXPECT_NE(stats.problems[1].find(":3: ODOM stamp 4 is earlier than the previous 5"),
+            std::string::npos)
       << stats.problems[1];
   EXPECT_NE(stats.summary().find("1 zero, 1 out of order"), std::string::npos) << stats.summary();
 }
@@ -400,8 +407,10 @@ CarmenLaser randomLaser(std::mt19937_64& rng, int beams) {
 void expectSameRanges(const std::vector<float>& a, const std::vector<float>& b) {
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t i = 0; i < a.size(); ++i) {
-    if (std::isnan(a[i])) EXPECT_TRUE(std::isnan(b[i])) << i;
-    else EXPECT_EQ(a[i], b[i]) << i;  // exact: the writer prints round-trip text
+    if (std::isnan(a[i]))
+      EXPECT_TRUE(std::isnan(b[i])) << i;
+    else
+      EXPECT_EQ(a[i], b[i]) << i;  // exact: the writer prints round-trip text
   }
 }
 
@@ -492,7 +501,8 @@ TEST(CarmenReaderOptions, ReadStrictly) {
   EXPECT_DOUBLE_EQ(o.default_fov, M_PI);
   auto bad = common::ConfigNode::loadString("strict: true\nmax_rnage: 3\n", "io.yaml");
   EXPECT_THROW(readCarmenReaderOptions(bad), common::ConfigError);
-  auto inverted = common::ConfigNode::loadString("range_min: 40\ndefault_range_max: 30\n", "io.yaml");
+  auto inverted =
+      common::ConfigNode::loadString("range_min: 40\ndefault_range_max: 30\n", "io.yaml");
   EXPECT_THROW(readCarmenReaderOptions(inverted), common::ConfigError);
 }
 
@@ -526,11 +536,12 @@ TEST(CarmenSharedLogs, EveryCorrectedLogAndTheGfsReadStrictly) {
     const char* laser_type;
     std::size_t scans, beams;
   };
-  for (const Expected& e : {Expected{"carmen/freiburg-079-corrected.log.gz", "FLASER", 4791, 360},
-                            Expected{"carmen/freiburg-101-corrected.log.gz", "FLASER", 292, 360},
-                            Expected{"carmen/csail-corrected.log.gz", "FLASER", 406, 361},
-                            Expected{"carmen/infinite-corridor-corrected.log.gz", "FLASER", 1941, 180},
-                            Expected{"carmen/csail.corrected.gfs.gz", "LASER_READING", 406, 361}}) {
+  for (const Expected& e :
+       {Expected{"carmen/freiburg-079-corrected.log.gz", "FLASER", 4791, 360},
+        Expected{"carmen/freiburg-101-corrected.log.gz", "FLASER", 292, 360},
+        Expected{"carmen/csail-corrected.log.gz", "FLASER", 406, 361},
+        Expected{"carmen/infinite-corridor-corrected.log.gz", "FLASER", 1941, 180},
+        Expected{"carmen/csail.corrected.gfs.gz", "LASER_READING", 406, 361}}) {
     const std::string path = test::sharedDataPath(e.file);
     if (path.empty()) {
       std::cout << "skipping " << e.file << ": absent\n";

@@ -15,7 +15,8 @@ namespace {
 // Runs the storey command; returns its exit status, with stderr in *err.
 int runStorey(const std::string& arguments, std::string* err = nullptr) {
   const std::string err_path = test::makeTempDir("storey_convert") + "/stderr.txt";
-  const int status = std::system((std::string(STOREY_COMMAND) + " " + arguments + " >/dev/null 2>" + err_path).c_str());
+  const int status = std::system(
+      (std::string(STOREY_COMMAND) + " " + arguments + " >/dev/null 2>" + err_path).c_str());
   if (err) {
     std::ifstream in(err_path);
     std::stringstream text;
@@ -27,7 +28,8 @@ int runStorey(const std::string& arguments, std::string* err = nullptr) {
 
 CarmenLaser laserAt(int k) {
   CarmenLaser laser;
-  for (int i = 0; i < 180; ++i) laser.scan.ranges.push_back(1.0f + 0.01f * static_cast<float>(i + k));
+  for (int i = 0; i < 180; ++i)
+    laser.scan.ranges.push_back(1.0f + 0.01f * static_cast<float>(i + k));
   laser.scan.ranges[7] = std::numeric_limits<float>::quiet_NaN();
   laser.laser_pose = geometry::Pose2(k, 0.5 * k, 0.1 * k);
   laser.odom_pose = geometry::Pose2(k + 0.2, 0.5 * k, 0.1 * k);
@@ -91,7 +93,8 @@ TEST(StoreyConvert, OdometryLinesDropZeroStamps) {
   runtime::SensorRecord record;
   std::vector<double> stamps;
   while (reader.next(record))
-    if (const auto* odom = std::get_if<sensor::OdometrySample>(&record.data)) stamps.push_back(odom->stamp);
+    if (const auto* odom = std::get_if<sensor::OdometrySample>(&record.data))
+      stamps.push_back(odom->stamp);
   EXPECT_EQ(stamps, (std::vector<double>{99.5, 100.5, 102.5, 103.5}));
 }
 

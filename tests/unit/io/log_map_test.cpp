@@ -141,8 +141,8 @@ TEST(MapFromLog, IntelFirstHundredScansMatchTheCommittedCrop) {
   const std::size_t new_known = counts[1] + counts[2];
   const std::size_t outside = new_known - std::min(new_known, new_known_inside);
   const double fraction = static_cast<double>(differing + outside) / static_cast<double>(known);
-  std::cout << "intel first 100 scans: " << known << " known cells, " << differing << " differ, " << outside
-            << " known outside the crop: " << 100.0 * fraction << " %\n";
+  std::cout << "intel first 100 scans: " << known << " known cells, " << differing << " differ, "
+            << outside << " known outside the crop: " << 100.0 * fraction << " %\n";
   EXPECT_GT(known, 50000u);  // the comparison covers a real map
   EXPECT_LT(fraction, 0.01);
 }

@@ -13,7 +13,8 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 // Phase 2 of the transform over every row: g holds each cell's distance to the nearest
 // source in its column.
 template <typename Int>
-void lowerEnvelopeRows(const GridFrame& frame, const std::vector<std::int32_t>& g, Grid2<float>* out) {
+void lowerEnvelopeRows(const GridFrame& frame, const std::vector<std::int32_t>& g,
+                       Grid2<float>* out) {
   const int w = frame.width, h = frame.height;
   std::vector<Int> s(w), t(w), g2(w);
   std::vector<double> half_inverse(w);
@@ -40,7 +41,8 @@ void lowerEnvelopeRows(const GridFrame& frame, const std::vector<std::int32_t>& 
         const Int i = s[q];
         // Integer division is the slowest step; multiplying by a tabled reciprocal is exact
         // here: quotients differ by at least 1/(2w), far above the rounding error.
-        const Int sep = static_cast<Int>(static_cast<double>(u * u - i * i + g2[u] - g2[i]) * half_inverse[u - i] + 1e-7);
+        const Int sep = static_cast<Int>(
+            static_cast<double>(u * u - i * i + g2[u] - g2[i]) * half_inverse[u - i] + 1e-7);
         const Int start = sep + 1;
         if (start < w) {
           ++q;
@@ -69,7 +71,8 @@ Grid2<float> squaredDistanceTransform(const GridFrame& frame, const std::vector<
   const int w = frame.width, h = frame.height;
   Grid2<float> out(frame, kInf);
   if (w <= 0 || h <= 0) return out;
-  if (std::find_if(is_source.begin(), is_source.begin() + static_cast<std::ptrdiff_t>(frame.cellCount()),
+  if (std::find_if(is_source.begin(),
+                   is_source.begin() + static_cast<std::ptrdiff_t>(frame.cellCount()),
                    [](std::uint8_t s) { return s != 0; }) ==
       is_source.begin() + static_cast<std::ptrdiff_t>(frame.cellCount()))
     return out;  // no source anywhere: every distance is infinite

@@ -23,7 +23,8 @@ struct GridFrame {
   int height = 0;
 
   Eigen::Vector2i cellOf(const Eigen::Vector2d& p) const {
-    return {floorToInt((p.x() - origin_x) / resolution), floorToInt((p.y() - origin_y) / resolution)};
+    return {floorToInt((p.x() - origin_x) / resolution),
+            floorToInt((p.y() - origin_y) / resolution)};
   }
   // Continuous cell coordinates: cell (cx, cy) has its centre at (cx + 0.5, cy + 0.5).
   Eigen::Vector2d continuousCellOf(const Eigen::Vector2d& p) const {

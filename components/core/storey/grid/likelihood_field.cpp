@@ -49,7 +49,8 @@ void LikelihoodField::build(const std::vector<std::uint8_t>& obstacles) {
   const double norm = 1.0 / (std::sqrt(2.0 * M_PI) * options_.sigma_hit);
   const double inv_two_sigma2 = 1.0 / (2.0 * options_.sigma_hit * options_.sigma_hit);
   const double uniform = options_.z_rand / options_.range_max;
-  const float res = static_cast<float>(frame.resolution), cap = static_cast<float>(options_.max_distance);
+  const float res = static_cast<float>(frame.resolution),
+              cap = static_cast<float>(options_.max_distance);
   // Squared distances in cells are integers, and every one beyond the cap gives the same
   // values: tabulate distance, log-likelihood and score per squared distance up to the cap
   // instead of evaluating sqrt, exp and log per cell (same expressions, same results).
@@ -80,7 +81,9 @@ void LikelihoodField::build(const std::vector<std::uint8_t>& obstacles) {
   score_ = Grid2<float>(frame, 0.0f);
   for (std::size_t i = 0; i < squared.data.size(); ++i) {
     const float k = squared.data[i];
-    const Entry e = !tabulate ? entry(k) : k < static_cast<float>(table_size) ? table[static_cast<std::size_t>(k)] : beyond;
+    const Entry e = !tabulate                            ? entry(k)
+                    : k < static_cast<float>(table_size) ? table[static_cast<std::size_t>(k)]
+                                                         : beyond;
     distance_.data[i] = e.distance;
     log_likelihood_.data[i] = e.log_likelihood;
     score_.data[i] = e.score;

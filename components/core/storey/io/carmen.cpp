@@ -82,8 +82,7 @@ class Tokens {
 
  private:
   std::string_view take(const char* what) {
-    if (pos_ >= tokens_.size())
-      throw LineError{"truncated line", str("line ends before ", what)};
+    if (pos_ >= tokens_.size()) throw LineError{"truncated line", str("line ends before ", what)};
     return tokens_[pos_++];
   }
   const std::vector<std::string_view>& tokens_;
@@ -114,7 +113,8 @@ void setDefaultAngles(sensor::LaserScan* scan, double fov) {
   if (n <= 1)
     scan->angle_increment = fov;
   else
-    scan->angle_increment = (n % 2 == 1) ? fov / static_cast<double>(n - 1) : fov / static_cast<double>(n);
+    scan->angle_increment =
+        (n % 2 == 1) ? fov / static_cast<double>(n - 1) : fov / static_cast<double>(n);
 }
 
 void readRanges(Tokens& t, std::size_t n, std::vector<float>* out) {
@@ -125,7 +125,10 @@ void readRanges(Tokens& t, std::size_t n, std::vector<float>* out) {
 }  // namespace
 
 CarmenError::CarmenError(const std::string& file, std::size_t line, const std::string& problem)
-    : std::runtime_error(formatError(file, line, problem)), file_(file), line_(line), problem_(problem) {}
+    : std::runtime_error(formatError(file, line, problem)),
+      file_(file),
+      line_(line),
+      problem_(problem) {}
 
 CarmenReaderOptions readCarmenReaderOptions(const common::ConfigNode& node) {
   CarmenReaderOptions o;
@@ -133,8 +136,8 @@ CarmenReaderOptions readCarmenReaderOptions(const common::ConfigNode& node) {
   o.default_fov = node.getDouble("default_fov", o.default_fov, 1e-3, 2 * M_PI);
   o.default_range_max = node.getDouble("default_range_max", o.default_range_max, 0.1, 1000.0);
   o.range_min = node.getDouble("range_min", o.range_min, 0.0, 100.0);
-  o.max_problems_kept =
-      static_cast<std::size_t>(node.getInt("max_problems_kept", static_cast<int>(o.max_problems_kept), 0, 100000));
+  o.max_problems_kept = static_cast<std::size_t>(
+      node.getInt("max_problems_kept", static_cast<int>(o.max_problems_kept), 0, 100000));
   node.finish();
   if (o.range_min >= o.default_range_max) node.fail("range_min", "must be below default_range_max");
   return o;
@@ -197,7 +200,8 @@ CarmenReader::CarmenReader(const std::string& path, const CarmenReaderOptions& o
     : path_(path), options_(options), impl_(std::make_unique<Impl>()) {
   // gzopen reads plain files transparently, so one code path serves both.
   impl_->file = gzopen(path.c_str(), "rb");
-  if (!impl_->file) throw CarmenError(path, 0, "cannot open the log: " + std::string(std::strerror(errno)));
+  if (!impl_->file)
+    throw CarmenError(path, 0, "cannot open the log: " + std::string(std::strerror(errno)));
   gzbuffer(impl_->file, 1 << 18);
   impl_->buffer.resize(kInitialLineCapacity);
   // An empty log is almost always a mistake (wrong file, failed recording).
@@ -235,7 +239,8 @@ bool CarmenReader::readLine() {
       if (err != Z_OK && err != Z_STREAM_END && err != Z_BUF_ERROR)
         throw CarmenError(path_, s.line_number + 1, std::string("read error: ") + message);
       // Z_BUF_ERROR: the gzip stream ends early (a truncated download). Keep what was read.
-      if (err == Z_BUF_ERROR) noteProblem("truncated gzip stream", "the gzip stream ends unexpectedly");
+      if (err == Z_BUF_ERROR)
+        noteProblem("truncated gzip stream", "the gzip stream ends unexpectedly");
       break;
     }
     got = true;
@@ -271,8 +276,8 @@ void CarmenReader::checkStamp(const std::string& type, double stamp) {
     if (stamp < it->second) {
       ++stats_.out_of_order_stamps;
       std::ostringstream message;
-      message << std::setprecision(15) << type << " stamp " << stamp << " is earlier than the previous "
-              << it->second;
+      message << std::setprecision(15) << type << " stamp " << stamp
+              << " is earlier than the previous " << it->second;
       noteProblem("out-of-order stamp", message.str());
     }
     it->second = stamp;
@@ -307,10 +312,12 @@ std::string CarmenReader::parseLine(CarmenRecord* record, bool* known) {
     };
     s.defaults[1].fov = fov("laser_front_laser_fov");
     s.defaults[1].range_max = range("robot_front_laser_max");
-    s.defaults[1].offset = geometry::Pose2(paramDouble("robot_frontlaser_offset").value_or(0.0), 0, 0);
+    s.defaults[1].offset =
+        geometry::Pose2(paramDouble("robot_frontlaser_offset").value_or(0.0), 0, 0);
     s.defaults[2].fov = fov("laser_rear_laser_fov");
     s.defaults[2].range_max = range("robot_rear_laser_max");
-    s.defaults[2].offset = geometry::Pose2(-paramDouble("robot_rearlaser_offset").value_or(0.0), 0, M_PI);
+    s.defaults[2].offset =
+        geometry::Pose2(-paramDouble("robot_rearlaser_offset").value_or(0.0), 0, M_PI);
     s.params_dirty = false;
   }
 
@@ -337,7 +344,8 @@ std::string CarmenReader::parseLine(CarmenRecord* record, bool* known) {
       if (gfs) {
         laser.odom_pose = laser.laser_pose;
       } else {
-        const double ox = t.finite("odom_x"), oy = t.finite("odom_y"), otheta = t.finite("odom_theta");
+        const double ox = t.finite("odom_x"), oy = t.finite("odom_y"),
+                     otheta = t.finite("odom_theta");
         laser.odom_pose = geometry::Pose2(ox, oy, otheta);
       }
       laser.scan.stamp = t.finite("stamp");
@@ -349,30 +357,36 @@ std::string CarmenReader::parseLine(CarmenRecord* record, bool* known) {
       laser.remissions.clear();
       record->kind = CarmenRecordKind::kLaser;
       checkStamp(record->type, laser.scan.stamp);
-    } else if ((type.size() == 11 && type.substr(0, 10) == "ROBOTLASER" && (type[10] == '1' || type[10] == '2')) ||
-               (type.size() == 9 && type.substr(0, 8) == "RAWLASER" && type[8] >= '1' && type[8] <= '4')) {
+    } else if ((type.size() == 11 && type.substr(0, 10) == "ROBOTLASER" &&
+                (type[10] == '1' || type[10] == '2')) ||
+               (type.size() == 9 && type.substr(0, 8) == "RAWLASER" && type[8] >= '1' &&
+                type[8] <= '4')) {
       const bool robot = type[0] == 'R' && type[1] == 'O';
       CarmenLaser& laser = record->laser;
       laser.laser_id = type.back() - '0';
       t.word("laser type");
       const double start = t.finite("start_angle"), fov = t.finite("field_of_view");
-      const double resolution = t.finite("angular_resolution"), max_range = t.finite("maximum_range");
+      const double resolution = t.finite("angular_resolution"),
+                   max_range = t.finite("maximum_range");
       t.finite("accuracy");
       t.finite("remission_mode");
       (void)fov;
       const std::size_t n = t.count("the number of readings");
       if (t.remaining() < n + 1)
-        throw LineError{"wrong token count", Tokens::str(type, " declares ", n, " readings but has only ",
-                                                         t.remaining() == 0 ? 0 : t.remaining() - 1)};
+        throw LineError{"wrong token count",
+                        Tokens::str(type, " declares ", n, " readings but has only ",
+                                    t.remaining() == 0 ? 0 : t.remaining() - 1)};
       readRanges(t, n, &laser.scan.ranges);
       const std::size_t m = t.count("the number of remissions");
       const std::size_t tail = robot ? 12 : 1;
       if (t.remaining() != m + tail && t.remaining() != m + tail + 2)
-        throw LineError{"wrong token count",
-                        Tokens::str(type, " with ", m, " remissions needs ", m + tail, " or ", m + tail + 2,
-                                    " tokens after the remission count, found ", t.remaining())};
+        throw LineError{
+            "wrong token count",
+            Tokens::str(type, " with ", m, " remissions needs ", m + tail, " or ", m + tail + 2,
+                        " tokens after the remission count, found ", t.remaining())};
       laser.remissions.resize(m);
-      for (std::size_t i = 0; i < m; ++i) laser.remissions[i] = static_cast<float>(t.any("a remission"));
+      for (std::size_t i = 0; i < m; ++i)
+        laser.remissions[i] = static_cast<float>(t.any("a remission"));
       laser.scan.angle_min = start;
       laser.scan.angle_increment = resolution;
       laser.scan.range_min = options_.range_min;
@@ -380,12 +394,15 @@ std::string CarmenReader::parseLine(CarmenRecord* record, bool* known) {
       laser.scan.sensor_offset = geometry::Pose2();
       laser.has_pose = robot;
       if (robot) {
-        const double lx = t.finite("laser_x"), ly = t.finite("laser_y"), lt = t.finite("laser_theta");
-        const double rx = t.finite("robot_x"), ry = t.finite("robot_y"), rt = t.finite("robot_theta");
+        const double lx = t.finite("laser_x"), ly = t.finite("laser_y"),
+                     lt = t.finite("laser_theta");
+        const double rx = t.finite("robot_x"), ry = t.finite("robot_y"),
+                     rt = t.finite("robot_theta");
         laser.laser_pose = geometry::Pose2(lx, ly, lt);
         laser.odom_pose = geometry::Pose2(rx, ry, rt);
         laser.scan.sensor_offset = laser.odom_pose.between(laser.laser_pose);
-        for (const char* what : {"tv", "rv", "forward_safety_dist", "side_safety_dist", "turn_axis"})
+        for (const char* what :
+             {"tv", "rv", "forward_safety_dist", "side_safety_dist", "turn_axis"})
           t.finite(what);
       } else {
         laser.laser_pose = laser.odom_pose = geometry::Pose2();
@@ -422,9 +439,11 @@ std::string CarmenReader::parseLine(CarmenRecord* record, bool* known) {
       // "stamp host logger_stamp".
       const std::size_t count = t.remaining();
       if (count != 2 && count != 4 && count != 5)
-        throw LineError{"wrong token count",
-                        Tokens::str("PARAM needs 'name value' and optionally '[stamp] host logger_stamp', found ",
-                                    count, " tokens")};
+        throw LineError{
+            "wrong token count",
+            Tokens::str(
+                "PARAM needs 'name value' and optionally '[stamp] host logger_stamp', found ",
+                count, " tokens")};
       record->param_name.assign(t.word("the name"));
       record->param_value.assign(t.word("the value"));
       if (count == 5) t.finite("stamp");
@@ -472,12 +491,14 @@ bool CarmenReader::next(CarmenRecord* record) {
   return false;
 }
 
-std::vector<CarmenLaser> readCarmenLasers(const std::string& path, const CarmenReaderOptions& options) {
+std::vector<CarmenLaser> readCarmenLasers(const std::string& path,
+                                          const CarmenReaderOptions& options) {
   CarmenReader reader(path, options);
   std::vector<CarmenLaser> lasers;
   CarmenRecord record;
   while (reader.next(&record))
-    if (record.kind == CarmenRecordKind::kLaser && record.laser.has_pose) lasers.push_back(record.laser);
+    if (record.kind == CarmenRecordKind::kLaser && record.laser.has_pose)
+      lasers.push_back(record.laser);
   return lasers;
 }
 
@@ -553,7 +574,8 @@ void CarmenWriter::flaser(const CarmenLaser& laser, int laser_id) {
 void CarmenWriter::robotLaser(const CarmenLaser& laser) {
   const sensor::LaserScan& scan = laser.scan;
   std::string line = "ROBOTLASER1 0 ";
-  const double fov = scan.angle_increment * static_cast<double>(scan.ranges.size() > 0 ? scan.ranges.size() - 1 : 0);
+  const double fov = scan.angle_increment *
+                     static_cast<double>(scan.ranges.size() > 0 ? scan.ranges.size() - 1 : 0);
   for (double v : {scan.angle_min, fov, scan.angle_increment, scan.range_max, 0.01, 0.0}) {
     appendNumber(&line, v);
     line.push_back(' ');
@@ -580,7 +602,8 @@ void CarmenWriter::robotLaser(const CarmenLaser& laser) {
 void CarmenWriter::odometry(const sensor::OdometrySample& odometry, double acceleration) {
   std::string line = "ODOM";
   appendPose(&line, odometry.pose);
-  for (double v : {odometry.linear_velocity, odometry.angular_velocity, acceleration, odometry.stamp}) {
+  for (double v :
+       {odometry.linear_velocity, odometry.angular_velocity, acceleration, odometry.stamp}) {
     line.push_back(' ');
     appendNumber(&line, v);
   }
@@ -605,7 +628,9 @@ void CarmenWriter::close() {
   if (!file_) return;
   const int status = gzclose(static_cast<gzFile>(file_));
   file_ = nullptr;
-  if (status != Z_OK) throw std::runtime_error(path_ + ": closing failed (zlib status " + std::to_string(status) + ")");
+  if (status != Z_OK)
+    throw std::runtime_error(path_ + ": closing failed (zlib status " + std::to_string(status) +
+                             ")");
 }
 
 }  // namespace storey::io

@@ -55,7 +55,7 @@ struct CarmenReaderOptions {
   // robot_rear_laser_max (or the .gfs PARAM maxrange) when present, else this (metres).
   // Readings at or beyond it are "no return" (SICK logs write 81.83 or 81.91 for those).
   double default_range_max = 80.0;
-  double range_min = 0.01;  // readings below are "no return"
+  double range_min = 0.01;             // readings below are "no return"
   std::size_t max_problems_kept = 20;  // the first problems kept as text in stats()
 };
 CarmenReaderOptions readCarmenReaderOptions(const common::ConfigNode& node);
@@ -84,9 +84,9 @@ struct CarmenLaser {
 
 struct CarmenRecord {
   CarmenRecordKind kind = CarmenRecordKind::kParam;
-  std::string type;       // the line's keyword: "FLASER", "ODOM", "PARAM", ...
-  std::size_t line = 0;   // 1-based line number in the log
-  std::string host;       // "" when the line has none
+  std::string type;      // the line's keyword: "FLASER", "ODOM", "PARAM", ...
+  std::size_t line = 0;  // 1-based line number in the log
+  std::string host;      // "" when the line has none
   double logger_stamp = 0.0;
   CarmenLaser laser;                // kind == kLaser
   sensor::OdometrySample odometry;  // kind == kOdometry
@@ -98,9 +98,9 @@ struct CarmenStats {
   std::size_t lines = 0;     // lines read, including comments and blank lines
   std::size_t comments = 0;  // '#' lines
   std::size_t blank = 0;
-  std::map<std::string, std::size_t> records;  // returned records per keyword
-  std::map<std::string, std::size_t> unknown;  // skipped lines per unknown keyword
-  std::size_t skipped = 0;                     // malformed lines skipped (lenient mode)
+  std::map<std::string, std::size_t> records;       // returned records per keyword
+  std::map<std::string, std::size_t> unknown;       // skipped lines per unknown keyword
+  std::size_t skipped = 0;                          // malformed lines skipped (lenient mode)
   std::map<std::string, std::size_t> skip_reasons;  // per kind of problem
   // Stamps that are zero or earlier than the previous stamp of the same keyword. These
   // lines are still returned: the shared logs have them and their data is fine otherwise.

@@ -15,7 +15,8 @@ LogMap mapFromLog(const std::string& path, const LogMapOptions& options) {
     const CarmenLaser& laser = record.laser;
     // insertScan places the sensor at robot_pose * sensor_offset: for the corrected pose,
     // hand it the robot pose that puts the laser exactly where the log says.
-    const geometry::Pose2 robot = options.pose == LogPose::kCorrected ? laser.robotPose() : laser.odom_pose;
+    const geometry::Pose2 robot =
+        options.pose == LogPose::kCorrected ? laser.robotPose() : laser.odom_pose;
     result.grid.insertScan(laser.scan, robot);
     ++result.scans_inserted;
   }
