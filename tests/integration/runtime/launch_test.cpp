@@ -14,6 +14,9 @@
 #include <thread>
 
 #include "storey/runtime/launcher.h"
+#include "storey/runtime/publisher.h"
+#include "storey_msgs/msg/FloorEvent.h"
+#include "storey_msgs/msg/FloorEventPubSubTypes.h"
 #include "test_components.h"
 #include "test_support.h"
 
@@ -77,6 +80,45 @@ TEST_F(LaunchTest, TwoProcessesExchangeMessagesOverLoopback) {
   const auto floors = readInts(dir_ + "/received.txt");
   ASSERT_GE(floors.size(), 20u);
   for (int i = 0; i < 20; ++i) EXPECT_EQ(floors[i], i);
+}
+
+TEST_F(LaunchTest, LateSubscriberProcessGetsTheGraphHistory) {
+  // Everything is published before the listener's process exists.
+  ContextOptions context_options;
+  context_options.domain_id = 125;
+  Context context(context_options);
+  Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType> publisher(
+      context, "chatter", TopicKind::kGraph);
+  for (int i = 0; i < 30; ++i) {
+    storey_msgs::msg::FloorEvent event;
+    event.floor_id(i);
+    ASSERT_TRUE(publisher.publish(event));
+  }
+  write("listener.yaml",
+        "topic: chatter\nfinish_after: 30\noutput_file: " + dir_ + "/received.txt\n");
+  const auto path = write("bringup.yaml",
+                          "processes:\n  - name: late_listener\n    domain_id: 125\n"
+                          "    components:\n"
+                          "      - {kind: test_listener, name: listener, parameters: "
+                          "listener.yaml}\n");
+  LaunchOptions options;
+  options.duration_s = 15;
+  EXPECT_EQ(launchProcesses(readBringup(path, testRegistry()), kTestNode, options), 0);
+  const auto floors = readInts(dir_ + "/received.txt");
+  ASSERT_EQ(floors.size(), 30u);
+  for (int i = 0; i < 30; ++i) EXPECT_EQ(floors[i], i);
+}
+
+TEST_F(LaunchTest, MissingChildExecutableIsReported) {
+  const auto bringup = readBringup(pingBringup(126, 0), testRegistry());
+  LaunchOptions options;
+  options.duration_s = 15;
+  testing::internal::CaptureStderr();
+  const int result = launchProcesses(bringup, ChildCommand{"/nonexistent/storey", {}}, options);
+  const std::string log = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(result, 1);
+  EXPECT_NE(log.find("cannot execute /nonexistent/storey"), std::string::npos) << log;
+  EXPECT_NE(log.find("exited with code 127"), std::string::npos) << log;
 }
 
 TEST_F(LaunchTest, SingleProcessRunsTheSameBringup) {

@@ -44,13 +44,14 @@ pid_t spawn(const ChildCommand& command, const std::string& bringup_file,
   std::vector<char*> argv;
   for (auto& arg : args) argv.push_back(arg.data());
   argv.push_back(nullptr);
+  // Built before fork: the child of a multithreaded process may only make
+  // async-signal-safe calls before exec.
+  const std::string message = "storey launch: cannot execute " + command.executable + "\n";
   const pid_t pid = fork();
   if (pid < 0) throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
   if (pid == 0) {
     pthread_sigmask(SIG_SETMASK, &child_mask, nullptr);
     execv(command.executable.c_str(), argv.data());
-    const std::string message =
-        "storey launch: cannot execute " + command.executable + ": " + std::strerror(errno) + "\n";
     (void)!write(2, message.data(), message.size());
     _exit(127);
   }
