@@ -77,5 +77,22 @@ TEST(OccupancyUpdate, RuleHoldsAcrossGrowth) {
   EXPECT_FLOAT_EQ(logOddsAtWorld(grid, 1.05, 0.05), static_cast<float>(options.hit_log_odds));
 }
 
+TEST(OccupancyUpdate, RuleHoldsWhenTheScanTagsWrapAround) {
+  // The per-cell tags are 16 bits: after 32767 scans they are cleared and reused. Small
+  // steps and wide clamps make every update visible in the sums.
+  OccupancyGridOptions options;
+  options.resolution = 0.1;
+  options.hit_log_odds = 0.001;
+  options.miss_log_odds = -0.001;
+  options.max_log_odds = 100.0;
+  options.min_log_odds = -100.0;
+  OccupancyGrid grid(options);
+  const auto scan = beams({1.0f, 1.0f, 2.0f}, 0.0, 1e-9);
+  constexpr int kScans = 33000;
+  for (int i = 0; i < kScans; ++i) grid.insertScan(scan, geometry::Pose2(0.05, 0.05, 0.0));
+  EXPECT_NEAR(logOddsAtWorld(grid, 1.05, 0.05), kScans * 0.001, 0.05);
+  EXPECT_NEAR(logOddsAtWorld(grid, 0.55, 0.05), -kScans * 0.001, 0.05);
+}
+
 }  // namespace
 }  // namespace storey::grid

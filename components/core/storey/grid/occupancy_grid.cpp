@@ -170,11 +170,11 @@ void OccupancyGrid::insertScan(const sensor::LaserScan& scan, const geometry::Po
   // with this scan's hit tag first, then traversed cells not yet tagged get the miss.
   const GridFrame& f = log_odds_.frame;
   if (marks_.size() != f.cellCount()) marks_.assign(f.cellCount(), 0);
-  if (last_tag_ > std::numeric_limits<std::uint32_t>::max() - 2) {
+  if (last_tag_ > std::numeric_limits<std::uint16_t>::max() - 2) {
     std::fill(marks_.begin(), marks_.end(), 0);
     last_tag_ = 0;
   }
-  const std::uint32_t hit_tag = ++last_tag_, miss_tag = ++last_tag_;
+  const std::uint16_t hit_tag = ++last_tag_, miss_tag = ++last_tag_;
   for (const Beam& beam : beams) {
     if (!beam.hit) continue;
     const Eigen::Vector2i end = f.cellOf(beam.end);
@@ -184,7 +184,7 @@ void OccupancyGrid::insertScan(const sensor::LaserScan& scan, const geometry::Po
     addLogOdds(index, options_.hit_log_odds);
   }
   auto miss = [&](std::size_t index) {
-    std::uint32_t& mark = marks_[index];
+    std::uint16_t& mark = marks_[index];
     if (mark == hit_tag || mark == miss_tag) return;
     mark = miss_tag;
     addLogOdds(index, options_.miss_log_odds);

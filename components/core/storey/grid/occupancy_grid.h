@@ -58,8 +58,8 @@ class OccupancyGrid {
   Grid2<float> log_odds_;
   // Per cell, the tag of the last scan update (hit or miss tag of that scan), so each scan
   // updates a cell at most once without sorting the traversed cells.
-  std::vector<std::uint32_t> marks_;
-  std::uint32_t last_tag_ = 0;
+  std::vector<std::uint16_t> marks_;  // 16 bits: cleared once every 32767 scans
+  std::uint16_t last_tag_ = 0;
   std::vector<std::size_t> ray_cells_;  // scratch, reused across scans
 };
 
