@@ -164,6 +164,17 @@ TEST(ScenarioErrors, PathThroughAClosedDoorIsNot) {
   EXPECT_NE(errorOf(closed).find("crosses or grazes a wall"), std::string::npos) << errorOf(closed);
 }
 
+TEST(ScenarioErrors, FloorWithoutElevatorOrStairs) {
+  std::string text = kBase;
+  const std::string elevator = "door_side: south}\n";
+  text.replace(text.find(elevator), elevator.size(), "door_side: south, floors: [A, B]}\n");
+  const std::string error = errorOf(text);
+  EXPECT_NE(error.find("floor C is served by no elevator or stairwell"), std::string::npos)
+      << error;
+  EXPECT_NE(error.find("test.yaml:" + std::to_string(lineOf(text, "- id: C"))), std::string::npos)
+      << error;
+}
+
 TEST(ScenarioErrors, RideToAFloorTheElevatorDoesNotReach) {
   std::string text = replaceLine("STEP2", "      - {elevator: E, to: C}");
   EXPECT_EQ(errorOf(text), "");  // E serves all floors

@@ -467,6 +467,14 @@ Building readBuilding(const common::ConfigNode& node) {
     for (const auto& floor : building.floors) served += shaft.serves(floor.id) ? 1 : 0;
     if (served < 2) failAt(shaft.origin, "shaft '" + shaft.id + "' serves fewer than two floors");
   }
+  // A floor no shaft reaches cannot be part of the building's one connected whole.
+  if (building.floors.size() > 1)
+    for (const auto& floor : building.floors) {
+      bool reached = false;
+      for (const auto& shaft : building.shafts) reached = reached || shaft.serves(floor.id);
+      if (!reached)
+        failAt(floor.origin, "floor " + floor.id + " is served by no elevator or stairwell");
+    }
   for (std::size_t i = 0; i < building.shafts.size(); ++i)
     for (std::size_t j = i + 1; j < building.shafts.size(); ++j) {
       const Shaft& a = building.shafts[i];
