@@ -10,6 +10,7 @@
 // arrives before activate is not lost); callbacks can check state().
 // Callbacks of all kinds, and the lifecycle hooks, run on the Context's Executor: with
 // one worker (the default) a component's hooks and callbacks never run concurrently.
+// So a hook must not wait for a callback of the same Context (it would wait forever).
 #pragma once
 
 #include <memory>
