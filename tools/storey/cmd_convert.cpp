@@ -1,6 +1,7 @@
 // storey convert LOG OUT_BAG: a CARMEN/GMapping log as a rosbag2 bag (/<robot>/scan,
 // /<robot>/odom, /tf_static) that storey and ROS 2 can replay.
 #include <iostream>
+#include <limits>
 
 #include "args.h"
 #include "storey/common/log.h"
@@ -20,12 +21,15 @@ int run_convert(Args& args) {
           "/<robot>/odom (nav_msgs/Odometry) and the laser mounting on /tf_static.\n"
           "--odom scans pairs every scan with the odometry pose on its own line (in corrected\n"
           "logs that is the corrected pose); --odom lines writes the log's ODOM lines instead,\n"
-          "dropping those stamped zero. Stamps are the log's own (out-of-order ones reported).")
+          "dropping those stamped zero. Stamps are the log's own plus --stamp-offset; some logs\n"
+          "have broken laser stamps (infinite-corridor: 2^32; csail: 6 digits), for which\n"
+          "--restamp HZ numbers the scans at a fixed rate instead. A negative stamp is an error.")
       .option("robot", "NAME", "robot namespace of the topics", "robot")
       .option("laser", "ID", "laser to convert: 1 front, 2 rear, ..., 0 every laser", "1")
       .option("odom", "scans|lines", "odometry from each scan line, or the ODOM lines", "scans")
-      .option("ros-distro", "NAME", "ROS 2 distribution recorded in the bag (humble, jazzy)",
-              "humble")
+      .option("stamp-offset", "S", "seconds added to every stamp", "0")
+      .option("restamp", "HZ", "stamp scan k at k/HZ s (+ offset) instead of its own (0: off)",
+              "0")
       .flag("lenient", "skip malformed lines (counted) instead of stopping at the first");
   if (!args.parse()) return 0;
   const std::string log_path = args.positional(0, "LOG");
@@ -37,21 +41,38 @@ int run_convert(Args& args) {
   const std::string odom_source = args.get("odom");
   if (odom_source != "scans" && odom_source != "lines")
     throw UsageError("--odom must be scans or lines, got '" + odom_source + "'");
+  const double offset = args.getDouble("stamp-offset");
+  const double restamp = args.getDouble("restamp");
+  if (!std::isfinite(offset)) throw UsageError("--stamp-offset must be finite");
+  if (!(restamp >= 0.0) || !std::isfinite(restamp))
+    throw UsageError("--restamp must be a rate in Hz, or 0");
+  if (restamp > 0.0 && odom_source == "lines")
+    throw UsageError("--restamp renumbers scans only: use it with --odom scans");
   runtime::robotTopic(robot, "scan");  // rejects a bad robot name before anything is written
 
   io::CarmenReaderOptions reader_options;
   reader_options.strict = !args.flagSet("lenient");
   io::CarmenReader reader(log_path, reader_options);
-  bag::BagWriterOptions bag_options;
-  bag_options.ros_distro = args.get("ros-distro");
-  runtime::SensorBagWriter writer(bag_path, bag_options);
+  runtime::SensorBagWriter writer(bag_path);
 
-  std::size_t scans = 0, odometry = 0, zero_stamped = 0;
+  std::size_t scans = 0, odometry = 0, zero_stamped = 0, not_increasing = 0;
+  double last_scan_stamp = -std::numeric_limits<double>::infinity();
+  auto stampOf = [&](double log_stamp, std::size_t line) {
+    const double stamp = (restamp > 0.0 ? static_cast<double>(scans) / restamp : log_stamp) + offset;
+    if (stamp < 0.0)
+      throw std::runtime_error(common::str(log_path, ":", line, ": stamp ", stamp,
+                                           " s is negative; bags need stamps >= 0 "
+                                           "(see --stamp-offset and --restamp)"));
+    return stamp;
+  };
   io::CarmenRecord record;
   while (reader.next(&record)) {
     if (record.kind == io::CarmenRecordKind::kLaser) {
-      const io::CarmenLaser& laser = record.laser;
+      io::CarmenLaser& laser = record.laser;
       if (laser_id != 0 && laser.laser_id != laser_id) continue;
+      laser.scan.stamp = stampOf(laser.scan.stamp, record.line);
+      not_increasing += laser.scan.stamp <= last_scan_stamp;
+      last_scan_stamp = laser.scan.stamp;
       if (odom_source == "scans" && laser.has_pose) {
         sensor::OdometrySample odom;
         odom.stamp = laser.scan.stamp;
@@ -66,6 +87,7 @@ int run_convert(Args& args) {
         ++zero_stamped;  // a zero stamp is a logging fault, not the epoch
         continue;
       }
+      record.odometry.stamp = stampOf(record.odometry.stamp, record.line);
       writer.write(robot, record.odometry);
       ++odometry;
     }
@@ -74,6 +96,10 @@ int run_convert(Args& args) {
   common::logInfo(common::str(log_path, ": ", reader.stats().summary()));
   for (const std::string& problem : reader.stats().problems) common::logDebug(problem);
   if (scans == 0) common::logWarn(log_path + ": no scan of the selected laser in the log");
+  if (not_increasing > 0)
+    common::logWarn(common::str(log_path, ": ", not_increasing,
+                                " scans are not later than the scan before (broken stamps?"
+                                " --restamp HZ numbers them instead)"));
   std::cout << "wrote " << scans << " scans and " << odometry << " odometry messages to "
             << bag_path;
   if (zero_stamped > 0) std::cout << " (dropped " << zero_stamped << " ODOM lines stamped zero)";

@@ -98,6 +98,27 @@ TEST(StoreyConvert, OdometryLinesDropZeroStamps) {
   EXPECT_EQ(stamps, (std::vector<double>{99.5, 100.5, 102.5, 103.5}));
 }
 
+TEST(StoreyConvert, RestampAndOffset) {
+  const std::string bag = test::makeTempDir("storey_convert") + "/bag";
+  ASSERT_EQ(runStorey("convert " + writeLog() + " " + bag + " --restamp 4 --stamp-offset 10"), 0);
+  runtime::SensorBagReader reader(bag);
+  runtime::SensorRecord record;
+  std::vector<double> scan_stamps, odom_stamps;
+  while (reader.next(record)) {
+    if (const auto* scan = std::get_if<sensor::LaserScan>(&record.data))
+      scan_stamps.push_back(scan->stamp);
+    if (const auto* odom = std::get_if<sensor::OdometrySample>(&record.data))
+      odom_stamps.push_back(odom->stamp);
+  }
+  EXPECT_EQ(scan_stamps, (std::vector<double>{10.0, 10.25, 10.5, 10.75, 11.0}));
+  EXPECT_EQ(odom_stamps, scan_stamps);
+  // A stamp that ends up negative is refused with its line.
+  std::string err;
+  EXPECT_EQ(runStorey("convert " + writeLog() + " " + bag + "2 --stamp-offset -100.5", &err), 1);
+  EXPECT_NE(err.find("in.log:3: stamp -0.5 s is negative"), std::string::npos) << err;
+  EXPECT_EQ(runStorey("convert " + writeLog() + " " + bag + "3 --restamp 4 --odom lines", &err), 2);
+}
+
 TEST(StoreyConvert, BadInputFailsWithTheFileAndLine) {
   const std::string dir = test::makeTempDir("storey_convert");
   {
