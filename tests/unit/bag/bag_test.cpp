@@ -175,6 +175,61 @@ TEST(Bag, MetadataYamlHasTheRosbag2Fields) {
             qosProfileYaml(true, true));
 }
 
+TEST(Bag, ReadsJazzyMetadataWithItsExtraKeys) {
+  // Version 9 as ROS 2 Jazzy writes it: QoS profiles as a YAML list, extra keys.
+  const std::string text = R"(rosbag2_bagfile_information:
+  version: 9
+  storage_identifier: sqlite3
+  duration:
+    nanoseconds: 2000
+  starting_time:
+    nanoseconds_since_epoch: 1000
+  message_count: 3
+  topics_with_message_count:
+    - topic_metadata:
+        name: /chatter
+        type: std_msgs/msg/String
+        serialization_format: cdr
+        offered_qos_profiles:
+          - history: keep_last
+            depth: 10
+            reliability: reliable
+        type_description_hash: RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18
+      message_count: 3
+  compression_format: ""
+  compression_mode: ""
+  relative_file_paths:
+    - j_0.db3
+  files:
+    - path: j_0.db3
+      starting_time:
+        nanoseconds_since_epoch: 1000
+      duration:
+        nanoseconds: 2000
+      message_count: 3
+  custom_data: ~
+  ros_distro: jazzy
+)";
+  const BagMetadata m = metadataFromYaml(text, "jazzy/metadata.yaml");
+  EXPECT_EQ(m.version, 9);
+  EXPECT_EQ(m.message_count, 3u);
+  EXPECT_EQ(m.starting_time_ns, 1000);
+  ASSERT_EQ(m.topics_with_message_count.size(), 1u);
+  EXPECT_EQ(m.topics_with_message_count[0].topic.type, "std_msgs/msg/String");
+  const YAML::Node qos = YAML::Load(m.topics_with_message_count[0].topic.offered_qos_profiles);
+  EXPECT_EQ(qos[0]["depth"].as<int>(), 10);
+  EXPECT_EQ(m.files.at(0).path, "j_0.db3");
+  try {
+    metadataFromYaml("rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: x\n",
+                     "short/metadata.yaml");
+    FAIL() << "no error";
+  } catch (const BagError& e) {
+    EXPECT_NE(std::string(e.what()).find("short/metadata.yaml: line 2: missing key 'duration'"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Bag, EmptyBagHasNoMessages) {
   const std::string folder = test::makeTempDir("bag") + "/empty";
   {

@@ -37,8 +37,13 @@ T scalarOr(const YAML::Node& node, const std::string& key, const std::string& fi
 std::int64_t nested(const YAML::Node& node, const std::string& key, const std::string& inner,
                     const std::string& file) {
   const YAML::Node child = node[key];
-  if (!child || !child.IsMap()) {
-    throw BagError(file, "missing mapping '" + key + "'");
+  if (!child) {
+    const int line = node.Mark().is_null() ? 0 : node.Mark().line + 1;
+    throw BagError(file, "line " + std::to_string(line) + ": missing key '" + key + "'");
+  }
+  if (!child.IsMap()) {
+    throw BagError(
+        file, "line " + std::to_string(child.Mark().line + 1) + ": '" + key + "' is not a mapping");
   }
   return scalar<std::int64_t>(child, inner, file);
 }
