@@ -110,12 +110,19 @@ int run_slam(Args& args) {
     scans.push_back(l.scan);
     log_poses.push_back(l.robotPose());
   }
-  // Some shared logs have stamps that go backwards or repeat: order by index instead.
-  bool stamps_ok = true;
+  // Some shared logs have a few repeated or backward stamps (made monotone here), others
+  // unusable ones (replaced by the scan index, and the log's duration is unknown).
+  std::size_t backwards = 0;
   for (std::size_t i = 1; i < scans.size(); ++i)
-    if (!(scans[i].stamp > scans[i - 1].stamp)) stamps_ok = false;
-  const double duration = stamps_ok ? scans.back().stamp - scans.front().stamp : 0.0;
-  if (!stamps_ok) {
+    if (!(scans[i].stamp > scans[i - 1].stamp)) ++backwards;
+  const bool stamps_ok = backwards * 20 < scans.size();
+  double duration = 0.0;
+  if (stamps_ok) {
+    for (std::size_t i = 1; i < scans.size(); ++i) scans[i].stamp = std::max(scans[i].stamp, scans[i - 1].stamp);
+    duration = scans.back().stamp - scans.front().stamp;
+    if (backwards > 0)
+      std::cerr << "storey slam: " << backwards << " stamps repeat or go backwards; made monotone\n";
+  } else {
     std::cerr << "storey slam: the log's stamps are not increasing; using the scan index as time\n";
     for (std::size_t i = 0; i < scans.size(); ++i) scans[i].stamp = static_cast<double>(i);
   }

@@ -14,6 +14,8 @@ using geometry::Pose2;
 
 namespace {
 
+constexpr int kWideSearchLevels = 7;  // pyramid depth for loop closure and relocalisation
+
 ScanMatcherOptions readMatcherOrDefault(const common::ConfigNode& node, const std::string& key,
                                         const ScanMatcherOptions& fallback) {
   if (!node.has(key)) return fallback;
@@ -58,6 +60,7 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
     m.resolution = n.getDouble("resolution", m.resolution, 0.005, 1.0);
     m.max_insert_range = n.getDouble("max_insert_range", m.max_insert_range, 0.5, 1000.0);
     m.pyramid_levels = n.getInt("pyramid_levels", m.pyramid_levels, 1, 16);
+    m.rebuild_every_n_nodes = n.getInt("rebuild_every_n_nodes", m.rebuild_every_n_nodes, 1, 1000);
     if (n.has("likelihood_field")) m.field = grid::readLikelihoodFieldOptions(n.child("likelihood_field"));
     n.finish();
   }
@@ -156,10 +159,12 @@ struct FloorSlam::Impl {
   graph::Optimizer optimizer;
   MatchTarget local_target;
   bool local_dirty = true;
+  int nodes_since_rebuild = 0;
   MatchTarget floor_target;  // whole floor, for relocalisation
   bool floor_target_valid = false;
 
   bool have_last = false;
+  bool have_odometry = false;
   double last_stamp = 0.0;
   Pose2 last_odometry;
   std::size_t beam_count = 0;
@@ -211,6 +216,7 @@ void FloorSlam::resumeAt(const Pose2& guess) {
   impl_->reloc_have_odometry = false;
   impl_->reloc_attempts = 0;
   impl_->floor_target_valid = false;
+  impl_->have_odometry = false;  // the ride moved the robot: that is no odometry jump
 }
 
 GraphUpdate FloorSlam::takeUpdate() {
@@ -278,7 +284,7 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
   s.beam_count = scan.size();
 
   // Odometry jumps: do not trust that step; search around the last pose instead.
-  if (s.have_last) {
+  if (s.have_odometry) {
     const Pose2 step = s.last_odometry.between(odometry);
     if (step.translation().norm() > options_.max_odometry_step ||
         std::abs(step.theta()) > options_.max_odometry_rotation_step) {
@@ -291,6 +297,7 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     }
   }
   s.have_last = true;
+  s.have_odometry = true;
   s.last_stamp = scan.stamp;
   s.last_odometry = odometry;
 
@@ -326,6 +333,7 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     s.local_target = MatchTarget(renderNodes(floor_graph_, first, n, options_.local_map),
                                  options_.local_map.field, options_.local_map.pyramid_levels);
     s.local_dirty = false;
+    s.nodes_since_rebuild = 0;
   }
   const bool jumped = s.jump_since_node;
   const MatchResult match =
@@ -388,7 +396,8 @@ void FloorSlam::appendNode(const sensor::LaserScan& scan, const Pose2& odometry,
   s.ref_pose = pose;
   s.ref_odometry = odometry;
   s.jump_since_node = false;
-  s.local_dirty = true;
+  if (++s.nodes_since_rebuild >= options_.local_map.rebuild_every_n_nodes || pose_graph_.numNodes() <= 1)
+    s.local_dirty = true;
   s.floor_target_valid = false;
   last_pose_ = pose;
 }
@@ -428,7 +437,7 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   const std::size_t first = best > o.submap_half_nodes ? best - o.submap_half_nodes : 0;
   const std::size_t end = std::min(last_candidate + 1, static_cast<std::size_t>(best + o.submap_half_nodes + 1));
   const MatchTarget target(renderNodes(floor_graph_, first, end, options_.local_map), options_.local_map.field,
-                           options_.local_map.pyramid_levels);
+                           kWideSearchLevels);
   const double linear = std::min(o.max_linear_window, o.linear_window + o.sigma_factor * sigma_xy);
   const double angular = std::min(o.max_angular_window, o.angular_window + o.sigma_factor * sigma_theta);
   const MatchResult match = s.loop_matcher.match(target, points, current.pose, linear, angular);
@@ -494,7 +503,7 @@ ScanResult FloorSlam::relocalizeWith(const sensor::LaserScan& scan, const Pose2&
   const Pose2 guess = s.reloc_guess * s.reloc_odometry.between(odometry);
   if (!s.floor_target_valid) {
     s.floor_target = MatchTarget(renderNodes(floor_graph_, 0, floor_graph_.nodes.size(), options_.local_map),
-                                 options_.local_map.field, options_.local_map.pyramid_levels);
+                                 options_.local_map.field, kWideSearchLevels);
     s.floor_target_valid = true;
   }
   const MatchResult match = s.reloc_matcher.match(s.floor_target, points, guess, o.linear_window, o.angular_window);

@@ -40,7 +40,8 @@ struct LocalMapOptions {
   int max_nodes = 20;  // most recent nodes rendered into the local map
   double resolution = 0.05;
   double max_insert_range = 20.0;  // m; farther returns are left out of local maps
-  int pyramid_levels = 7;
+  int pyramid_levels = 5;  // enough for the tracking window; wider searches start coarser
+  int rebuild_every_n_nodes = 2;  // the local map is re-rendered this often
   grid::LikelihoodFieldOptions field;
 };
 
@@ -88,8 +89,8 @@ struct FloorSlamOptions {
   graph::OptimizerOptions optimizer;
   // Odometry steps between consecutive scans beyond these are jumps: not trusted, the
   // match searches a wider window around the last pose instead.
-  double max_odometry_step = 1.0;          // m
-  double max_odometry_rotation_step = 0.8;  // rad
+  double max_odometry_step = 2.5;          // m
+  double max_odometry_rotation_step = 1.6;  // rad
   double jump_linear_window = 1.5;          // m
   double jump_angular_window = 0.8;         // rad
 };

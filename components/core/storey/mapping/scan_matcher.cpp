@@ -16,6 +16,7 @@ ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node) {
   o.linear_window = node.getDouble("linear_window", o.linear_window, 0.0, 100.0);
   o.angular_window = node.getDouble("angular_window", o.angular_window, 0.0, M_PI);
   o.angular_step = node.getDouble("angular_step", o.angular_step, 0.0, 0.5);
+  o.min_angular_step = node.getDouble("min_angular_step", o.min_angular_step, 1e-5, 0.5);
   o.min_score = node.getDouble("min_score", o.min_score, 0.0, 1.0);
   o.translation_penalty = node.getDouble("translation_penalty", o.translation_penalty, 0.0, 10.0);
   o.rotation_penalty = node.getDouble("rotation_penalty", o.rotation_penalty, 0.0, 10.0);
@@ -32,6 +33,7 @@ ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node) {
   o.max_rotation_stddev = node.getDouble("max_rotation_stddev", o.max_rotation_stddev, 1e-4, 1e3);
   o.robust_distance = node.getDouble("robust_distance", o.robust_distance, 1e-3, 10.0);
   o.min_point_stddev = node.getDouble("min_point_stddev", o.min_point_stddev, 1e-4, 10.0);
+  o.normal_radius = node.getDouble("normal_radius", o.normal_radius, 0.01, 10.0);
   o.point_filter_distance =
       node.getDouble("point_filter_distance", o.point_filter_distance, 0.0, 10.0);
   o.min_points = node.getInt("min_points", o.min_points, 3, 100000);
@@ -45,7 +47,37 @@ ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node) {
 
 MatchTarget::MatchTarget(const grid::OccupancyGrid& grid, const grid::LikelihoodFieldOptions& options,
                          int pyramid_levels)
-    : field_(grid, options), pyramid_(grid::maxPyramid(field_.score(), std::max(1, pyramid_levels))) {}
+    : field_(grid, options) {
+  // Same content as grid::maxPyramid, built by doubling: level k's window is two of level
+  // k-1's side by side, so each level costs two passes of plain max (no deques).
+  const grid::Grid2<float>& base = field_.score();
+  const grid::GridFrame& f = base.frame;
+  pyramid_.push_back(base);
+  grid::Grid2<float> rows(f, 0.0f);
+  for (int level = 1; level < std::max(1, pyramid_levels); ++level) {
+    const grid::Grid2<float>& prev = pyramid_.back();
+    const int half = 1 << (level - 1);
+    for (int y = 0; y < f.height; ++y) {
+      const float* in = &prev.data[f.index(0, y)];
+      float* out = &rows.data[f.index(0, y)];
+      const int split = std::max(0, f.width - half);
+      for (int x = 0; x < split; ++x) out[x] = std::max(in[x], in[x + half]);
+      for (int x = split; x < f.width; ++x) out[x] = std::max(in[x], 0.0f);
+    }
+    grid::Grid2<float> next(f, 0.0f);
+    for (int y = 0; y < f.height; ++y) {
+      const float* a = &rows.data[f.index(0, y)];
+      float* out = &next.data[f.index(0, y)];
+      if (y + half < f.height) {
+        const float* b = &rows.data[f.index(0, y + half)];
+        for (int x = 0; x < f.width; ++x) out[x] = std::max(a[x], b[x]);
+      } else {
+        for (int x = 0; x < f.width; ++x) out[x] = std::max(a[x], 0.0f);
+      }
+    }
+    pyramid_.push_back(std::move(next));
+  }
+}
 
 double interpolatedDistance(const grid::LikelihoodField& field, const Eigen::Vector2d& p,
                             Eigen::Vector2d* gradient) {
@@ -109,6 +141,32 @@ std::vector<Eigen::Vector2d> filterPoints(const std::vector<Eigen::Vector2d>& po
     kept.push_back(p);
   }
   return kept;
+}
+
+std::vector<Eigen::Vector2d> pointNormals(const std::vector<Eigen::Vector2d>& points, double radius) {
+  std::vector<Eigen::Vector2d> normals(points.size(), Eigen::Vector2d::Zero());
+  const double r2 = radius * radius;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    // Neighbours in scan order (points come in beam order) within the radius.
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
+    int count = 0;
+    const std::size_t lo = i >= 3 ? i - 3 : 0, hi = std::min(points.size(), i + 4);
+    for (std::size_t k = lo; k < hi; ++k) {
+      if ((points[k] - points[i]).squaredNorm() > r2) continue;
+      mean += points[k];
+      scatter += points[k] * points[k].transpose();
+      ++count;
+    }
+    if (count < 3) continue;
+    mean /= count;
+    scatter = scatter / count - mean * mean.transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(scatter);
+    // A line: one clearly dominant direction.
+    if (eig.eigenvalues()(1) <= 0.0 || eig.eigenvalues()(0) > 0.1 * eig.eigenvalues()(1)) continue;
+    normals[i] = eig.eigenvectors().col(0);
+  }
+  return normals;
 }
 
 ScanMatcher::ScanMatcher(ScanMatcherOptions options) : options_(options) {}
@@ -210,7 +268,7 @@ MatchResult ScanMatcher::correlativeSearch(const MatchTarget& target, const std:
   if (step <= 0.0) {
     // The angle that moves the farthest point by one cell.
     step = std::acos(std::clamp(1.0 - res * res / (2.0 * max_range * max_range), -1.0, 1.0));
-    step = std::max(step, 1e-4);
+    step = std::max(step, options_.min_angular_step);
   }
   const int num_angles = static_cast<int>(std::ceil(angular_window / step));
   std::vector<double> offsets;
@@ -340,6 +398,24 @@ MatchResult ScanMatcher::refine(const grid::LikelihoodField& field, const std::v
   }
   result.score = mean / n;
   // Laplace approximation: σ² (JᵀWJ)⁻¹, σ² the weighted residual variance.
+  // The information comes from the scan's own geometry (point-to-line, Censi 2007): each
+  // point constrains only the direction of its surface normal, so a corridor's axis gets
+  // none, whatever small-scale artefacts the map's distance field has along its walls.
+  const std::vector<Eigen::Vector2d> normals = pointNormals(points, options_.normal_radius);
+  h_scan.setZero();
+  {
+    const double c = std::cos(pose.theta()), s = std::sin(pose.theta());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if (normals[i].isZero()) continue;
+      const Eigen::Vector2d& p = points[i];
+      const Eigen::Vector2d n(c * normals[i].x() - s * normals[i].y(), s * normals[i].x() + c * normals[i].y());
+      const Eigen::Vector2d dq_dtheta(-s * p.x() - c * p.y(), c * p.x() - s * p.y());
+      const double r = pointResidual(field, pose, p, nullptr);
+      const double w = r < cap ? 1.0 / (1.0 + r * r / c2) : 0.0;
+      const Eigen::RowVector3d j(n.x(), n.y(), n.dot(dq_dtheta));
+      h_scan += w * j.transpose() * j;
+    }
+  }
   // Floored: a near-perfect fit does not make the map's quantisation artefacts confident.
   const double sigma2 = std::max(weighted_r2 / std::max(1.0, weight_sum - 3.0),
                                  options_.min_point_stddev * options_.min_point_stddev);

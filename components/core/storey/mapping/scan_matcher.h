@@ -4,9 +4,9 @@
 // resolution; Gauss-Newton then refines it below a cell on the likelihood field's
 // bilinearly interpolated obstacle distance (robust Cauchy weights). The score itself is
 // flat at its peak (exp(-d²/2σ²)), which makes a poorly conditioned refinement; the
-// distance it is computed from is not. The covariance is the refinement's Laplace
-// approximation σ²(JᵀWJ)⁻¹, so a featureless direction (a corridor's axis) gets a large
-// variance instead of a confident guess.
+// distance it is computed from is not. The covariance is σ²(JᵀWJ)⁻¹ with point-to-line
+// Jacobians from the scan's own surface normals (Censi 2007), so a featureless direction
+// (a corridor's axis) gets a large variance instead of a confident guess.
 #pragma once
 
 #include <Eigen/Core>
@@ -24,7 +24,8 @@ struct ScanMatcherOptions {
   // Correlative search window around the prediction (half widths).
   double linear_window = 0.3;    // m
   double angular_window = 0.35;  // rad
-  double angular_step = 0.0;     // rad; 0: from the resolution and the scan's extent
+  double angular_step = 0.0;     // rad; 0: from the resolution and the scan's extent...
+  double min_angular_step = 0.004;  // rad; ...but no finer (the refinement does the rest)
   // Scores below this (mean per-point score in [0, 1]) are no match.
   double min_score = 0.35;
   // Small penalties on the distance from the prediction: break ties in featureless
@@ -39,6 +40,7 @@ struct ScanMatcherOptions {
   double rotation_prior_weight = 1.0;
   double robust_distance = 0.1;  // m, Cauchy width on point-to-obstacle distances
   double min_point_stddev = 0.02;  // m, floor of the per-point noise in the covariance
+  double normal_radius = 0.3;      // m, neighbourhood of a point's surface normal
   // Covariance: σ² (JᵀJ)⁻¹ times this factor (neighbouring beams are not independent),
   // then floored by the minimum standard deviations.
   double covariance_scale = 10.0;
@@ -87,6 +89,10 @@ double interpolatedDistance(const grid::LikelihoodField& field, const Eigen::Vec
 // to ξ = (x, y, θ) of the robot pose. Exposed for the numeric-derivative test.
 double pointResidual(const grid::LikelihoodField& field, const geometry::Pose2& pose,
                      const Eigen::Vector2d& point, Eigen::RowVector3d* jacobian);
+
+// Unit surface normals of points given in scan order, from their neighbours within
+// `radius` (zero where the neighbourhood is not line-like).
+std::vector<Eigen::Vector2d> pointNormals(const std::vector<Eigen::Vector2d>& points, double radius);
 
 // Drops points within `distance` of a previously kept point (greedy, order-preserving).
 std::vector<Eigen::Vector2d> filterPoints(const std::vector<Eigen::Vector2d>& points,

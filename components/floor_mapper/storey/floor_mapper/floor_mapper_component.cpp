@@ -1,0 +1,147 @@
+#include "storey/floor_mapper/floor_mapper_component.h"
+
+#include "storey/common/log.h"
+#include "storey/floor_mapper/conversions.h"
+#include "storey/runtime/sensor_bag.h"
+#include "storey/runtime/sensor_conversions.h"
+
+namespace storey::floor_mapper {
+
+using common::str;
+
+FloorMapperComponentOptions readFloorMapperComponentOptions(const common::ConfigNode& node) {
+  FloorMapperComponentOptions o;
+  o.robot = node.get<std::string>("robot");
+  o.events_topic = node.get<std::string>("events_topic", o.events_topic);
+  o.floor_graph_topic = node.get<std::string>("floor_graph_topic", o.floor_graph_topic);
+  if (o.events_topic.empty()) node.fail("events_topic", "must not be empty");
+  if (o.floor_graph_topic.empty()) node.fail("floor_graph_topic", "must not be empty");
+  try {
+    runtime::robotTopic(o.robot, o.events_topic);
+  } catch (const std::invalid_argument& e) {
+    node.fail("robot", e.what());
+  }
+  o.initial_floor = node.getInt("initial_floor", o.initial_floor, -1000, 1000);
+  o.initial_height = node.getDouble("initial_height", o.initial_height, -1e4, 1e4);
+  o.max_odometry_gap = node.getDouble("max_odometry_gap", o.max_odometry_gap, 1e-3, 60.0);
+  o.slam = mapping::readFloorSlamOptions(node.child("slam"));
+  node.finish();
+  return o;
+}
+
+FloorMapperComponent::FloorMapperComponent(runtime::Context& context, const common::ConfigNode& parameters,
+                                           std::string name)
+    : runtime::Component(context, parameters, std::move(name)) {}
+
+std::uint64_t FloorMapperComponent::updatesPublished() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return published_;
+}
+
+std::size_t FloorMapperComponent::nodeCount() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::size_t n = 0;
+  if (sessions_)
+    for (const auto& [floor, slam] : sessions_->floors()) n += slam->floorGraph().nodes.size();
+  return n;
+}
+
+void FloorMapperComponent::onConfigure() {
+  options_ = readFloorMapperComponentOptions(parameters());
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    sessions_ = std::make_unique<mapping::FloorSessions>(options_.slam, options_.robot, options_.initial_floor,
+                                                         options_.initial_height);
+    odometry_.clear();
+    sequence_.clear();
+    published_ = 0;
+  }
+  const std::string& robot = options_.robot;
+  publisher_ = createPublisher<storey_msgs::msg::FloorGraphUpdate, storey_msgs::msg::FloorGraphUpdatePubSubType>(
+      options_.floor_graph_topic, runtime::TopicKind::kGraph);
+  createSubscription<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType>(
+      runtime::robotTopic(robot, "odom"), runtime::TopicKind::kSensor,
+      [this](const nav_msgs::msg::Odometry& m) { onOdometry(m); });
+  createSubscription<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType>(
+      runtime::robotTopic(robot, "scan"), runtime::TopicKind::kSensor,
+      [this](const sensor_msgs::msg::LaserScan& m) { onScan(m); });
+  createSubscription<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>(
+      runtime::robotTopic(robot, options_.events_topic), runtime::TopicKind::kGraph,
+      [this](const storey_msgs::msg::FloorEvent& m) { onFloorEvent(m); });
+  common::logInfo(str(name(), ": mapping floors of '", robot, "', graphs on ", options_.floor_graph_topic));
+}
+
+void FloorMapperComponent::onCleanup() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  sessions_.reset();
+  publisher_.reset();
+}
+
+void FloorMapperComponent::onOdometry(const nav_msgs::msg::Odometry& message) {
+  if (state() != runtime::LifecycleState::kActive) return;
+  const sensor::OdometrySample sample = runtime::fromMessage(message);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!std::isfinite(sample.stamp) || !sample.pose.isFinite()) return;
+  if (!odometry_.empty() && sample.stamp < odometry_.back().stamp) return;  // out of order
+  odometry_.push_back(sample);
+  while (odometry_.size() > 2 && odometry_.front().stamp < sample.stamp - 10.0) odometry_.pop_front();
+}
+
+void FloorMapperComponent::onScan(const sensor_msgs::msg::LaserScan& message) {
+  if (state() != runtime::LifecycleState::kActive) return;
+  const sensor::LaserScan scan = runtime::fromMessage(message);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!sessions_) return;
+  // Odometry at the scan's stamp: interpolated between the samples around it, or the
+  // nearest one within max_odometry_gap.
+  const sensor::OdometrySample* before = nullptr;
+  const sensor::OdometrySample* after = nullptr;
+  for (const auto& s : odometry_) {
+    if (s.stamp <= scan.stamp) before = &s;
+    else if (!after) after = &s;
+  }
+  geometry::Pose2 odometry;
+  if (before && after && after->stamp - before->stamp <= options_.max_odometry_gap) {
+    odometry = geometry::interpolate(before->pose, after->pose,
+                                     (scan.stamp - before->stamp) / (after->stamp - before->stamp));
+  } else if (before && scan.stamp - before->stamp <= options_.max_odometry_gap) {
+    odometry = before->pose;
+  } else if (after && after->stamp - scan.stamp <= options_.max_odometry_gap) {
+    odometry = after->pose;
+  } else {
+    common::logDebug(str(name(), ": no odometry near the scan at ", scan.stamp, "; scan dropped"));
+    return;
+  }
+  sessions_->addScan(scan, odometry);
+  publishUpdates();
+}
+
+void FloorMapperComponent::onFloorEvent(const storey_msgs::msg::FloorEvent& message) {
+  FloorEventInfo event;
+  try {
+    event = fromMessage(message);
+  } catch (const std::invalid_argument& e) {
+    common::logWarn(str(name(), ": ignoring a floor event: ", e.what()));
+    return;
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!sessions_) return;
+  if (event.transit_started) {
+    sessions_->beginTransit();
+  } else {
+    sessions_->endTransit(event.floor_id, event.floor_height);
+    publishUpdates();  // the floor just left was optimised once more
+  }
+}
+
+void FloorMapperComponent::publishUpdates() {
+  for (const auto& [floor, slam] : sessions_->floors()) {
+    const mapping::GraphUpdate update = slam->takeUpdate();
+    if (update.new_nodes.empty() && update.new_edges.empty() && !update.poses_changed) continue;
+    const int graph_id = slam->floorGraph().graph_id;
+    const std::uint32_t sequence = sequence_[graph_id]++;
+    if (publisher_ && publisher_->publish(toMessage(slam->floorGraph(), update, sequence))) ++published_;
+  }
+}
+
+}  // namespace storey::floor_mapper

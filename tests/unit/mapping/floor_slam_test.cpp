@@ -1,0 +1,274 @@
+#include "storey/mapping/floor_slam.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+
+#include "storey/mapping/evaluation.h"
+#include "storey/mapping/floor_sessions.h"
+#include "synthetic_world.h"
+#include "test_support.h"
+
+namespace storey::mapping {
+namespace {
+
+using geometry::Pose2;
+
+// Poses along straight legs between waypoints (turning on the spot at each), `step` apart.
+std::vector<Pose2> path(const std::vector<Eigen::Vector2d>& waypoints, double step = 0.25) {
+  std::vector<Pose2> poses;
+  for (std::size_t i = 0; i + 1 < waypoints.size(); ++i) {
+    const Eigen::Vector2d d = waypoints[i + 1] - waypoints[i];
+    const double heading = std::atan2(d.y(), d.x());
+    if (!poses.empty()) {
+      // Turn in a few steps.
+      const double turn = geometry::angleDiff(heading, poses.back().theta());
+      for (int k = 1; k <= 3; ++k)
+        poses.emplace_back(waypoints[i].x(), waypoints[i].y(), poses.back().theta() + turn / 3);
+    }
+    const int n = static_cast<int>(std::ceil(d.norm() / step));
+    for (int k = poses.empty() ? 0 : 1; k <= n; ++k)
+      poses.emplace_back(waypoints[i].x() + d.x() * k / n, waypoints[i].y() + d.y() * k / n, heading);
+  }
+  return poses;
+}
+
+struct WorldRun {
+  std::vector<Pose2> truth, odometry, estimate;
+  FloorSlamStats stats;
+};
+
+WorldRun runWorld(const test::World& world, const std::vector<Pose2>& truth, const FloorSlamOptions& options,
+             std::uint64_t seed, OdometryNoise noise = {}) {
+  WorldRun run;
+  run.truth = truth;
+  run.odometry = simulateOdometry(truth, noise, seed);
+  std::vector<sensor::LaserScan> scans;
+  for (std::size_t i = 0; i < truth.size(); ++i) scans.push_back(world.scan(truth[i], 0.1 * i));
+  FloorSlam slam(options, "robot", 0, 0, 0.0);
+  const OfflineRun offline = runOffline(slam, scans, run.odometry);
+  // The front end starts at the origin; the truth at truth[0].
+  for (const auto& p : offline.trajectory) run.estimate.push_back(truth.front() * p);
+  run.stats = slam.stats();
+  return run;
+}
+
+double maxTranslationError(const WorldRun& run) {
+  double worst = 0.0;
+  for (std::size_t i = 0; i < run.truth.size(); ++i)
+    worst = std::max(worst, (run.truth[i].translation() - run.estimate[i].translation()).norm());
+  return worst;
+}
+
+TEST(FloorSlam, TracksThroughAnOfficeWithNoisyOdometry) {
+  const test::World world = test::officeWorld();
+  const auto truth = path({{1, 1}, {4.5, 1}, {4.5, 4.5}, {8, 4}, {11, 1}, {11, 4.5}, {6, 7}, {1, 7}, {1, 1}});
+  const WorldRun run = runWorld(world, truth, FloorSlamOptions{}, 7);
+  const RelationErrors slam = relationErrors(run.estimate, run.truth);
+  const RelationErrors odo = relationErrors(run.odometry, run.truth);
+  EXPECT_LT(slam.nearby.translation_mean, 0.02);
+  EXPECT_LT(slam.nearby.rotation_mean, 0.3 * M_PI / 180);
+  EXPECT_LT(maxTranslationError(run), 0.12);
+  EXPECT_LT(slam.nearby.translation_mean, odo.nearby.translation_mean);
+  EXPECT_GT(run.stats.matched, run.stats.nodes * 9 / 10);
+}
+
+TEST(FloorSlam, NodesOnlyWhenMovedEnough) {
+  const test::World world = test::officeWorld();
+  FloorSlamOptions options;
+  options.node.min_translation = 0.5;
+  FloorSlam slam(options, "robot", 0, 0, 0.0);
+  for (int i = 0; i < 20; ++i) {
+    const Pose2 pose(2 + 0.1 * i, 1.2, 0.0);
+    slam.addScan(world.scan(pose, i), pose);
+  }
+  // 1.9 m in 0.1 m steps with a node every 0.5 m: the first and three more.
+  EXPECT_EQ(slam.floorGraph().nodes.size(), 4u);
+  EXPECT_EQ(slam.stats().skipped, 16u);
+  for (const auto& node : slam.floorGraph().nodes) {
+    EXPECT_FALSE(node.scan.ranges.empty());
+    EXPECT_TRUE(node.odometry.isFinite());
+  }
+  bool has_odometry = false, has_match = false;
+  for (const auto& e : slam.floorGraph().edges) {
+    has_odometry |= e.kind == floor::EdgeKind::kOdometry;
+    has_match |= e.kind == floor::EdgeKind::kScanMatch;
+  }
+  EXPECT_TRUE(has_odometry);
+  EXPECT_TRUE(has_match);
+}
+
+class FloorSlamBadInput : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    for (int i = 0; i < 6; ++i) feed(Pose2(2 + 0.3 * i, 1.2, 0.05 * i), i);
+    nodes_before_ = slam_.floorGraph().nodes.size();
+    edges_before_ = slam_.floorGraph().edges.size();
+  }
+  ScanResult feed(const Pose2& pose, double stamp, const Pose2* odometry = nullptr) {
+    return slam_.addScan(world_.scan(pose, stamp), odometry ? *odometry : pose);
+  }
+  void expectUnchanged() {
+    EXPECT_EQ(slam_.floorGraph().nodes.size(), nodes_before_);
+    EXPECT_EQ(slam_.floorGraph().edges.size(), edges_before_);
+  }
+  test::World world_ = test::officeWorld();
+  FloorSlam slam_{FloorSlamOptions{}, "robot", 0, 0, 0.0};
+  std::size_t nodes_before_ = 0, edges_before_ = 0;
+};
+
+TEST_F(FloorSlamBadInput, AllReturnsInvalid) {
+  sensor::LaserScan scan = world_.scan(Pose2(4, 1.2, 0), 10.0);
+  for (auto& r : scan.ranges) r = std::numeric_limits<float>::quiet_NaN();
+  const ScanResult r = slam_.addScan(scan, Pose2(4, 1.2, 0));
+  EXPECT_EQ(r.status, ScanStatus::kRejected);
+  EXPECT_NE(r.reason.find("no valid returns"), std::string::npos);
+  expectUnchanged();
+  // And mapping goes on.
+  EXPECT_EQ(feed(Pose2(4, 1.2, 0.3), 11.0).status, ScanStatus::kNode);
+}
+
+TEST_F(FloorSlamBadInput, TimeGoingBackwards) {
+  const ScanResult r = feed(Pose2(4, 1.2, 0), 2.5);
+  EXPECT_EQ(r.status, ScanStatus::kRejected);
+  EXPECT_NE(r.reason.find("backwards"), std::string::npos);
+  expectUnchanged();
+}
+
+TEST_F(FloorSlamBadInput, NonFiniteOdometryAndBrokenScan) {
+  const Pose2 nan_pose(std::numeric_limits<double>::quiet_NaN(), 0, 0);
+  EXPECT_EQ(feed(Pose2(4, 1.2, 0), 10.0, &nan_pose).status, ScanStatus::kRejected);
+  sensor::LaserScan scan = world_.scan(Pose2(4, 1.2, 0), 10.0);
+  scan.angle_increment = 0.0;
+  EXPECT_EQ(slam_.addScan(scan, Pose2(4, 1.2, 0)).status, ScanStatus::kRejected);
+  scan.ranges.clear();
+  EXPECT_EQ(slam_.addScan(scan, Pose2(4, 1.2, 0)).status, ScanStatus::kRejected);
+  expectUnchanged();
+}
+
+TEST_F(FloorSlamBadInput, OdometryJumpIsNotTrusted) {
+  // The robot moves 0.3 m but odometry says 5 m: the scan must still land where it is.
+  const Pose2 truth(3.8, 1.2, 0.3);
+  const Pose2 jumped(8.8, 1.2, 0.3);
+  const ScanResult r = feed(truth, 10.0, &jumped);
+  EXPECT_EQ(slam_.stats().odometry_jumps, 1u);
+  ASSERT_EQ(r.status, ScanStatus::kNode) << r.reason;
+  EXPECT_LT((r.pose.translation() - (Pose2(2, 1.2, 0).between(truth)).translation()).norm(), 0.05);
+  // No odometry edge across the jump.
+  EXPECT_NE(slam_.floorGraph().edges.back().kind, floor::EdgeKind::kOdometry);
+  // Later odometry steps are trusted again, relative to the new odometry frame.
+  const Pose2 truth2(4.2, 1.2, 0.3), odo2 = jumped * truth.between(truth2);
+  const ScanResult r2 = feed(truth2, 11.0, &odo2);
+  ASSERT_EQ(r2.status, ScanStatus::kNode);
+  EXPECT_LT((r2.pose.translation() - (Pose2(2, 1.2, 0).between(truth2)).translation()).norm(), 0.05);
+}
+
+TEST_F(FloorSlamBadInput, DifferentBeamCountIsMatched) {
+  const Pose2 truth(3.8, 1.2, 0.3);
+  const ScanResult r = slam_.addScan(world_.scan(truth, 10.0, 181), truth);
+  ASSERT_EQ(r.status, ScanStatus::kNode) << r.reason;
+  EXPECT_TRUE(r.matched);
+  EXPECT_EQ(slam_.floorGraph().nodes.back().scan.size(), 181u);
+  EXPECT_LT((r.pose.translation() - (Pose2(2, 1.2, 0).between(truth)).translation()).norm(), 0.03);
+}
+
+TEST(FloorSlam, LoopClosureCorrectsDrift) {
+  // A ring corridor around a block: 24 m x 16 m outside, 2 m wide, with a few doors and
+  // pillars so that it is not featureless.
+  test::World world;
+  world.addBox(0, 0, 24, 16);
+  world.addBox(2, 2, 22, 14);
+  world.addBox(6, 0.05, 6.4, 0.4);
+  world.addBox(15, 15.6, 15.5, 15.95);
+  world.addBox(23.6, 7, 23.95, 7.4);
+  world.addBox(0.05, 10, 0.4, 10.6);
+  world.addBox(11, 1.7, 11.5, 2.0);
+  const auto truth = path({{1, 1}, {23, 1}, {23, 15}, {1, 15}, {1, 1}, {12, 1}});
+  OdometryNoise noise;
+  noise.rotation_per_meter = 3.0 * M_PI / 180;
+  FloorSlamOptions with;
+  FloorSlamOptions without;
+  without.loop_closure.enabled = false;
+  const WorldRun closed = runWorld(world, truth, with, 11, noise);
+  const WorldRun open = runWorld(world, truth, without, 11, noise);
+  EXPECT_GE(closed.stats.loop_closures, 1u);
+  if (std::getenv("STOREY_DEBUG_LOOP")) {
+    for (std::size_t i = 0; i < closed.truth.size(); i += 5)
+      std::printf("%zu truth %.2f %.2f est %.2f %.2f open %.2f %.2f\n", i, closed.truth[i].x(), closed.truth[i].y(),
+                  closed.estimate[i].x(), closed.estimate[i].y(), open.estimate[i].x(), open.estimate[i].y());
+  }
+  // Back at the start, the closed loop knows where it is relative to its first pass (the
+  // pose at the same place on the first leg); the open one has drifted.
+  std::size_t first_pass = 0;
+  for (std::size_t i = 0; i < truth.size() / 2; ++i)
+    if ((truth[i].translation() - truth.back().translation()).norm() <
+        (truth[first_pass].translation() - truth.back().translation()).norm())
+      first_pass = i;
+  auto loopError = [&](const WorldRun& r) {
+    const Pose2 e = r.truth[first_pass].between(r.truth.back()).between(
+        r.estimate[first_pass].between(r.estimate.back()));
+    return e.translation().norm();
+  };
+  EXPECT_LT(loopError(closed), 0.1);
+  EXPECT_GT(loopError(open), 0.3);
+  // Known weakness (docs/floor_mapper.md): in this long, nearly featureless ring only
+  // odometry constrains the corridors' axes, and the optimiser spreads the closure's
+  // correction over them, so the absolute error does not drop as much as the loop error.
+}
+
+TEST(FloorSessions, KnownFloorIsResumedAfterRelocalisation) {
+  const test::World office = test::officeWorld();
+  test::World other;
+  other.addBox(0, 0, 6, 5);
+  other.addBox(2, 2, 2.5, 2.5);
+  FloorSessions sessions(FloorSlamOptions{}, "robot", 0, 0.0);
+  double t = 0;
+  Pose2 odometry;
+  Pose2 prev_truth(1, 1, 0);
+  auto drive = [&](const test::World& world, const std::vector<Pose2>& poses) {
+    ScanResult last;
+    for (const auto& p : poses) {
+      odometry = odometry * prev_truth.between(p);
+      prev_truth = p;
+      last = sessions.addScan(world.scan(p, t += 0.1), odometry);
+    }
+    return last;
+  };
+  drive(office, path({{1, 1}, {4, 1}, {4, 4}}));
+  sessions.beginTransit();
+  sessions.endTransit(1, 3.0);
+  EXPECT_EQ(sessions.floors().size(), 2u);
+  // The robot is somewhere else on floor 1 (odometry continues through the ride).
+  prev_truth = Pose2(1, 1, 0.5);
+  drive(other, path({{1, 1}, {4, 1}, {4, 3}}));
+  sessions.beginTransit();
+  sessions.endTransit(0, 0.0);
+  EXPECT_EQ(sessions.floors().size(), 2u);  // the same graph, not a third
+  EXPECT_TRUE(sessions.current().awaitingRelocalization());
+  // Back on floor 0 near where it left (4, 4), turned by the ride.
+  prev_truth = Pose2(4.2, 3.9, 2.0);
+  const std::size_t before = sessions.current().floorGraph().nodes.size();
+  const ScanResult r = drive(office, {Pose2(4.2, 3.9, 2.0)});
+  EXPECT_TRUE(r.relocalized);
+  EXPECT_EQ(sessions.current().floorGraph().nodes.size(), before + 1);
+  // Floor 0's frame is the first pose (1, 1, 0).
+  const Pose2 expected = Pose2(1, 1, 0).between(Pose2(4.2, 3.9, 2.0));
+  EXPECT_LT((r.pose.translation() - expected.translation()).norm(), 0.05);
+  EXPECT_LT(std::abs(geometry::angleDiff(r.pose.theta(), expected.theta())), 0.02);
+  EXPECT_EQ(sessions.current().floorGraph().edges.back().kind, floor::EdgeKind::kLoopClosure);
+}
+
+TEST(FloorSlamOptions, ShippedConfigurationLoads) {
+  const auto root = common::ConfigNode::loadFile(storey::test::sourceDir() + "/config/floor_mapper.yaml");
+  const FloorSlamOptions o = readFloorSlamOptions(root.child("slam"));
+  EXPECT_GT(o.matcher.linear_window, 0.0);
+  EXPECT_TRUE(o.loop_closure.enabled);
+  EXPECT_THROW(readFloorSlamOptions(common::ConfigNode::loadString("node_creation: {min_translaton: 1}\n")),
+               common::ConfigError);
+  EXPECT_THROW(readFloorSlamOptions(common::ConfigNode::loadString("bogus: 1\n")), common::ConfigError);
+}
+
+}  // namespace
+}  // namespace storey::mapping
