@@ -216,6 +216,21 @@ TEST(FloorDetector, StairsWithALandingAreOneFloorChange) {
   }
 }
 
+TEST(FloorDetector, ALongStopOnTheHalfLandingStillAddsUpToOneStorey) {
+  FloorDetector detector(shippedOptions());
+  Script script;
+  script.wait(20.0).stairs(3.0, 4.0, 40.0).wait(30.0);
+  const auto ends = ended(test::run(script, barometerOnly(12), detector));
+  ASSERT_FALSE(ends.empty());
+  // The landing itself may be reported as "no change"; the floor reached is one storey up.
+  for (std::size_t i = 0; i + 1 < ends.size(); ++i) EXPECT_FALSE(ends[i].floor_changed);
+  EXPECT_TRUE(ends.back().floor_changed);
+  EXPECT_EQ(ends.back().floor_id, 1);
+  EXPECT_NEAR(ends.back().floor_height, 3.0, 0.2);
+  EXPECT_NEAR(ends.back().height_change, 3.0, 0.2);
+  EXPECT_EQ(detector.floors().size(), 2u);
+}
+
 TEST(FloorDetector, StairsDownWithBarometerOnly) {
   FloorDetector detector(shippedOptions());
   Script script;

@@ -331,7 +331,9 @@ void FloorDetector::maybeEndTransit(double t_v) {
   }
   // A new floor, or no change (a ramp, a landing): wait longer, the robot may go on.
   if (quiet < t.new_floor_settle_time) return;
-  if (!matched && std::abs(dh) >= f.min_change_fraction * f.storey_height) {
+  // Measured from the floor, not from where this ride began (a half landing in between).
+  const double from_floor = std::abs(arrival - floors_[current_floor_].height);
+  if (!matched && from_floor >= f.min_change_fraction * f.storey_height) {
     floors_.push_back(Floor{static_cast<int>(floors_.size()), arrival, 0, false});
     endTransit(static_cast<int>(floors_.size()) - 1, true, true, arrival);
   } else {
@@ -352,8 +354,12 @@ void FloorDetector::endTransit(int floor_index, bool changed, bool created, doub
   const double height_per_pascal = scaleHeight(b.temperature_kelvin) / last_pressure_;
   const double drift = b.max_drift_rate / 3600.0 * height_per_pascal * duration;
   const double scale = std::abs(dh) * b.temperature_uncertainty_kelvin / b.temperature_kelvin;
-  const double stddev = std::sqrt(start_height_stddev_ * start_height_stddev_ +
-                                  end.stddev * end.stddev + drift * drift + scale * scale);
+  // After a ride that stayed on the floor (a half landing) this ride continues from the
+  // offset it left: the change reported is from the floor the robot left.
+  const double stddev =
+      std::sqrt(start_height_stddev_ * start_height_stddev_ + end.stddev * end.stddev +
+                drift * drift + scale * scale + offset_stddev_ * offset_stddev_);
+  const double change = height_offset_ + dh;
 
   Evidence e;
   // Barometer: sustained vertical motion was seen; a known floor's height adds to it.
@@ -407,7 +413,7 @@ void FloorDetector::endTransit(int floor_index, bool changed, bool created, doub
     ev.start_stamp = onset_;
     ev.from_floor = floors_[current_floor_].id;
     ev.from_height = floors_[current_floor_].height;
-    ev.height_change = dh;
+    ev.height_change = change;
     ev.height_change_stddev = stddev;
     ev.floor_id = reached.id;
     ev.floor_height = reached.height;
@@ -420,12 +426,13 @@ void FloorDetector::endTransit(int floor_index, bool changed, bool created, doub
             : (e.stairs_votes > e.elevator_votes ? TransitMode::kStairs : TransitMode::kUnknown);
     events_.push_back(ev);
     common::logInfo(str("floor_detector: transit ended at t=", motion_end, ": floor ",
-                        ev.from_floor, " -> ", ev.floor_id, created ? " (new)" : "", ", dz=", dh,
-                        " +- ", stddev, ", ", transitModeName(ev.mode), ", confidence ",
-                        ev.confidence));
+                        ev.from_floor, " -> ", ev.floor_id, created ? " (new)" : "",
+                        ", dz=", change, " +- ", stddev, ", ", transitModeName(ev.mode),
+                        ", confidence ", ev.confidence));
   }
   current_floor_ = floor_index;
   height_offset_ = changed ? 0.0 : arrival - floors_[floor_index].height;
+  offset_stddev_ = changed ? 0.0 : stddev;
   state_ = State::kOnFloor;
   silent_transit_ = false;
   quiet_since_ = -1.0;

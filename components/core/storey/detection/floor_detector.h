@@ -31,7 +31,7 @@ struct FloorEvent {
   double start_stamp = 0.0;  // s: start of the ride (TransitEnded)
   int from_floor = 0;
   double from_height = 0.0;    // m, building frame
-  double height_change = 0.0;  // m, measured by the barometer (up is positive)
+  double height_change = 0.0;  // m, from the floor left (up is positive), by the barometer
   double height_change_stddev = 0.0;
   int floor_id = 0;           // floor reached (== from_floor when the floor did not change)
   double floor_height = 0.0;  // m, that floor's height estimate
@@ -153,6 +153,7 @@ class FloorDetector {
   // Similarity of each scan to the one about a second before it (trimmed like imu_).
   std::deque<TimedValue> scan_similarity_;
   double height_offset_ = 0.0;  // robot above its floor's height (a ramp, a landing), m
+  double offset_stddev_ = 0.0;
   double last_imu_stamp_ = -1e300;
   double last_odom_stamp_ = -1e300;
   double last_scan_stamp_ = -1e300;
