@@ -5,6 +5,7 @@
 //   registry.add<floor_detector::FloorDetectorComponent>("floor_detector", "...");
 
 #include "storey/floor_detector/floor_detector_component.h"
+#include "storey/floor_mapper/floor_mapper_component.h"
 #include "storey/floor_matcher/floor_matcher_component.h"
 #include "storey/graph_server/graph_server.h"
 
@@ -13,6 +14,8 @@ namespace storey::catalog {
 void registerStoreyComponents(runtime::ComponentRegistry& registry) {
   registry.add<floor_detector::FloorDetectorComponent>(
       "floor_detector", "floor changes of one robot from pressure (+ IMU, odometry, scan)");
+  registry.add<floor_mapper::FloorMapperComponent>(
+      "floor_mapper", "per-floor SLAM front end: scan matching, loop closure, one graph per floor");
   registry.add<floor_matcher::FloorMatcherComponent>(
       "floor_matcher", "inter-floor constraints: global MCL, likelihood gate, RANSAC");
   registry.add<graph_server::GraphServer>(
