@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <filesystem>
 #include <thread>
 
 #include "nav_msgs/msg/OdometryPubSubTypes.h"
@@ -160,6 +161,34 @@ TEST(Record, TakesTheTypeOfAnUntypedTopicFromDiscovery) {
     floors.push_back(event.floor_id());
   }
   EXPECT_EQ(floors, (std::vector<int>{1, 2, 3}));
+}
+
+TEST(Record, SigintStopsTheRecordingAndClosesTheBag) {
+  const std::string output = test::makeTempDir("record") + "/stopped";
+  const pid_t pid = spawn({STOREY_COMMAND, "record", "--topics", "/rob3/pressure", "--output",
+                           output, "--domain", std::to_string(kDiscoveryDomain)});
+  ASSERT_GT(pid, 0);
+  {
+    ContextOptions options;
+    options.domain_id = kDiscoveryDomain;
+    Context context(options);
+    Publisher<sensor_msgs::msg::FluidPressure, sensor_msgs::msg::FluidPressurePubSubType> pressures(
+        context, "/rob3/pressure", TopicKind::kSensor);
+    ASSERT_TRUE(pressures.waitForSubscribers(1, 20.0)) << "storey record did not subscribe";
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    for (int i = 0; i < 5; ++i) {
+      EXPECT_TRUE(pressures.publish(toMessage(sensor::PressureSample{1.0 + i, 900.0 + i, 0.0})));
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    kill(pid, SIGINT);
+    ASSERT_EQ(waitFor(pid, 20.0), 0) << "storey record did not stop cleanly on SIGINT";
+  }
+  EXPECT_TRUE(std::filesystem::exists(output + "/metadata.yaml"));
+  bag::BagReader bag(output);
+  ASSERT_TRUE(bag.metadata().has_value());
+  EXPECT_EQ(bag.metadata()->message_count, 5u);
+  EXPECT_EQ(bag.messageCount(), 5u);
 }
 
 TEST(Record, RejectsUnknownTopicTypes) {
