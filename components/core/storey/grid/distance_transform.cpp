@@ -12,52 +12,84 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 
 // Phase 2 of the transform over every row: g holds each cell's distance to the nearest
 // source in its column.
+// One row's envelope state; two rows advance in lockstep so that their independent
+// dependency chains overlap in the processor.
 template <typename Int>
-void lowerEnvelopeRows(const GridFrame& frame, const std::vector<std::int32_t>& g,
-                       Grid2<float>* out) {
-  const int w = frame.width, h = frame.height;
-  std::vector<Int> s(w), t(w), g2(w);
-  std::vector<double> half_inverse(w);
-  for (int d = 1; d < w; ++d) half_inverse[d] = 0.5 / d;
-  for (int y = 0; y < h; ++y) {
-    const std::int32_t* gr = &g[frame.index(0, y)];
-    for (int x = 0; x < w; ++x) g2[x] = static_cast<Int>(gr[x]) * gr[x];
-    // s: the envelope's parabola roots; t: from which x each one is the lowest.
-    int q = 0;
+struct Envelope {
+  Int* s;
+  Int* t;
+  const Int* g2;
+  int q;
+  void start() {
+    q = 0;
     s[0] = 0;
     t[0] = 0;
-    for (int uc = 1; uc < w; ++uc) {
-      const Int u = uc;
-      while (q >= 0) {
-        const Int dq = t[q] - s[q], du = t[q] - u;
-        if (dq * dq + g2[s[q]] <= du * du + g2[u]) break;
-        --q;
-      }
-      if (q < 0) {
-        q = 0;
-        s[0] = u;
-      } else {
-        // First x where u is strictly lower than s[q]; the numerator is >= 0 here.
-        const Int i = s[q];
-        // Integer division is the slowest step; multiplying by a tabled reciprocal is exact
-        // here: quotients differ by at least 1/(2w), far above the rounding error.
-        const Int sep = static_cast<Int>(
-            static_cast<double>(u * u - i * i + g2[u] - g2[i]) * half_inverse[u - i] + 1e-7);
-        const Int start = sep + 1;
-        if (start < w) {
-          ++q;
-          s[q] = u;
-          t[q] = start;
-        }
+  }
+  inline void add(Int u, int w, const double* half_inverse) {
+    while (q >= 0) {
+      const Int dq = t[q] - s[q], du = t[q] - u;
+      if (dq * dq + g2[s[q]] <= du * du + g2[u]) break;
+      --q;
+    }
+    if (q < 0) {
+      q = 0;
+      s[0] = u;
+    } else {
+      const Int i = s[q];
+      const Int sep = static_cast<Int>(
+          static_cast<double>(u * u - i * i + g2[u] - g2[i]) * half_inverse[u - i] + 1e-7);
+      const Int begin = sep + 1;
+      if (begin < w) {
+        ++q;
+        s[q] = u;
+        t[q] = begin;
       }
     }
-    float* row = &out->data[frame.index(0, y)];
+  }
+  void emit(int w, float* row) {
     for (int uc = w - 1; uc >= 0; --uc) {
       const Int u = uc;
       const Int d = u - s[q];
       row[uc] = static_cast<float>(d * d + g2[s[q]]);
       if (u == t[q]) --q;
     }
+  }
+};
+
+template <typename Int>
+void lowerEnvelopeRows(const GridFrame& frame, const std::vector<std::int32_t>& g,
+                       Grid2<float>* out) {
+  const int w = frame.width, h = frame.height;
+  std::vector<Int> buffer(6 * static_cast<std::size_t>(w));
+  std::vector<double> half_inverse(w);
+  for (int d = 1; d < w; ++d) half_inverse[d] = 0.5 / d;
+  Envelope<Int> e[2];
+  for (int k = 0; k < 2; ++k) {
+    e[k].s = &buffer[(3 * k) * w];
+    e[k].t = &buffer[(3 * k + 1) * w];
+    e[k].g2 = &buffer[(3 * k + 2) * w];
+  }
+  auto load = [&](int k, int y) {
+    const std::int32_t* gr = &g[frame.index(0, y)];
+    Int* g2 = &buffer[(3 * k + 2) * w];
+    for (int x = 0; x < w; ++x) g2[x] = static_cast<Int>(gr[x]) * gr[x];
+    e[k].start();
+  };
+  int y = 0;
+  for (; y + 1 < h; y += 2) {
+    load(0, y);
+    load(1, y + 1);
+    for (int uc = 1; uc < w; ++uc) {
+      e[0].add(uc, w, half_inverse.data());
+      e[1].add(uc, w, half_inverse.data());
+    }
+    e[0].emit(w, &out->data[frame.index(0, y)]);
+    e[1].emit(w, &out->data[frame.index(0, y + 1)]);
+  }
+  if (y < h) {
+    load(0, y);
+    for (int uc = 1; uc < w; ++uc) e[0].add(uc, w, half_inverse.data());
+    e[0].emit(w, &out->data[frame.index(0, y)]);
   }
 }
 
