@@ -38,12 +38,14 @@ std::vector<double> numbers(const std::string& text, std::size_t count, const st
     }
   }
   if (values.size() != count)
-    throw UsageError("--" + option + " takes " + std::to_string(count) + " comma-separated numbers");
+    throw UsageError("--" + option + " takes " + std::to_string(count) +
+                     " comma-separated numbers");
   return values;
 }
 
 bool endsWith(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+  return s.size() >= suffix.size() &&
+         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 void printErrors(const matching::MatchResult& result, const matching::SimulatedFloors& floors) {
@@ -88,7 +90,8 @@ int run_match(Args& args) {
       .flag("quiet", "print only the summary and errors");
   if (!args.parse()) return 0;
   const std::vector<std::string>& inputs = args.positionals();
-  if (inputs.empty() || inputs.size() > 2) throw UsageError("give a scenario .yaml or one or two logs");
+  if (inputs.empty() || inputs.size() > 2)
+    throw UsageError("give a scenario .yaml or one or two logs");
 
   matching::FloorMatcherOptions options;
   if (args.has("config")) {
@@ -103,7 +106,8 @@ int run_match(Args& args) {
   matching::SimulatedFloors floors;
   if (inputs.size() == 1 && endsWith(inputs[0], ".yaml")) {
     const sim::Scenario scenario = sim::loadScenario(inputs[0]);
-    const sim::Simulation run = sim::simulate(scenario, static_cast<std::uint64_t>(args.getInt("sim-seed")));
+    const sim::Simulation run =
+        sim::simulate(scenario, static_cast<std::uint64_t>(args.getInt("sim-seed")));
     matching::SimulatedFloorsOptions so;
     so.seed = static_cast<std::uint64_t>(args.getInt("sim-seed"));
     floors = matching::floorGraphsFromSimulation(run, so);
@@ -135,7 +139,8 @@ int run_match(Args& args) {
   const matching::MatchResult result = matching::matchFloors(floors.graphs, options);
   if (args.flagSet("quiet")) {
     for (const auto& p : result.pairs)
-      std::cout << "graph " << p.graph_id << " in " << p.reference_graph_id << ": " << p.reason << "\n";
+      std::cout << "graph " << p.graph_id << " in " << p.reference_graph_id << ": " << p.reason
+                << "\n";
     std::cout << result.constraints.size() << " constraints accepted; " << result.beam_evaluations
               << " particle-beam evaluations in " << result.seconds << " s\n";
   } else {

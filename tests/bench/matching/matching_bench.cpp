@@ -25,7 +25,8 @@ std::string scenarioPath(const std::string& name) {
 }
 
 matching::FloorMatcherOptions shippedOptions() {
-  const auto root = common::ConfigNode::loadFile(std::string(STOREY_SOURCE_DIR) + "/config/floor_matcher.yaml");
+  const auto root =
+      common::ConfigNode::loadFile(std::string(STOREY_SOURCE_DIR) + "/config/floor_matcher.yaml");
   return matching::readFloorMatcherOptions(root.child("floor_matcher"));
 }
 
@@ -60,7 +61,12 @@ void BM_FilterUpdate(benchmark::State& state) {
   state.counters["evaluations/s"] =
       benchmark::Counter(static_cast<double>(pf.beamEvaluations()), benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_FilterUpdate)->Arg(1000)->Arg(10000)->Arg(50000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_FilterUpdate)
+    ->Arg(1000)
+    ->Arg(10000)
+    ->Arg(50000)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_MatchBuilding(benchmark::State& state, const std::string& name) {
   if (!std::filesystem::exists(scenarioPath(name))) {
@@ -82,9 +88,18 @@ void BM_MatchBuilding(benchmark::State& state, const std::string& name) {
   state.counters["threads"] = o.threads;
   state.counters["evaluations/s"] = static_cast<double>(result.beam_evaluations) / result.seconds;
 }
-BENCHMARK_CAPTURE(BM_MatchBuilding, small2, std::string("small2"))->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
-BENCHMARK_CAPTURE(BM_MatchBuilding, office4, std::string("office4"))->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
-BENCHMARK_CAPTURE(BM_MatchBuilding, tower10, std::string("tower10"))->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+BENCHMARK_CAPTURE(BM_MatchBuilding, small2, std::string("small2"))
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_MatchBuilding, office4, std::string("office4"))
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_MatchBuilding, tower10, std::string("tower10"))
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime();
 
 }  // namespace
 

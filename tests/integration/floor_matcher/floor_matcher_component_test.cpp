@@ -19,8 +19,8 @@
 namespace storey::floor_matcher {
 namespace {
 
-using FloorGraphPublisher =
-    runtime::Publisher<storey_msgs::msg::FloorGraphUpdate, storey_msgs::msg::FloorGraphUpdatePubSubType>;
+using FloorGraphPublisher = runtime::Publisher<storey_msgs::msg::FloorGraphUpdate,
+                                               storey_msgs::msg::FloorGraphUpdatePubSubType>;
 
 runtime::ContextOptions onDomain(int domain) {
   runtime::ContextOptions options;
@@ -29,8 +29,8 @@ runtime::ContextOptions onDomain(int domain) {
 }
 
 // A floor graph as the mapper sends it, nodes [first, last) of it.
-storey_msgs::msg::FloorGraphUpdate toUpdate(const floor::FloorGraph& g, std::size_t first, std::size_t last,
-                                            std::uint32_t sequence) {
+storey_msgs::msg::FloorGraphUpdate toUpdate(const floor::FloorGraph& g, std::size_t first,
+                                            std::size_t last, std::uint32_t sequence) {
   storey_msgs::msg::FloorGraphUpdate u;
   u.robot(g.robot);
   u.floor_graph_id(static_cast<std::uint32_t>(g.graph_id));
@@ -69,14 +69,16 @@ TEST(FloorMatcherComponent, PublishesCorrectConstraintsForTwoFloors) {
   runtime::Context context(onDomain(215));
   std::mutex mutex;
   std::vector<storey_msgs::msg::InterFloorConstraint> received;
-  runtime::Subscription<storey_msgs::msg::InterFloorConstraint, storey_msgs::msg::InterFloorConstraintPubSubType>
+  runtime::Subscription<storey_msgs::msg::InterFloorConstraint,
+                        storey_msgs::msg::InterFloorConstraintPubSubType>
       sub(context, "storey/inter_floor_constraints", runtime::TopicKind::kGraph,
           [&](const storey_msgs::msg::InterFloorConstraint& c) {
             std::lock_guard<std::mutex> lock(mutex);
             received.push_back(c);
           });
-  FloorMatcherComponent matcher(context, common::ConfigNode::loadString("{min_nodes: 10, matcher: {seed: 3}}"),
-                                "floor_matcher");
+  FloorMatcherComponent matcher(
+      context, common::ConfigNode::loadString("{min_nodes: 10, matcher: {seed: 3}}"),
+      "floor_matcher");
   matcher.configure();
   matcher.activate();
   FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
@@ -155,13 +157,14 @@ TEST(FloorMatcherComponent, BadUpdatesAreRejectedAndCounted) {
 }
 
 TEST(FloorMatcherComponentOptions, UnknownKeysAreErrors) {
-  EXPECT_THROW(readFloorMatcherComponentOptions(common::ConfigNode::loadString("{min_node: 3}", "fm.yaml")),
-               common::ConfigError);
+  EXPECT_THROW(
+      readFloorMatcherComponentOptions(common::ConfigNode::loadString("{min_node: 3}", "fm.yaml")),
+      common::ConfigError);
   EXPECT_THROW(readFloorMatcherComponentOptions(
                    common::ConfigNode::loadString("{matcher: {filter: {beams: -1}}}", "fm.yaml")),
                common::ConfigError);
-  const auto o = readFloorMatcherComponentOptions(
-      common::ConfigNode::loadString("{min_new_nodes: 7, matcher: {min_constraints: 4}}", "fm.yaml"));
+  const auto o = readFloorMatcherComponentOptions(common::ConfigNode::loadString(
+      "{min_new_nodes: 7, matcher: {min_constraints: 4}}", "fm.yaml"));
   EXPECT_EQ(o.min_new_nodes, 7);
   EXPECT_EQ(o.matcher.min_constraints, 4);
 }

@@ -18,7 +18,7 @@
 namespace storey::matching {
 namespace {
 
-constexpr double kWrongTranslation = 0.3;       // metres
+constexpr double kWrongTranslation = 0.3;  // metres
 constexpr double kWrongRotation = 2.0 * M_PI / 180.0;
 
 FloorMatcherOptions shippedOptions() {
@@ -37,8 +37,10 @@ class SimulatedScenario : public ::testing::TestWithParam<std::tuple<Expectation
 TEST_P(SimulatedScenario, NoWrongConstraintAndEnoughRightOnes) {
   const auto& [expect, seed] = GetParam();
   const std::string path = test::sourceDir() + "/config/buildings/" + expect.scenario + ".yaml";
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << "scenario " << path << " is not in the tree yet";
-  const sim::Simulation run = sim::simulate(sim::loadScenario(path), static_cast<std::uint64_t>(seed));
+  if (!std::filesystem::exists(path))
+    GTEST_SKIP() << "scenario " << path << " is not in the tree yet";
+  const sim::Simulation run =
+      sim::simulate(sim::loadScenario(path), static_cast<std::uint64_t>(seed));
   SimulatedFloorsOptions so;
   so.seed = static_cast<std::uint64_t>(seed);
   const SimulatedFloors floors = floorGraphsFromSimulation(run, so);
@@ -52,8 +54,9 @@ TEST_P(SimulatedScenario, NoWrongConstraintAndEnoughRightOnes) {
             << " constraints, " << result.seconds << " s\n";
   for (const auto& c : result.constraints) {
     const ConstraintError e = constraintError(c, floors);
-    EXPECT_LT(e.translation, kWrongTranslation) << "wrong constraint graph " << c.graph_id << " node "
-                                                << c.node_id << "\n" << report.str();
+    EXPECT_LT(e.translation, kWrongTranslation)
+        << "wrong constraint graph " << c.graph_id << " node " << c.node_id << "\n"
+        << report.str();
     EXPECT_LT(e.rotation, kWrongRotation) << report.str();
   }
   if (expect.none) {
@@ -65,7 +68,8 @@ TEST_P(SimulatedScenario, NoWrongConstraintAndEnoughRightOnes) {
       int count = 0;
       for (const auto& c : result.constraints) count += c.graph_id == g.graph_id;
       EXPECT_GE(count, 3) << "graph " << g.graph_id << " (" << g.robot << ", floor " << g.floor_id
-                          << ", " << g.nodes.size() << " nodes)\n" << report.str();
+                          << ", " << g.nodes.size() << " nodes)\n"
+                          << report.str();
     }
   }
 }
@@ -75,7 +79,8 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Combine(::testing::Values(Expectation{"small2"}, Expectation{"office4"},
                                          Expectation{"corridors3"}, Expectation{"glass3", false},
                                          Expectation{"tower10"}, Expectation{"featureless", false},
-                                         Expectation{"symmetric", false, true}, Expectation{"fleet"}),
+                                         Expectation{"symmetric", false, true},
+                                         Expectation{"fleet"}),
                        ::testing::Values(1, 2)),
     [](const auto& info) {
       return std::get<0>(info.param).scenario + "_seed" + std::to_string(std::get<1>(info.param));
@@ -110,7 +115,8 @@ TEST(RealLogs, FreiburgHalvesRecoverTheKnownOffset) {
   }
   const PairResult* pair = result.pairFor(result.reference_graph_id == 0 ? 1 : 0);
   ASSERT_TRUE(pair && pair->accepted);
-  const ConstraintError e = alignmentError(pair->alignment, pair->reference_graph_id, pair->graph_id, floors);
+  const ConstraintError e =
+      alignmentError(pair->alignment, pair->reference_graph_id, pair->graph_id, floors);
   std::cout << "freiburg-079 halves: alignment error " << e.translation << " m, "
             << e.rotation * 180.0 / M_PI << " deg from " << result.constraints.size()
             << " constraints in " << result.seconds << " s\n";

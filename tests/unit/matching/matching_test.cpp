@@ -16,8 +16,12 @@ using test::driveFloor;
 using test::officeFloor;
 using test::officePath;
 
-double angleError(const Pose2& a, const Pose2& b) { return std::abs(geometry::angleDiff(a.theta(), b.theta())); }
-double translationError(const Pose2& a, const Pose2& b) { return (a.translation() - b.translation()).norm(); }
+double angleError(const Pose2& a, const Pose2& b) {
+  return std::abs(geometry::angleDiff(a.theta(), b.theta()));
+}
+double translationError(const Pose2& a, const Pose2& b) {
+  return (a.translation() - b.translation()).norm();
+}
 
 FloorMatcherOptions fastOptions() {
   FloorMatcherOptions o;
@@ -112,7 +116,9 @@ TEST(FloorMatcher, TwoFloorsWithSharedStructureAlign) {
                           g.findNode(c.node_id)->pose.inverse();
     const Pose2 truth = c.reference_graph_id == 0 ? frame : frame.inverse();
     EXPECT_LT(translationError(implied * g.findNode(c.node_id)->pose,
-                               truth * g.findNode(c.node_id)->pose), 0.1) << report.str();
+                               truth * g.findNode(c.node_id)->pose),
+              0.1)
+        << report.str();
     EXPECT_LT(angleError(implied, truth), 0.02);
     EXPECT_NEAR(c.dz, c.reference_graph_id == 0 ? 3.2 : -3.2, 1e-9);
   }
@@ -160,11 +166,11 @@ test::Walls symmetricFloor() {
 TEST(FloorMatcher, SymmetricFloorsGiveNoConstraint) {
   // Both robots see the whole floor (a part seen by one robot only is not ambiguous to it:
   // the data could not tell its twin apart).
-  const std::vector<Eigen::Vector2d> path0{{1, 1.5}, {1, 6.5}, {7, 6.5}, {7, 4}, {9, 4}, {9, 6.5},
-                                           {15, 6.5}, {15, 1.5}, {9, 1.5}, {9, 4}, {7, 4},
-                                           {7, 1.5}, {1.5, 1.5}};
-  const std::vector<Eigen::Vector2d> path1{{2, 6.5}, {2, 2}, {6.5, 2}, {6.5, 4}, {9.5, 4},
-                                           {9.5, 2}, {14, 2}, {14, 6}, {9.5, 6}, {9.5, 4.2}};
+  const std::vector<Eigen::Vector2d> path0{{1, 1.5}, {1, 6.5},  {7, 6.5},  {7, 4},   {9, 4},
+                                           {9, 6.5}, {15, 6.5}, {15, 1.5}, {9, 1.5}, {9, 4},
+                                           {7, 4},   {7, 1.5},  {1.5, 1.5}};
+  const std::vector<Eigen::Vector2d> path1{{2, 6.5}, {2, 2},  {6.5, 2}, {6.5, 4}, {9.5, 4},
+                                           {9.5, 2}, {14, 2}, {14, 6},  {9.5, 6}, {9.5, 4.2}};
   std::vector<floor::FloorGraph> graphs{
       driveFloor(symmetricFloor(), path0, Pose2(), 0, 0.0, 12),
       driveFloor(symmetricFloor(), path1, Pose2(0.5, 0.2, -0.2), 1, 3.0, 13)};
@@ -205,7 +211,8 @@ TEST(FloorMatcherOptions, ReadsValuesAndRejectsUnknownKeys) {
 }
 
 TEST(FloorMatcherOptions, ShippedConfigLoads) {
-  const auto node = common::ConfigNode::loadFile(storey::test::sourceDir() + "/config/floor_matcher.yaml");
+  const auto node =
+      common::ConfigNode::loadFile(storey::test::sourceDir() + "/config/floor_matcher.yaml");
   EXPECT_NO_THROW(readFloorMatcherOptions(node.child("floor_matcher")));
 }
 

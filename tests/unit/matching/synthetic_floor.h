@@ -44,8 +44,8 @@ inline double castRay(const Walls& walls, const Eigen::Vector2d& o, const Eigen:
 }
 
 struct DriveOptions {
-  double step = 0.4;            // metres between nodes
-  double turn_step = 0.35;      // rad between nodes when turning on the spot
+  double step = 0.4;        // metres between nodes
+  double turn_step = 0.35;  // rad between nodes when turning on the spot
   int beams = 181;
   double fov = 4.71238898038469;
   double range_max = 30.0;
@@ -57,13 +57,15 @@ struct DriveOptions {
 
 // Drives through `waypoints` (building frame) in `walls` (building frame); the graph's
 // frame is `frame` (its pose in the building frame), so node poses are frame^-1 * true.
-inline floor::FloorGraph driveFloor(const Walls& walls, const std::vector<Eigen::Vector2d>& waypoints,
+inline floor::FloorGraph driveFloor(const Walls& walls,
+                                    const std::vector<Eigen::Vector2d>& waypoints,
                                     const geometry::Pose2& frame, int graph_id, double height,
                                     unsigned seed, const DriveOptions& o = {}) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> n01(0.0, 1.0);
   std::vector<geometry::Pose2> truth;
-  double heading = std::atan2(waypoints[1].y() - waypoints[0].y(), waypoints[1].x() - waypoints[0].x());
+  double heading =
+      std::atan2(waypoints[1].y() - waypoints[0].y(), waypoints[1].x() - waypoints[0].x());
   geometry::Pose2 pose(waypoints[0].x(), waypoints[0].y(), heading);
   truth.push_back(pose);
   for (std::size_t w = 1; w < waypoints.size(); ++w) {
@@ -94,9 +96,11 @@ inline floor::FloorGraph driveFloor(const Walls& walls, const std::vector<Eigen:
     if (i > 0) {
       const geometry::Pose2 delta = truth[i - 1].between(truth[i]);
       const double dist = delta.translation().norm();
-      const geometry::Pose2 noisy(
-          delta.x() + o.odom_trans_sigma * dist * n01(rng), delta.y() + o.odom_trans_sigma * dist * n01(rng),
-          delta.theta() + (o.odom_rot_sigma * std::abs(delta.theta()) + o.odom_rot_per_metre * dist) * n01(rng));
+      const geometry::Pose2 noisy(delta.x() + o.odom_trans_sigma * dist * n01(rng),
+                                  delta.y() + o.odom_trans_sigma * dist * n01(rng),
+                                  delta.theta() + (o.odom_rot_sigma * std::abs(delta.theta()) +
+                                                   o.odom_rot_per_metre * dist) *
+                                                      n01(rng));
       odom = odom * noisy;
     }
     floor::FloorNode node;
@@ -112,15 +116,17 @@ inline floor::FloorGraph driveFloor(const Walls& walls, const std::vector<Eigen:
     scan.range_max = o.range_max;
     for (int b = 0; b < o.beams; ++b) {
       const double a = truth[i].theta() + scan.angle(b);
-      const double r = castRay(walls, truth[i].translation(), {std::cos(a), std::sin(a)}, o.range_max - 0.01);
+      const double r =
+          castRay(walls, truth[i].translation(), {std::cos(a), std::sin(a)}, o.range_max - 0.01);
       scan.ranges.push_back(std::isfinite(r) ? static_cast<float>(r + o.range_sigma * n01(rng))
                                              : std::numeric_limits<float>::infinity());
     }
     g.nodes.push_back(std::move(node));
   }
   for (std::size_t i = 1; i < g.nodes.size(); ++i)
-    g.edges.push_back({g.nodes[i - 1].id, g.nodes[i].id, g.nodes[i - 1].pose.between(g.nodes[i].pose),
-                       Eigen::Matrix3d::Identity(), floor::EdgeKind::kOdometry});
+    g.edges.push_back({g.nodes[i - 1].id, g.nodes[i].id,
+                       g.nodes[i - 1].pose.between(g.nodes[i].pose), Eigen::Matrix3d::Identity(),
+                       floor::EdgeKind::kOdometry});
   return g;
 }
 
@@ -152,10 +158,10 @@ inline Walls officeFloor(int variant) {
 // Path along the corridor and into a few rooms (building frame).
 inline std::vector<Eigen::Vector2d> officePath(int variant) {
   if (variant == 0)
-    return {{1, 5.5}, {19, 5.5}, {18, 6}, {12.7, 5.5}, {12.7, 9}, {12.7, 5.5}, {6.7, 5.5},
-            {6.7, 2}, {6.7, 5.5}, {1.5, 5.5}};
-  return {{19, 5.2}, {3.7, 5.6}, {3.7, 9.5}, {3.7, 5.6}, {12.8, 5.8}, {12.8, 10}, {12.8, 5.8},
-          {19, 5.8}};
+    return {{1, 5.5},    {19, 5.5},  {18, 6},  {12.7, 5.5}, {12.7, 9},
+            {12.7, 5.5}, {6.7, 5.5}, {6.7, 2}, {6.7, 5.5},  {1.5, 5.5}};
+  return {{19, 5.2},   {3.7, 5.6}, {3.7, 9.5},  {3.7, 5.6},
+          {12.8, 5.8}, {12.8, 10}, {12.8, 5.8}, {19, 5.8}};
 }
 
 }  // namespace storey::matching::test

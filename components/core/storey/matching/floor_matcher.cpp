@@ -59,12 +59,18 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
 
 const char* candidateStatusName(CandidateStatus status) {
   switch (status) {
-    case CandidateStatus::kAccepted: return "accepted";
-    case CandidateStatus::kLowLikelihood: return "low_likelihood";
-    case CandidateStatus::kPoorFit: return "poor_fit";
-    case CandidateStatus::kOutlier: return "outlier";
-    case CandidateStatus::kTooFew: return "too_few";
-    case CandidateStatus::kAmbiguous: return "ambiguous";
+    case CandidateStatus::kAccepted:
+      return "accepted";
+    case CandidateStatus::kLowLikelihood:
+      return "low_likelihood";
+    case CandidateStatus::kPoorFit:
+      return "poor_fit";
+    case CandidateStatus::kOutlier:
+      return "outlier";
+    case CandidateStatus::kTooFew:
+      return "too_few";
+    case CandidateStatus::kAmbiguous:
+      return "ambiguous";
   }
   return "unknown";
 }
@@ -163,7 +169,8 @@ double refineAlignment(const grid::LikelihoodField& field, const floor::FloorGra
   for (const auto& [first, last] : ranges) {
     for (int n = first; n <= last; ++n) {
       const auto& node = graph.nodes[n];
-      for (const auto& p : selectBeams(node.scan, beams)) points.push_back(node.pose.transformPoint(p));
+      for (const auto& p : selectBeams(node.scan, beams))
+        points.push_back(node.pose.transformPoint(p));
     }
   }
   if (points.empty()) return 0.0;
@@ -216,8 +223,8 @@ PreparedFloor prepareFloor(const floor::FloorGraph& graph, const FloorMatcherOpt
   const grid::OccupancyGrid grid = floor::renderFloorMap(graph, options.map);
   p.map = std::make_unique<LocalizationMap>(grid, options.likelihood_field);
   p.structure = p.map->occupiedCells();
-  p.l_min = learnLikelihoodThreshold(graph, options,
-                                     mixSeed(options.seed, 0x1EA2, static_cast<std::uint64_t>(graph.graph_id)));
+  p.l_min = learnLikelihoodThreshold(
+      graph, options, mixSeed(options.seed, 0x1EA2, static_cast<std::uint64_t>(graph.graph_id)));
   return p;
 }
 
@@ -229,7 +236,8 @@ double learnLikelihoodThreshold(const floor::FloorGraph& graph, const FloorMatch
   const LocalizationMap map(floor::renderFloorMap(even, options.map), options.likelihood_field);
   ParticleFilter filter(map, options.filter, seed);
   const double sigma_xy = 0.05, sigma_theta = 0.02;
-  filter.initializeAround(graph.nodes.front().pose, sigma_xy, sigma_theta, options.learning_particles);
+  filter.initializeAround(graph.nodes.front().pose, sigma_xy, sigma_theta,
+                          options.learning_particles);
   std::vector<double> values;
   for (std::size_t n = 0; n < graph.nodes.size(); ++n) {
     // Moved by the graph's own relative poses (the mapper knows them): the raw odometry
@@ -294,8 +302,8 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_
     c.mass_within = st.mass_within;
     c.dz = dz;
     Pose2 alignment = st.mean * g.nodes[m].pose.inverse();
-    c.fit = refineAlignment(reference.map->field(), g, {{k, m}}, o.refine_beams, o.refine_iterations,
-                            &alignment);
+    c.fit = refineAlignment(reference.map->field(), g, {{k, m}}, o.refine_beams,
+                            o.refine_iterations, &alignment);
     c.alignment = alignment;
     const Pose2 refined_m = alignment * g.nodes[m].pose;
     c.refine_correction = (refined_m.translation() - st.mean.translation()).norm();
@@ -325,7 +333,8 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_
   for (std::size_t i : pool)
     if (std::find(best.begin(), best.end(), i) == best.end()) rest.push_back(i);
   const std::vector<std::size_t> second = largestConsistentSet(result.candidates, rest, g, o, &rng);
-  auto markAll = [&](const std::vector<std::size_t>& which, CandidateStatus s, const std::string& why) {
+  auto markAll = [&](const std::vector<std::size_t>& which, CandidateStatus s,
+                     const std::string& why) {
     for (std::size_t i : which) {
       result.candidates[i].status = s;
       result.candidates[i].reason = why;
@@ -352,20 +361,21 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_
                                 " gated candidates (need ", o.min_constraints, ")");
     markAll(pool, CandidateStatus::kTooFew, result.reason);
   } else if (second.size() >= 2 &&
-             static_cast<double>(second.size()) >= o.ambiguity_ratio * static_cast<double>(best.size()) &&
+             static_cast<double>(second.size()) >=
+                 o.ambiguity_ratio * static_cast<double>(best.size()) &&
              !wholeFloorPrefersBest()) {
     result.ambiguous = true;
-    result.reason = common::str("ambiguous: two disjoint consistent sets of ", best.size(), " and ",
-                                second.size(), " candidates, whole-floor fit ", fit_best, " vs ",
-                                fit_second);
+    result.reason =
+        common::str("ambiguous: two disjoint consistent sets of ", best.size(), " and ",
+                    second.size(), " candidates, whole-floor fit ", fit_best, " vs ", fit_second);
     markAll(pool, CandidateStatus::kAmbiguous, result.reason);
   } else {
     result.accepted = true;
-    result.reason = common::str("accepted: ", best.size(), " consistent of ", pool.size(),
-                                " gated candidates");
+    result.reason =
+        common::str("accepted: ", best.size(), " consistent of ", pool.size(), " gated candidates");
     if (fit_best >= 0.0)
-      result.reason += common::str(" (a second set of ", second.size(), " loses on whole-floor fit ",
-                                   fit_best, " vs ", fit_second, ")");
+      result.reason += common::str(" (a second set of ", second.size(),
+                                   " loses on whole-floor fit ", fit_best, " vs ", fit_second, ")");
     markAll(rest, CandidateStatus::kOutlier, "disagrees with the largest consistent set");
     markAll(best, CandidateStatus::kAccepted, "inlier of the largest consistent set");
     std::vector<Pose2> alignments;
@@ -379,8 +389,7 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_
     result.alignment = joint;
   }
   result.beam_evaluations = filter.beamEvaluations();
-  result.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
 
@@ -394,9 +403,11 @@ FloorCheck checkSelfSimilarity(const PreparedFloor& floor_data, const FloorMatch
   std::vector<std::size_t> elsewhere;
   for (std::size_t i = 0; i < own.candidates.size(); ++i) {
     const Candidate& c = own.candidates[i];
-    if (c.status == CandidateStatus::kLowLikelihood || c.status == CandidateStatus::kPoorFit) continue;
+    if (c.status == CandidateStatus::kLowLikelihood || c.status == CandidateStatus::kPoorFit)
+      continue;
     const Pose2& pk = floor_data.graph->nodes[c.first_index].pose;
-    if (agrees(Pose2(), c.alignment, pk, o.ransac_translation_tolerance, o.ransac_rotation_tolerance))
+    if (agrees(Pose2(), c.alignment, pk, o.ransac_translation_tolerance,
+               o.ransac_rotation_tolerance))
       ++check.at_identity;
     else
       elsewhere.push_back(i);
@@ -405,7 +416,8 @@ FloorCheck checkSelfSimilarity(const PreparedFloor& floor_data, const FloorMatch
   check.elsewhere = static_cast<int>(
       largestConsistentSet(own.candidates, elsewhere, *floor_data.graph, o, &rng).size());
   check.self_similar =
-      check.elsewhere >= 2 && check.elsewhere >= o.ambiguity_ratio * static_cast<double>(check.at_identity);
+      check.elsewhere >= 2 &&
+      check.elsewhere >= o.ambiguity_ratio * static_cast<double>(check.at_identity);
   return check;
 }
 
@@ -427,7 +439,8 @@ void parallelFor(int n, int threads, F job) {
 
 }  // namespace
 
-MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs, const FloorMatcherOptions& o) {
+MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
+                        const FloorMatcherOptions& o) {
   const auto start = std::chrono::steady_clock::now();
   MatchResult result;
   const int n = static_cast<int>(graphs.size());
@@ -464,7 +477,8 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs, const Floo
   for (int i = 0; i < n; ++i)
     if (!result.floors[i].self_similar) order.push_back(i);
   if (order.size() < 2) {
-    result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    result.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return result;
   }
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
@@ -543,8 +557,7 @@ void printMatchReport(std::ostream& out, const MatchResult& result) {
     out << "graph " << p.graph_id << " in reference " << p.reference_graph_id << ": " << p.reason
         << " (" << p.sequences << " filters, " << p.not_converged << " not converged, l_min "
         << std::setprecision(4) << p.l_min << ", " << std::setprecision(3) << p.seconds << " s)\n";
-    if (p.accepted)
-      out << "  alignment (graph frame in reference frame): " << p.alignment << "\n";
+    if (p.accepted) out << "  alignment (graph frame in reference frame): " << p.alignment << "\n";
     for (const auto& c : p.candidates) {
       out << "  scans " << c.first_index << ".." << c.last_index << " node " << c.node_id
           << " -> ref node " << c.reference_node_id << "  l_t " << std::setprecision(4)

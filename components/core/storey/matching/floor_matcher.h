@@ -31,14 +31,13 @@
 //   scan is scored against a map built from itself (which would make l_min optimistic).
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <iosfwd>
 #include <memory>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "storey/common/config.h"
 #include "storey/floor/floor_graph.h"
@@ -51,7 +50,7 @@ namespace storey::matching {
 
 struct FloorMatcherOptions {
   ParticleFilterOptions filter;
-  grid::OccupancyGridOptions map;                  // rendering each floor graph's map
+  grid::OccupancyGridOptions map;                 // rendering each floor graph's map
   grid::LikelihoodFieldOptions likelihood_field;  // its sensor model
   // A sequence z_k..z_m needs at least `min_sequence` scans before convergence counts;
   // a filter not converged after `max_sequence` scans is dropped and restarted
@@ -65,9 +64,9 @@ struct FloorMatcherOptions {
   int learning_particles = 300;
   // Refinement of each converged estimate against the reference likelihood field.
   int refine_iterations = 30;
-  int refine_beams = 90;              // beams per scan used in refinement
+  int refine_beams = 90;               // beams per scan used in refinement
   double max_refine_correction = 0.5;  // metres; a larger correction rejects the candidate
-  double min_fit = 0.0;  // minimum mean score after refinement, [0, 1]
+  double min_fit = 0.0;                // minimum mean score after refinement, [0, 1]
   // RANSAC: the model is one planar alignment T_i; candidates agree when their
   // alignments place node k within these tolerances.
   int ransac_iterations = 500;
@@ -109,17 +108,17 @@ struct Candidate {
   int graph_id = 0;
   int first_index = 0;  // node indices (into graph.nodes) of the sequence z_k .. z_m
   int last_index = 0;
-  int node_id = 0;            // id of node k in g_i
-  int reference_node_id = 0;  // id of node q in g_ref
+  int node_id = 0;              // id of node k in g_i
+  int reference_node_id = 0;    // id of node q in g_ref
   geometry::Pose2 estimate;     // MCL mean at z_m, g_ref frame (before refinement)
   geometry::Pose2 alignment;    // T_i implied by this candidate (refined)
   geometry::Pose2 measurement;  // node k in the frame of node q
   double dz = 0.0;
   double likelihood = 0.0;  // l_t at convergence
   double l_min = 0.0;
-  double fit = 0.0;              // mean likelihood-field score of the sequence after refinement
+  double fit = 0.0;                // mean likelihood-field score of the sequence after refinement
   double refine_correction = 0.0;  // metres the refinement moved node m
-  std::size_t particles = 0;    // filter size at convergence
+  std::size_t particles = 0;       // filter size at convergence
   double mass_within = 0.0;
   CandidateStatus status = CandidateStatus::kOutlier;
   std::string reason;
@@ -142,12 +141,12 @@ struct PairResult {
   int reference_graph_id = 0;
   int graph_id = 0;
   bool accepted = false;
-  bool ambiguous = false;      // two disjoint consistent sets: the floor's structure repeats
-  std::string reason;          // why not accepted (or "accepted")
-  geometry::Pose2 alignment;   // T_i from all inliers jointly (when accepted)
+  bool ambiguous = false;     // two disjoint consistent sets: the floor's structure repeats
+  std::string reason;         // why not accepted (or "accepted")
+  geometry::Pose2 alignment;  // T_i from all inliers jointly (when accepted)
   double l_min = 0.0;
-  int sequences = 0;       // filters started
-  int not_converged = 0;   // filters dropped without converging
+  int sequences = 0;      // filters started
+  int not_converged = 0;  // filters dropped without converging
   std::vector<Candidate> candidates;
   std::uint64_t beam_evaluations = 0;
   double seconds = 0.0;
@@ -177,8 +176,8 @@ struct MatchResult {
 struct PreparedFloor {
   const floor::FloorGraph* graph = nullptr;
   std::unique_ptr<LocalizationMap> map;
-  double l_min = 0.0;          // learned quantile (before likelihood_scale)
-  std::size_t structure = 0;   // occupied cells: how much there is to localise against
+  double l_min = 0.0;         // learned quantile (before likelihood_scale)
+  std::size_t structure = 0;  // occupied cells: how much there is to localise against
 };
 PreparedFloor prepareFloor(const floor::FloorGraph& graph, const FloorMatcherOptions& options);
 
@@ -199,7 +198,8 @@ FloorCheck checkSelfSimilarity(const PreparedFloor& floor, const FloorMatcherOpt
 // is matched to it (in parallel), and a graph that fails for too few consistent
 // candidates (not one found ambiguous) tries the others in order of structure until one
 // accepts.
-MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs, const FloorMatcherOptions& options);
+MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
+                        const FloorMatcherOptions& options);
 
 // Refines an alignment T (g_i frame in g_ref frame) so the scans of the node index
 // ranges [first, last], placed at T * pose, fit the field (Gauss-Newton on 1 - score).

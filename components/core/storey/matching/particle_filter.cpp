@@ -24,7 +24,8 @@ ParticleFilterOptions readParticleFilterOptions(const common::ConfigNode& node) 
   o.resample_threshold = node.getDouble("resample_threshold", o.resample_threshold, 0.0, 1.0);
   o.beams = node.getInt("beams", o.beams, 1, 100000);
   o.effective_beams = node.getDouble("effective_beams", o.effective_beams, 1e-3, 100000.0);
-  o.off_free_log_penalty = node.getDouble("off_free_log_penalty", o.off_free_log_penalty, -1e6, 0.0);
+  o.off_free_log_penalty =
+      node.getDouble("off_free_log_penalty", o.off_free_log_penalty, -1e6, 0.0);
   if (node.has("motion")) {
     const common::ConfigNode m = node.child("motion");
     auto& n = o.motion;
@@ -103,8 +104,9 @@ void ParticleFilter::initializeUniform() {
     return;
   }
   const double wanted = map_.freeArea() * options_.initial_particles_per_m2;
-  const std::size_t n = static_cast<std::size_t>(std::clamp(
-      wanted, static_cast<double>(options_.min_particles), static_cast<double>(options_.max_particles)));
+  const std::size_t n =
+      static_cast<std::size_t>(std::clamp(wanted, static_cast<double>(options_.min_particles),
+                                          static_cast<double>(options_.max_particles)));
   resize(n);
   const grid::GridFrame& f = map_.frame();
   std::uniform_int_distribution<std::size_t> pick(0, cells.size() - 1);
@@ -141,8 +143,8 @@ void ParticleFilter::predict(const Pose2& delta) {
   const MotionNoiseOptions& m = options_.motion;
   const double at = std::abs(trans);
   const double s_rot1 = m.rot_rot * std::abs(rot1) + m.rot_trans * at + m.min_rotation;
-  const double s_trans = m.trans_trans * at + m.trans_rot * (std::abs(rot1) + std::abs(rot2)) +
-                         m.min_translation;
+  const double s_trans =
+      m.trans_trans * at + m.trans_rot * (std::abs(rot1) + std::abs(rot2)) + m.min_translation;
   const double s_rot2 = m.rot_rot * std::abs(rot2) + m.rot_trans * at + m.min_rotation;
   std::normal_distribution<double> n01(0.0, 1.0);
   for (std::size_t j = 0; j < x_.size(); ++j) {
@@ -229,8 +231,10 @@ std::size_t ParticleFilter::occupiedBins() const {
   std::vector<std::uint64_t> keys(x_.size());
   const double bxy = options_.kld_bin_xy, bt = options_.kld_bin_theta;
   for (std::size_t j = 0; j < x_.size(); ++j) {
-    const auto ix = static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(x_[j] / bxy)) + (1 << 20));
-    const auto iy = static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(y_[j] / bxy)) + (1 << 20));
+    const auto ix =
+        static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(x_[j] / bxy)) + (1 << 20));
+    const auto iy =
+        static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(y_[j] / bxy)) + (1 << 20));
     const auto it = static_cast<std::uint64_t>(std::floor((theta_[j] + M_PI) / bt));
     keys[j] = (ix & 0x1fffff) | ((iy & 0x1fffff) << 21) | ((it & 0x3ff) << 42);
   }
@@ -253,9 +257,9 @@ bool ParticleFilter::resampleIfNeeded() {
   const double n = static_cast<double>(x_.size());
   if (1.0 / sum_sq >= options_.resample_threshold * n) return false;
   systematicResample(x_.size());
-  const std::size_t target = std::clamp(kldBound(occupiedBins()),
-                                        static_cast<std::size_t>(options_.min_particles),
-                                        static_cast<std::size_t>(options_.max_particles));
+  const std::size_t target =
+      std::clamp(kldBound(occupiedBins()), static_cast<std::size_t>(options_.min_particles),
+                 static_cast<std::size_t>(options_.max_particles));
   if (target != x_.size()) systematicResample(target);
   return true;
 }

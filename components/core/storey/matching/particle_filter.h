@@ -26,10 +26,10 @@ namespace storey::matching {
 // deviations: sigma_rot = rot_rot * |rot| + rot_trans * trans (+ min_rotation), and
 // sigma_trans = trans_trans * trans + trans_rot * (|rot1| + |rot2|) (+ min_translation).
 struct MotionNoiseOptions {
-  double rot_rot = 0.1;        // rad per rad
-  double rot_trans = 0.05;     // rad per metre
-  double trans_trans = 0.1;    // metre per metre
-  double trans_rot = 0.02;     // metre per rad
+  double rot_rot = 0.1;           // rad per rad
+  double rot_trans = 0.05;        // rad per metre
+  double trans_trans = 0.1;       // metre per metre
+  double trans_rot = 0.02;        // metre per rad
   double min_translation = 0.02;  // metres, added every step to keep particles diverse
   double min_rotation = 0.01;     // rad
 };
@@ -69,7 +69,7 @@ ParticleFilterOptions readParticleFilterOptions(const common::ConfigNode& node);
 
 // What the filter holds right now.
 struct FilterState {
-  geometry::Pose2 mean;     // weighted mean pose (circular mean heading)
+  geometry::Pose2 mean;      // weighted mean pose (circular mean heading)
   double mass_within = 0.0;  // weight within the convergence radius and angle of `mean`
   bool converged = false;
   std::size_t particles = 0;
@@ -79,7 +79,8 @@ struct FilterState {
 // initialisation and the free-space check) and the likelihood field.
 class LocalizationMap {
  public:
-  LocalizationMap(const grid::OccupancyGrid& grid, const grid::LikelihoodFieldOptions& field_options);
+  LocalizationMap(const grid::OccupancyGrid& grid,
+                  const grid::LikelihoodFieldOptions& field_options);
 
   const grid::LikelihoodField& field() const { return field_; }
   const grid::GridFrame& frame() const { return field_.frame(); }
@@ -108,12 +109,14 @@ class LocalizationMap {
 
 class ParticleFilter {
  public:
-  ParticleFilter(const LocalizationMap& map, const ParticleFilterOptions& options, std::uint64_t seed);
+  ParticleFilter(const LocalizationMap& map, const ParticleFilterOptions& options,
+                 std::uint64_t seed);
 
   // Particles uniform over the free space (global localisation).
   void initializeUniform();
   // Particles drawn around a known pose (tracking, e.g. to learn l_min).
-  void initializeAround(const geometry::Pose2& pose, double sigma_xy, double sigma_theta, int count);
+  void initializeAround(const geometry::Pose2& pose, double sigma_xy, double sigma_theta,
+                        int count);
 
   // Moves every particle by the odometry increment `delta` (robot frame) with sampled noise.
   void predict(const geometry::Pose2& delta);

@@ -27,7 +27,8 @@ Pose2 odometryAt(const std::vector<sensor::OdometrySample>& odom, double stamp) 
   return geometry::interpolate(a.pose, b.pose, t);
 }
 
-const floor::FloorGraph* findGraph(const SimulatedFloors& floors, int graph_id, std::size_t* index) {
+const floor::FloorGraph* findGraph(const SimulatedFloors& floors, int graph_id,
+                                   std::size_t* index) {
   for (std::size_t i = 0; i < floors.graphs.size(); ++i) {
     if (floors.graphs[i].graph_id == graph_id) {
       *index = i;
@@ -79,7 +80,8 @@ SimulatedFloors floorGraphsFromSimulation(const sim::Simulation& simulation,
     }
     for (auto& [floor_index, g] : graphs) {
       if (static_cast<int>(g.nodes.size()) < options.min_nodes) continue;
-      const Pose2 frame(options.frame_translation * unit(rng), options.frame_translation * unit(rng),
+      const Pose2 frame(options.frame_translation * unit(rng),
+                        options.frame_translation * unit(rng),
                         options.random_frame_rotation ? M_PI * unit(rng) : 0.0);
       g.robot = run.name;
       g.graph_id = next_id++;
@@ -111,7 +113,8 @@ ConstraintError constraintError(const InterFloorConstraint& c, const SimulatedFl
   const Pose2 implied = q->pose * c.measurement * k->pose.inverse();
   const Pose2 truth = floors.frames[ri].inverse() * floors.frames[gi];
   const Pose2 a = implied * k->pose, b = truth * k->pose;
-  return {(a.translation() - b.translation()).norm(), std::abs(geometry::angleDiff(a.theta(), b.theta()))};
+  return {(a.translation() - b.translation()).norm(),
+          std::abs(geometry::angleDiff(a.theta(), b.theta()))};
 }
 
 ConstraintError alignmentError(const Pose2& alignment, int reference_graph_id, int graph_id,
@@ -125,7 +128,8 @@ ConstraintError alignmentError(const Pose2& alignment, int reference_graph_id, i
   const Pose2 truth = floors.frames[ri].inverse() * floors.frames[gi];
   const Pose2 at(centroid.x(), centroid.y(), 0.0);
   const Pose2 a = alignment * at, b = truth * at;
-  return {(a.translation() - b.translation()).norm(), std::abs(geometry::angleDiff(a.theta(), b.theta()))};
+  return {(a.translation() - b.translation()).norm(),
+          std::abs(geometry::angleDiff(a.theta(), b.theta()))};
 }
 
 }  // namespace storey::matching

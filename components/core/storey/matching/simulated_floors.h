@@ -18,11 +18,11 @@
 namespace storey::matching {
 
 struct SimulatedFloorsOptions {
-  double node_distance = 0.3;  // metres of odometry between nodes
-  double node_angle = 0.3;     // radians
-  double frame_translation = 20.0;  // each graph's frame is offset uniformly up to this (m)
+  double node_distance = 0.3;         // metres of odometry between nodes
+  double node_angle = 0.3;            // radians
+  double frame_translation = 20.0;    // each graph's frame is offset uniformly up to this (m)
   bool random_frame_rotation = true;  // and rotated uniformly (else only translated)
-  int min_nodes = 10;  // graphs with fewer nodes are dropped
+  int min_nodes = 10;                 // graphs with fewer nodes are dropped
   std::uint64_t seed = 1;
 };
 
@@ -40,7 +40,8 @@ struct ConstraintError {
   double translation = 0.0;  // metres
   double rotation = 0.0;     // radians
 };
-ConstraintError constraintError(const InterFloorConstraint& constraint, const SimulatedFloors& floors);
+ConstraintError constraintError(const InterFloorConstraint& constraint,
+                                const SimulatedFloors& floors);
 // The same for an alignment of graph `graph_id` in graph `reference_graph_id`, at the
 // centroid of the graph's nodes.
 ConstraintError alignmentError(const geometry::Pose2& alignment, int reference_graph_id,

@@ -15,9 +15,11 @@ void requireFinite(double value, const std::string& field) {
 
 }  // namespace
 
-void applyUpdate(const storey_msgs::msg::FloorGraphUpdate& m, std::map<int, floor::FloorGraph>* graphs) {
+void applyUpdate(const storey_msgs::msg::FloorGraphUpdate& m,
+                 std::map<int, floor::FloorGraph>* graphs) {
   const int id = static_cast<int>(m.floor_graph_id());
-  const std::string where = "floor graph " + std::to_string(id) + " update " + std::to_string(m.sequence_number());
+  const std::string where =
+      "floor graph " + std::to_string(id) + " update " + std::to_string(m.sequence_number());
   requireFinite(m.floor_height(), where + ": floor_height");
   floor::FloorGraph g = graphs->count(id) ? graphs->at(id) : floor::FloorGraph{};
   g.robot = m.robot();
@@ -49,7 +51,8 @@ void applyUpdate(const storey_msgs::msg::FloorGraphUpdate& m, std::map<int, floo
     floor::FloorEdge edge;
     edge.from = static_cast<int>(e.from_node());
     edge.to = static_cast<int>(e.to_node());
-    const std::string at = where + ": edge " + std::to_string(edge.from) + "->" + std::to_string(edge.to);
+    const std::string at =
+        where + ": edge " + std::to_string(edge.from) + "->" + std::to_string(edge.to);
     requireFinite(e.dx(), at + ".dx");
     requireFinite(e.dy(), at + ".dy");
     requireFinite(e.dtheta(), at + ".dtheta");
@@ -72,8 +75,9 @@ void applyUpdate(const storey_msgs::msg::FloorGraphUpdate& m, std::map<int, floo
   (*graphs)[id] = std::move(g);
 }
 
-storey_msgs::msg::InterFloorConstraint toMessage(const matching::InterFloorConstraint& c, std::uint32_t id,
-                                                 double l_min, std::uint32_t support) {
+storey_msgs::msg::InterFloorConstraint toMessage(const matching::InterFloorConstraint& c,
+                                                 std::uint32_t id, double l_min,
+                                                 std::uint32_t support) {
   storey_msgs::msg::InterFloorConstraint m;
   m.constraint_id(id);
   m.from_floor_graph(static_cast<std::uint32_t>(c.reference_graph_id));

@@ -20,6 +20,7 @@ void applyUpdate(const storey_msgs::msg::FloorGraphUpdate& message,
 
 // An accepted constraint with its evidence (l_t, l_min, scans used, RANSAC support).
 storey_msgs::msg::InterFloorConstraint toMessage(const matching::InterFloorConstraint& constraint,
-                                                 std::uint32_t id, double l_min, std::uint32_t support);
+                                                 std::uint32_t id, double l_min,
+                                                 std::uint32_t support);
 
 }  // namespace storey::floor_matcher

@@ -24,8 +24,8 @@ FloorMatcherComponentOptions readFloorMatcherComponentOptions(const common::Conf
   return o;
 }
 
-FloorMatcherComponent::FloorMatcherComponent(runtime::Context& context, const common::ConfigNode& parameters,
-                                             std::string name)
+FloorMatcherComponent::FloorMatcherComponent(runtime::Context& context,
+                                             const common::ConfigNode& parameters, std::string name)
     : runtime::Component(context, parameters, std::move(name)) {}
 
 FloorMatcherComponent::~FloorMatcherComponent() { stopWorker(); }
@@ -35,7 +35,8 @@ void FloorMatcherComponent::onConfigure() {
   publisher_ = createPublisher<storey_msgs::msg::InterFloorConstraint,
                                storey_msgs::msg::InterFloorConstraintPubSubType>(
       options_.constraint_topic, runtime::TopicKind::kGraph);
-  createSubscription<storey_msgs::msg::FloorGraphUpdate, storey_msgs::msg::FloorGraphUpdatePubSubType>(
+  createSubscription<storey_msgs::msg::FloorGraphUpdate,
+                     storey_msgs::msg::FloorGraphUpdatePubSubType>(
       options_.floor_graph_topic, runtime::TopicKind::kGraph,
       [this](const storey_msgs::msg::FloorGraphUpdate& m) { onUpdate(m); });
 }
@@ -124,14 +125,16 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   lock.lock();
   ++stats_.matchings;
   for (const auto& c : result.constraints) {
-    const auto key = std::make_tuple(c.reference_graph_id, c.reference_node_id, c.graph_id, c.node_id);
+    const auto key =
+        std::make_tuple(c.reference_graph_id, c.reference_node_id, c.graph_id, c.node_id);
     if (!published_.insert(key).second) continue;
     const matching::PairResult* pair = result.pairFor(c.graph_id);
     std::uint32_t support = 0;
     double l_min = 0.0;
     if (pair) {
       l_min = pair->l_min;
-      for (const auto& cand : pair->candidates) support += cand.status == matching::CandidateStatus::kAccepted;
+      for (const auto& cand : pair->candidates)
+        support += cand.status == matching::CandidateStatus::kAccepted;
     }
     out.push_back(toMessage(c, next_constraint_id_++, l_min, support));
   }
@@ -141,7 +144,8 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   for (const auto& m : out)
     if (publisher) publisher->publish(m);
   if (!out.empty())
-    logInfo(str(name(), ": published ", out.size(), " inter-floor constraints (", result.seconds, " s)"));
+    logInfo(str(name(), ": published ", out.size(), " inter-floor constraints (", result.seconds,
+                " s)"));
   lock.lock();
   busy_ = false;
   changed_.notify_all();

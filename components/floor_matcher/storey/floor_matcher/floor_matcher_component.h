@@ -45,7 +45,8 @@ struct FloorMatcherStats {
 
 class FloorMatcherComponent : public runtime::Component {
  public:
-  FloorMatcherComponent(runtime::Context& context, const common::ConfigNode& parameters, std::string name);
+  FloorMatcherComponent(runtime::Context& context, const common::ConfigNode& parameters,
+                        std::string name);
   ~FloorMatcherComponent() override;
 
   // Matches whatever has arrived and is not matched yet, then returns once published.
