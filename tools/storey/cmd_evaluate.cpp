@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "args.h"
+#include "storey/eval/corridors.h"
 #include "storey/common/config.h"
 #include "storey/eval/metrics.h"
 
@@ -24,26 +25,6 @@ std::string trajectoryFile(const std::string& path, const std::string& what) {
   const fs::path inside = fs::path(path) / "trajectory.csv";
   if (fs::is_regular_file(inside)) return inside.string();
   throw UsageError(what + " " + path + " holds no trajectory.csv");
-}
-
-std::vector<eval::CorridorSpec> readCorridors(const std::string& path) {
-  std::vector<eval::CorridorSpec> corridors;
-  if (!fs::is_regular_file(path)) return corridors;
-  const auto root = common::ConfigNode::loadFile(path);
-  for (const auto& node : root.sequence("corridors")) {
-    eval::CorridorSpec c;
-    c.name = node.get<std::string>("name");
-    c.floor = node.get<std::string>("floor");
-    const auto from = node.getDoubles("from"), to = node.getDoubles("to");
-    if (from.size() != 2) node.fail("from", "expected [x, y]");
-    if (to.size() != 2) node.fail("to", "expected [x, y]");
-    c.from = {from[0], from[1]};
-    c.to = {to[0], to[1]};
-    node.finish();
-    corridors.push_back(c);
-  }
-  root.finish();
-  return corridors;
 }
 
 }  // namespace
@@ -87,7 +68,7 @@ int run_evaluate(Args& args) {
 
   const auto estimate = eval::readTrajectoryCsv(trajectoryFile(result_dir, "RESULT_DIR"));
   const auto truth = eval::readTrajectoryCsv(trajectoryFile(truth_dir, "GROUND_TRUTH_DIR"));
-  const auto corridors = readCorridors((fs::path(truth_dir) / "corridors.yaml").string());
+  const auto corridors = eval::readCorridors((fs::path(truth_dir) / "corridors.yaml").string());
   const eval::Evaluation evaluation = eval::evaluate(estimate, truth, corridors, options);
   std::cout << eval::toTable(evaluation);
   if (args.has("json")) {

@@ -14,6 +14,7 @@
 #include "storey/sim/ground_truth.h"
 #include "storey/sim/pictures.h"
 #include "storey/sim/simulator.h"
+#include "storey/tools/simulation_bag.h"
 
 namespace storey::cli {
 
@@ -29,32 +30,6 @@ std::vector<std::string> splitList(const std::string& text) {
   while (std::getline(in, item, ','))
     if (!item.empty()) items.push_back(item);
   return items;
-}
-
-// Every robot's samples into one bag, in time order (scan, odom, pressure, imu at a tie).
-void writeBag(const sim::Simulation& run, const std::string& folder) {
-  runtime::SensorBagWriter bag(folder);
-  for (const auto& robot : run.robots) {
-    std::size_t s = 0, o = 0, p = 0, i = 0;
-    constexpr double kEnd = std::numeric_limits<double>::infinity();
-    while (true) {
-      const double ts = s < robot.scans.size() ? robot.scans[s].stamp : kEnd;
-      const double to = o < robot.odometry.size() ? robot.odometry[o].stamp : kEnd;
-      const double tp = p < robot.pressure.size() ? robot.pressure[p].stamp : kEnd;
-      const double ti = i < robot.imu.size() ? robot.imu[i].stamp : kEnd;
-      const double next = std::min({ts, to, tp, ti});
-      if (next == kEnd) break;
-      if (ts == next)
-        bag.write(robot.name, robot.scans[s++]);
-      else if (to == next)
-        bag.write(robot.name, robot.odometry[o++]);
-      else if (tp == next)
-        bag.write(robot.name, robot.pressure[p++]);
-      else
-        bag.write(robot.name, robot.imu[i++]);
-    }
-  }
-  bag.close();
 }
 
 }  // namespace
@@ -95,7 +70,7 @@ int run_simulate(Args& args) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
 
   fs::create_directories(out);
-  if (!args.flagSet("no-bag")) writeBag(run, (fs::path(out) / "bag").string());
+  if (!args.flagSet("no-bag")) tools::writeSimulationBag(run, (fs::path(out) / "bag").string());
   sim::writeGroundTruth(run, (fs::path(out) / "ground_truth").string());
   sim::writeOdometryBaseline(run, (fs::path(out) / "baseline_odometry").string());
   if (!args.flagSet("no-pictures"))
