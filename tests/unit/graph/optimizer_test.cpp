@@ -37,6 +37,7 @@ TEST(Optimizer, GaussNewtonAndLevenbergMarquardtAgreeOnBothBackends) {
       OptimizerOptions options;
       options.algorithm = algorithm;
       options.linear_solver = backend;
+      options.relative_chi2_tolerance = 1e-12;  // compare the optima, not the stopping points
       const OptimizerResult r = Optimizer(options).optimize(g);
       EXPECT_TRUE(r.converged) << r.termination;
       EXPECT_LT(r.final_chi2, r.initial_chi2);
@@ -126,11 +127,12 @@ TEST(Optimizer, IncrementalAdditionsReanalyseOnlyWhenNeeded) {
   const OptimizerResult r = optimizer.optimize(s.graph);
   EXPECT_TRUE(r.reanalysed);
   EXPECT_TRUE(r.converged);
-  // Starting from the previous optimum takes few steps.
-  EXPECT_LE(r.iterations, 3);
+  // Starting from the previous optimum takes fewer steps than starting from odometry.
   PoseGraph fresh = s.graph;
-  Optimizer().optimize(fresh);
-  EXPECT_NEAR(fresh.chi2(), s.graph.chi2(), 1e-8 * fresh.chi2() + 1e-12);
+  initializeFromOdometry(fresh);
+  const OptimizerResult cold = Optimizer().optimize(fresh);
+  EXPECT_LT(r.iterations, cold.iterations);
+  EXPECT_NEAR(fresh.chi2(), s.graph.chi2(), 1e-6 * fresh.chi2());
 }
 
 TEST(Optimizer, GaugeRules) {

@@ -46,7 +46,8 @@ std::unique_ptr<LinearSolver> makeLinearSolver(const std::string& name) {
   if (name == "cholmod") return makeCholmodSolver(false);
   if (name == "cholmod_supernodal") return makeCholmodSolver(true);
   if (name == "eigen") return makeEigenSolver();
-  throw std::invalid_argument("unknown linear solver '" + name + "' (cholmod, cholmod_supernodal, eigen)");
+  throw std::invalid_argument("unknown linear solver '" + name +
+                              "' (cholmod, cholmod_supernodal, eigen)");
 }
 
 }  // namespace storey::graph

@@ -91,12 +91,14 @@ OptimizerOptions readOptimizerOptions(const common::ConfigNode& config) {
   OptimizerOptions o;
   const std::string algorithm = config.getChoice("algorithm", "lm", {"gn", "lm"});
   o.algorithm = algorithm == "gn" ? Algorithm::kGaussNewton : Algorithm::kLevenbergMarquardt;
-  o.linear_solver = config.getChoice("linear_solver", o.linear_solver, {"cholmod", "cholmod_supernodal", "eigen"});
+  o.linear_solver = config.getChoice("linear_solver", o.linear_solver,
+                                     {"cholmod", "cholmod_supernodal", "eigen"});
   o.max_iterations = config.getInt("max_iterations", o.max_iterations, 1, 1000000);
   o.relative_chi2_tolerance =
       config.getDouble("relative_chi2_tolerance", o.relative_chi2_tolerance, 0.0, 1.0);
   o.step_tolerance = config.getDouble("step_tolerance", o.step_tolerance, 0.0, 1.0);
-  o.initial_lambda = config.getDouble("initial_lambda", o.initial_lambda, 1e-20, 1e10);
+  o.initial_lambda = config.getDouble("initial_lambda", o.initial_lambda, 0.0, 1e10);
+  o.restart_lambda = config.getDouble("restart_lambda", o.restart_lambda, 1e-20, 1e10);
   o.max_lambda = config.getDouble("max_lambda", o.max_lambda, 1e-10, 1e30);
   o.lambda_decrease_limit =
       config.getDouble("lambda_decrease_limit", o.lambda_decrease_limit, 1e-6, 1.0);
@@ -428,7 +430,7 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
         result.termination = "H is not positive definite (an under-constrained node?); try lm";
         break;
       }
-      lambda *= nu;
+      lambda = lambda > 0.0 ? lambda * nu : options_.restart_lambda;
       nu *= 2.0;
       if (lambda > options_.max_lambda) {
         result.termination = "damping limit reached (H not positive definite)";
@@ -471,15 +473,18 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
       }
       continue;
     }
-    phase = Clock::now();
-    double trial_chi2 = 0.0;
-    const double trial_cost = evaluate(&trial_chi2);
-    result.time.evaluate += secondsSince(phase);
     // Gain ratio against the damped quadratic model: L(0) − L(Δ) = −bᵀΔ + λ Δᵀ D Δ.
     double predicted = -b.dot(dx);
     for (std::size_t i = 0; i < s.diag_entry.size(); ++i) {
       predicted += lambda * std::max(s.diag_saved[i], 1e-6) * dx[i] * dx[i];
     }
+    // When the model promises less than the tolerance we are at the optimum (this also
+    // catches steps whose effect drowns in rounding): keep the step if it helped, then stop.
+    const bool negligible = predicted <= options_.relative_chi2_tolerance * cost;
+    phase = Clock::now();
+    double trial_chi2 = 0.0;
+    const double trial_cost = evaluate(&trial_chi2);
+    result.time.evaluate += secondsSince(phase);
     const double rho = (cost - trial_cost) / std::max(predicted, 1e-300);
     if (options_.verbose) {
       common::logInfo(str("lm ", result.iterations, ": cost ", std::setprecision(12), cost, " -> ",
@@ -489,7 +494,7 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
       ++result.accepted_steps;
       const double change = (cost - trial_cost) / cost;
       lambda *= std::max(options_.lambda_decrease_limit, 1.0 - std::pow(2.0 * rho - 1.0, 3));
-      lambda = std::max(lambda, 1e-15);
+      if (lambda > 0.0) lambda = std::max(lambda, 1e-15);  // 0 stays Gauss-Newton
       nu = 2.0;
       phase = Clock::now();
       cost = assemble(&chi2);
@@ -501,13 +506,18 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
       }
     } else {
       for (int k = 0; k < n_vars; ++k) graph.setPoseAt(s.node_of_var[k], saved[k]);
-      lambda *= nu;
+      lambda = lambda > 0.0 ? lambda * nu : options_.restart_lambda;
       nu *= 2.0;
       if (lambda > options_.max_lambda) {
         result.converged = true;
         result.termination = "no further decrease (damping limit reached)";
         break;
       }
+    }
+    if (negligible) {
+      result.converged = true;
+      result.termination = "predicted chi2 decrease below tolerance";
+      break;
     }
   }
   if (result.termination.empty()) result.termination = "iteration limit";
