@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "storey/bag/bag_error.h"
 #include "storey/bag/metadata.h"
 
 namespace storey::bag {

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "storey/bag/bag_error.h"
 #include "storey/bag/metadata.h"
 
 namespace storey::bag {

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "storey/bag/bag_error.h"
+
 namespace storey::bag {
 
 inline constexpr const char* kSerializationCdr = "cdr";
