@@ -1,0 +1,193 @@
+#include "storey/floor_mapper/floor_mapper_component.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <fstream>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "storey/catalog/all_components.h"
+#include "storey/floor_mapper/conversions.h"
+#include "storey/runtime/context.h"
+#include "storey/runtime/publisher.h"
+#include "storey/runtime/sensor_conversions.h"
+#include "storey/runtime/subscription.h"
+#include "synthetic_world.h"
+#include "test_support.h"
+
+namespace storey::floor_mapper {
+namespace {
+
+using geometry::Pose2;
+using UpdateMsg = storey_msgs::msg::FloorGraphUpdate;
+using UpdateSub = runtime::Subscription<UpdateMsg, storey_msgs::msg::FloorGraphUpdatePubSubType>;
+
+runtime::ContextOptions onDomain(int domain) {
+  runtime::ContextOptions options;
+  options.domain_id = domain;
+  return options;
+}
+
+// The shipped parameters with another robot name and graph topic.
+common::ConfigNode parametersFor(const std::string& robot, const std::string& topic) {
+  std::ifstream in(storey::test::sourceDir() + "/config/floor_mapper.yaml");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  std::string text = buffer.str();
+  auto replace = [&](const std::string& from, const std::string& to) { text.replace(text.find(from), from.size(), to); };
+  replace("robot: robot1", "robot: " + robot);
+  replace("floor_graph_topic: storey/floor_graphs", "floor_graph_topic: " + topic);
+  return common::ConfigNode::loadString(text, "floor_mapper.yaml");
+}
+
+bool waitFor(const std::function<bool()>& done, double seconds) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return true;
+}
+
+TEST(FloorMapperComponent, MapsTwoFloorsAndPublishesTheirGraphs) {
+  runtime::Context context(onDomain(226));
+  std::mutex mutex;
+  std::vector<UpdateMsg> received;
+  UpdateSub updates(context, "fm_graphs", runtime::TopicKind::kGraph, [&](const UpdateMsg& m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    received.push_back(m);
+  });
+  FloorMapperComponent component(context, parametersFor("fm_robot", "fm_graphs"), "mapper");
+  component.configure();
+  component.activate();
+
+  runtime::Publisher<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType> scans(
+      context, "/fm_robot/scan", runtime::TopicKind::kSensor);
+  runtime::Publisher<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType> odom(
+      context, "/fm_robot/odom", runtime::TopicKind::kSensor);
+  runtime::Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType> events(
+      context, "/fm_robot/floor_events", runtime::TopicKind::kGraph);
+  ASSERT_TRUE(scans.waitForSubscribers(1, 5.0));
+  ASSERT_TRUE(odom.waitForSubscribers(1, 5.0));
+  ASSERT_TRUE(events.waitForSubscribers(1, 5.0));
+
+  const mapping::test::World office = mapping::test::officeWorld();
+  double t = 100.0;
+  auto drive = [&](double y) {
+    for (int i = 0; i < 12; ++i) {
+      const Pose2 pose(1.5 + 0.3 * i, y, 0.0);
+      sensor::OdometrySample o;
+      o.stamp = t;
+      o.pose = pose;
+      odom.publish(runtime::toMessage(o));
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      scans.publish(runtime::toMessage(office.scan(pose, t)));
+      std::this_thread::sleep_for(std::chrono::milliseconds(40));
+      t += 0.5;
+    }
+  };
+  auto waitForNodes = [&](std::size_t n) {
+    return waitFor([&] { return component.nodeCount() >= n; }, 20.0);
+  };
+  drive(1.2);
+  ASSERT_TRUE(waitForNodes(8));
+  storey_msgs::msg::FloorEvent event;
+  event.robot("fm_robot");
+  event.kind(storey_msgs::msg::FloorEvent_Constants::KIND_TRANSIT_STARTED);
+  event.floor_id(storey_msgs::msg::FloorEvent_Constants::FLOOR_UNKNOWN);
+  events.publish(event);
+  event.kind(storey_msgs::msg::FloorEvent_Constants::KIND_TRANSIT_ENDED);
+  event.floor_id(1);
+  event.floor_height(3.0);
+  events.publish(event);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const std::size_t before = component.nodeCount();
+  drive(6.5);  // floor 1 (the same room plan: a new graph anyway)
+  ASSERT_TRUE(waitForNodes(before + 8));
+
+  ASSERT_TRUE(waitFor(
+      [&] {
+        std::lock_guard<std::mutex> lock(mutex);
+        std::set<int> floors;
+        for (const auto& m : received) floors.insert(m.floor_id());
+        return floors.size() == 2;
+      },
+      10.0));
+  std::lock_guard<std::mutex> lock(mutex);
+  std::map<std::uint32_t, std::uint32_t> next_sequence;
+  std::size_t nodes = 0, edges = 0;
+  for (const auto& m : received) {
+    EXPECT_EQ(m.robot(), "fm_robot");
+    EXPECT_EQ(m.sequence_number(), next_sequence[m.floor_graph_id()]++) << "graph " << m.floor_graph_id();
+    nodes += m.new_nodes().size();
+    edges += m.new_edges().size();
+    for (const auto& n : m.new_nodes()) EXPECT_FALSE(n.ranges().empty());
+    if (m.floor_id() == 1) EXPECT_DOUBLE_EQ(m.floor_height(), 3.0);
+  }
+  EXPECT_EQ(next_sequence.size(), 2u);  // two floor graphs
+  EXPECT_GE(nodes, 16u);
+  EXPECT_GE(edges, 2 * (nodes - 2));  // odometry + scan match between consecutive nodes
+  component.deactivate();
+  component.cleanup();
+}
+
+TEST(FloorMapperComponent, BadParametersNameTheKey) {
+  runtime::Context context(onDomain(227));
+  FloorMapperComponent component(
+      context, common::ConfigNode::loadString("{robot: r, slam: {scan_matcher: {min_score: 7}}}", "p.yaml"), "m");
+  try {
+    component.configure();
+    FAIL() << "configured with min_score 7";
+  } catch (const common::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("min_score"), std::string::npos) << e.what();
+  }
+}
+
+TEST(FloorMapperComponent, RegisteredInTheCatalog) {
+  runtime::ComponentRegistry registry;
+  catalog::registerStoreyComponents(registry);
+  EXPECT_TRUE(registry.has("floor_mapper"));
+}
+
+TEST(FloorMapperConversions, EdgesAndPosesOnTheWire) {
+  floor::FloorGraph graph;
+  graph.robot = "r";
+  graph.graph_id = 4;
+  graph.floor_id = 2;
+  graph.floor_height = 6.0;
+  floor::FloorNode node;
+  node.id = 7;
+  node.stamp = 12.5;
+  node.pose = Pose2(1, 2, 0.3);
+  node.scan.angle_min = -1;
+  node.scan.angle_increment = 0.01;
+  node.scan.range_min = 0.1;
+  node.scan.range_max = 10;
+  node.scan.ranges = {1.0f, 2.0f};
+  graph.nodes.push_back(node);
+  mapping::GraphUpdate update;
+  update.new_nodes.push_back(node);
+  Eigen::Matrix3d info;
+  info << 10, 1, 0, 1, 20, 0, 0, 0, 30;
+  update.new_edges.push_back({6, 7, Pose2(0.5, 0, 0.1), info, floor::EdgeKind::kLoopClosure});
+  const UpdateMsg m = toMessage(graph, update, 3);
+  EXPECT_EQ(m.floor_graph_id(), 4u);
+  EXPECT_EQ(m.sequence_number(), 3u);
+  ASSERT_EQ(m.new_nodes().size(), 1u);
+  EXPECT_EQ(m.new_nodes()[0].ranges().size(), 2u);
+  ASSERT_EQ(m.new_edges().size(), 1u);
+  EXPECT_EQ(m.new_edges()[0].kind(), storey_msgs::msg::FloorGraphEdge_Constants::KIND_LOOP_CLOSURE);
+  EXPECT_DOUBLE_EQ(m.new_edges()[0].information()[1], 1.0);
+  EXPECT_DOUBLE_EQ(m.new_edges()[0].information()[4], 20.0);
+  ASSERT_EQ(m.optimized_poses().size(), 1u);
+  EXPECT_DOUBLE_EQ(m.optimized_poses()[0].theta(), 0.3);
+  storey_msgs::msg::FloorEvent bad;
+  bad.kind(9);
+  EXPECT_THROW(fromMessage(bad), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace storey::floor_mapper
