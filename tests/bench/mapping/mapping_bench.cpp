@@ -1,0 +1,62 @@
+// Speed of the scan matcher's stages and of building a match target, on scans ray-cast in
+// the synthetic office of the unit tests (361 beams, 20 m).
+#include <benchmark/benchmark.h>
+
+#include "storey/mapping/scan_matcher.h"
+#include "synthetic_world.h"
+
+namespace storey::mapping {
+namespace {
+
+using geometry::Pose2;
+
+grid::OccupancyGrid officeMap() {
+  const test::World world = test::officeWorld();
+  grid::OccupancyGrid grid;
+  for (const Pose2 p : {Pose2(4, 4, 0), Pose2(8, 3, 1.0), Pose2(6, 6.5, -2.0)}) grid.insertScan(world.scan(p, 0), p);
+  return grid;
+}
+
+void BM_BuildMatchTarget(benchmark::State& state) {
+  const grid::OccupancyGrid grid = officeMap();
+  for (auto _ : state) {
+    MatchTarget target(grid, grid::LikelihoodFieldOptions{}, static_cast<int>(state.range(0)));
+    benchmark::DoNotOptimize(target.pyramid().size());
+  }
+  state.counters["cells"] = static_cast<double>(grid.frame().cellCount());
+}
+BENCHMARK(BM_BuildMatchTarget)->Arg(5)->Arg(7)->Unit(benchmark::kMillisecond);
+
+// Full match (correlative + refinement) with a window of range(0) cm and ±0.35 rad.
+void BM_Match(benchmark::State& state) {
+  const test::World world = test::officeWorld();
+  const MatchTarget target(officeMap(), grid::LikelihoodFieldOptions{}, 7);
+  const Pose2 truth(6, 4, 0.3);
+  const auto points = filterPoints(world.scan(truth, 0).pointsInRobotFrame(), 0.05);
+  ScanMatcher matcher;
+  const double window = state.range(0) / 100.0;
+  long candidates = 0;
+  for (auto _ : state) {
+    const MatchResult r = matcher.match(target, points, truth * Pose2(0.1, -0.08, 0.05), window, 0.35);
+    candidates += r.candidates_scored;
+    benchmark::DoNotOptimize(r.pose);
+  }
+  state.counters["points"] = static_cast<double>(points.size());
+  state.counters["bounds_per_match"] = static_cast<double>(candidates) / state.iterations();
+}
+BENCHMARK(BM_Match)->Arg(30)->Arg(150)->Arg(400)->Unit(benchmark::kMillisecond);
+
+void BM_Refine(benchmark::State& state) {
+  const test::World world = test::officeWorld();
+  const MatchTarget target(officeMap(), grid::LikelihoodFieldOptions{}, 7);
+  const Pose2 truth(6, 4, 0.3);
+  const auto points = filterPoints(world.scan(truth, 0).pointsInRobotFrame(), 0.05);
+  ScanMatcher matcher;
+  for (auto _ : state) benchmark::DoNotOptimize(matcher.refine(target.field(), points, truth * Pose2(0.03, -0.02, 0.01)));
+}
+BENCHMARK(BM_Refine)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+}  // namespace storey::mapping
+
+BENCHMARK_MAIN();
