@@ -248,7 +248,9 @@ double learnLikelihoodThreshold(const floor::FloorGraph& graph, const FloorMatch
     if (n % 2 == 1) values.push_back(lt);
     filter.resampleIfNeeded();
   }
-  return quantile(values, options.likelihood_quantile);
+  // A tracker that lost its way for a while (a long featureless corridor) must not drag
+  // the threshold to nothing: l_min is at least half the median.
+  return std::max(quantile(values, options.likelihood_quantile), 0.5 * quantile(values, 0.5));
 }
 
 PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_data,
@@ -344,16 +346,17 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_
   // reference map clearly better wins (a periodic layout fits locally, not at its ends);
   // otherwise the floor is ambiguous.
   double fit_best = -1.0, fit_second = -1.0;
+  Pose2 align_best, align_second;
   auto wholeFloorPrefersBest = [&]() {
-    auto fitOf = [&](const std::vector<std::size_t>& set) {
+    auto fitOf = [&](const std::vector<std::size_t>& set, Pose2* a) {
       std::vector<Pose2> alignments;
       for (std::size_t i : set) alignments.push_back(result.candidates[i].alignment);
-      Pose2 a = meanAlignment(alignments);
+      *a = meanAlignment(alignments);
       return refineAlignment(reference.map->field(), g, {{0, count - 1}}, o.refine_beams / 3 + 1,
-                             o.refine_iterations, &a);
+                             o.refine_iterations, a);
     };
-    fit_best = fitOf(best);
-    fit_second = fitOf(second);
+    fit_best = fitOf(best, &align_best);
+    fit_second = fitOf(second, &align_second);
     return fit_best >= fit_second + o.ambiguity_fit_margin;
   };
   if (static_cast<int>(best.size()) < o.min_constraints) {
@@ -365,6 +368,7 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_
                  o.ambiguity_ratio * static_cast<double>(best.size()) &&
              !wholeFloorPrefersBest()) {
     result.ambiguous = true;
+    result.set_alignments = {align_best, align_second};
     result.reason =
         common::str("ambiguous: two disjoint consistent sets of ", best.size(), " and ",
                     second.size(), " candidates, whole-floor fit ", fit_best, " vs ", fit_second);
@@ -498,24 +502,61 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
   parallelFor(static_cast<int>(others.size()), o.threads, [&](int j) {
     first[j] = matchPair(prepared[ref], prepared[others[j]], o, seedFor(ref, others[j]));
   });
-  // A floor that failed for lack of evidence tries the other floors; one that failed as
-  // ambiguous does not: its structure repeats, and other floors of the same building
-  // repeat it too, so a retry would only find a smaller, equally ambiguous set.
+  // A floor that failed for lack of evidence tries the other floors, those of the same
+  // floor id (another robot's graph of the same floor) first, then by structure. One
+  // that failed as ambiguous tries only graphs of its own floor id, and a retry is then
+  // accepted only if, composed with that graph's accepted alignment to the reference,
+  // it agrees with one of the two ambiguous sets: two independent paths must agree.
+  std::map<int, Pose2> to_reference;  // accepted alignments into the reference's frame
+  to_reference[ref] = Pose2();
   std::vector<int> failed;
+  std::map<int, const PairResult*> primary;
   for (std::size_t j = 0; j < others.size(); ++j) {
-    if (!first[j].accepted && !first[j].ambiguous) failed.push_back(others[j]);
-    result.pairs.push_back(std::move(first[j]));
+    if (first[j].accepted) to_reference[others[j]] = first[j].alignment;
+    if (!first[j].accepted) failed.push_back(others[j]);
   }
-  // Floors that fail against the reference try the others, most structure first.
+  for (std::size_t j = 0; j < others.size(); ++j) primary[others[j]] = &first[j];
   std::vector<std::vector<PairResult>> retries(failed.size());
   parallelFor(static_cast<int>(failed.size()), o.threads, [&](int j) {
     const int i = failed[j];
-    for (int r : order) {
-      if (r == ref || r == i) continue;
-      retries[j].push_back(matchPair(prepared[r], prepared[i], o, seedFor(r, i)));
+    const PairResult& before = *primary.at(i);
+    std::vector<int> refs;
+    for (int r : order)
+      if (r != ref && r != i && graphs[r].floor_id == graphs[i].floor_id) refs.push_back(r);
+    if (!before.ambiguous)
+      for (int r : order)
+        if (r != ref && r != i && graphs[r].floor_id != graphs[i].floor_id) refs.push_back(r);
+    for (int r : refs) {
+      if (before.ambiguous && !to_reference.count(r)) continue;
+      PairResult p = matchPair(prepared[r], prepared[i], o, seedFor(r, i));
+      if (p.accepted && before.ambiguous) {
+        Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+        for (const auto& n : graphs[i].nodes) centroid += n.pose.translation();
+        centroid /= static_cast<double>(graphs[i].nodes.size());
+        const Pose2 at(centroid.x(), centroid.y(), 0.0);
+        const Pose2 composed = to_reference.at(r) * p.alignment;
+        bool agreed = false;
+        for (const Pose2& a : before.set_alignments)
+          agreed = agreed || agrees(composed, a, at, o.ransac_translation_tolerance,
+                                    o.ransac_rotation_tolerance);
+        if (!agreed) {
+          p.accepted = false;
+          p.reason +=
+              "; rejected: disagrees with both sets of the ambiguous match against the reference";
+          for (auto& c : p.candidates)
+            if (c.status == CandidateStatus::kAccepted) {
+              c.status = CandidateStatus::kAmbiguous;
+              c.reason = "retry of an ambiguous floor not confirmed through the reference";
+            }
+        } else {
+          p.reason += "; confirmed through the reference";
+        }
+      }
+      retries[j].push_back(std::move(p));
       if (retries[j].back().accepted) break;
     }
   });
+  for (auto& p : first) result.pairs.push_back(std::move(p));
   for (auto& list : retries)
     for (auto& p : list) result.pairs.push_back(std::move(p));
 

@@ -29,6 +29,8 @@
 //   graph's relative poses, with the filter's motion noise). That map is
 //   rendered from g's even-indexed nodes and l_t is taken at the odd-indexed ones, so no
 //   scan is scored against a map built from itself (which would make l_min optimistic).
+//   l_min(g) is at least half the median of those l_t, so a tracker that drifted for a
+//   while in a featureless corridor does not disable the gate.
 #pragma once
 
 #include <Eigen/Core>
@@ -141,9 +143,10 @@ struct PairResult {
   int reference_graph_id = 0;
   int graph_id = 0;
   bool accepted = false;
-  bool ambiguous = false;     // two disjoint consistent sets: the floor's structure repeats
-  std::string reason;         // why not accepted (or "accepted")
-  geometry::Pose2 alignment;  // T_i from all inliers jointly (when accepted)
+  bool ambiguous = false;  // two disjoint consistent sets: the floor's structure repeats
+  std::vector<geometry::Pose2> set_alignments;  // when ambiguous: each set's alignment
+  std::string reason;                           // why not accepted (or "accepted")
+  geometry::Pose2 alignment;                    // T_i from all inliers jointly (when accepted)
   double l_min = 0.0;
   int sequences = 0;      // filters started
   int not_converged = 0;  // filters dropped without converging
@@ -193,11 +196,11 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor,
 FloorCheck checkSelfSimilarity(const PreparedFloor& floor, const FloorMatcherOptions& options,
                                std::uint64_t seed);
 
-// All floor graphs: the reference is the graph with most structure (among those not
-// self-similar); every other graph
-// is matched to it (in parallel), and a graph that fails for too few consistent
-// candidates (not one found ambiguous) tries the others in order of structure until one
-// accepts.
+// All floor graphs: the reference is the graph with most structure among those not
+// self-similar; every other graph is matched to it in parallel. A graph that fails for
+// too few consistent candidates tries the others (same floor id first, then by
+// structure) until one accepts; one found ambiguous tries only graphs of its own floor
+// id, and such a retry must agree, through the reference, with one of its two sets.
 MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
                         const FloorMatcherOptions& options);
 
