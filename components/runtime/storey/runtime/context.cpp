@@ -34,6 +34,19 @@ void loadQosProfiles(const std::string& path) {
   loaded.insert(path);
 }
 
+// Explicit options win; else STOREY_SECURITY_DIR names a security folder in which this
+// participant (by name) has its identity, so a whole `storey launch` can be secured.
+SecurityOptions resolveSecurity(const ContextOptions& options) {
+  if (options.security.enabled()) return options.security;
+  const char* dir = std::getenv("STOREY_SECURITY_DIR");
+  if (!dir || !*dir) return {};
+  try {
+    return securityFromFolder(dir, options.participant_name);
+  } catch (const std::exception& e) {
+    throw DdsError(std::string("STOREY_SECURITY_DIR: ") + e.what());
+  }
+}
+
 }  // namespace
 
 int resolveDomainId(int requested) {
@@ -66,9 +79,17 @@ Context::Context(const ContextOptions& options) {
   // The default QoS, not PARTICIPANT_QOS_DEFAULT, so XML defaults apply.
   fdds::DomainParticipantQos qos = factory->get_default_participant_qos();
   qos.name(options.participant_name);
+  const SecurityOptions security = resolveSecurity(options);
+  for (const auto& [name, value] : securityProperties(security)) {
+    qos.properties().properties().emplace_back(name, value);
+  }
   participant_ = factory->create_participant(domain_id_, qos);
   if (!participant_) {
-    throw DdsError("cannot create a DomainParticipant on domain " + std::to_string(domain_id_));
+    throw DdsError("cannot create a DomainParticipant on domain " + std::to_string(domain_id_) +
+                   (security.enabled()
+                        ? " (security enabled: check the identity, governance and permissions "
+                          "files and that they are signed by the given CAs)"
+                        : ""));
   }
   publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
   subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);

@@ -13,6 +13,7 @@
 
 #include "storey/runtime/dds.h"
 #include "storey/runtime/executor.h"
+#include "storey/runtime/security.h"
 
 namespace storey::runtime {
 
@@ -36,6 +37,8 @@ struct ContextOptions {
   std::string qos_profiles_file;
   std::string participant_name = "storey";
   int executor_threads = 1;
+  // DDS Security (storey/runtime/security.h); all paths empty: an unsecured participant.
+  SecurityOptions security;
 };
 
 // The domain id ContextOptions{domain_id} resolves to (environment included).

@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# Builds and runs the tests under sanitizers (STOREY_SANITIZE, see CMakeLists.txt):
+#   asan: build-asan (ASan + UBSan, errors abort): every unit test (ctest -L unit).
+#   tsan: build-tsan (TSan): the runtime's and security's integration tests.
+# Usage: scripts/sanitize.sh [asan] [tsan]   (default: both). Prints the time of each
+# phase. Builds take the shared build lock, so they never overlap another build.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+modes=("$@")
+[ ${#modes[@]} -eq 0 ] && modes=(asan tsan)
+status=0
+
+# Targets: every storey_test(NAME x LABEL unit ...) of tests/unit and tests/fuzz.
+unit_targets() {
+  grep -ho 'storey_test(NAME [A-Za-z0-9_]* LABEL unit' tests/unit/*/CMakeLists.txt \
+    tests/fuzz/CMakeLists.txt | awk '{print $2}'
+}
+
+build() {  # folder sanitizers targets...
+  local dir=$1 sanitizers=$2
+  shift 2
+  local args=()
+  for t in "$@"; do args+=(--target "$t"); done
+  (
+    exec 9>/tmp/storey-build.lock
+    flock 9
+    if [ ! -f "$dir/build.ninja" ]; then
+      cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+        -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DSTOREY_BUILD_BENCHMARKS=OFF \
+        "-DSTOREY_SANITIZE=$sanitizers" >/dev/null
+    fi
+    cmake --build "$dir" --parallel 2 "${args[@]}"
+  )
+}
+
+phase() {  # name command...
+  local name=$1
+  shift
+  local start=$SECONDS
+  if "$@"; then
+    echo "sanitize.sh: $name: ok in $((SECONDS - start)) s"
+  else
+    echo "sanitize.sh: $name: FAILED after $((SECONDS - start)) s"
+    status=1
+  fi
+}
+
+for mode in "${modes[@]}"; do
+  case $mode in
+    asan)
+      export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
+      export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+      mapfile -t targets < <(unit_targets)
+      phase "asan build (${#targets[@]} unit test executables)" build build-asan "address;undefined" "${targets[@]}"
+      phase "asan unit tests" ctest --test-dir build-asan -L unit --output-on-failure -j 2
+      ;;
+    tsan)
+      export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1"
+      phase "tsan build" build build-tsan thread integration_runtime_tests runtime_test_node \
+        storey integration_security_tests
+      phase "tsan runtime integration tests" \
+        build-tsan/tests/integration/runtime/integration_runtime_tests
+      phase "tsan security integration tests" \
+        build-tsan/tests/integration/security/integration_security_tests
+      ;;
+    *)
+      echo "sanitize.sh: unknown mode '$mode' (asan or tsan)" >&2
+      exit 2
+      ;;
+  esac
+done
+exit $status
