@@ -77,7 +77,7 @@ TEST(FloorMatcherComponent, PublishesCorrectConstraintsForTwoFloors) {
             received.push_back(c);
           });
   FloorMatcherComponent matcher(
-      context, common::ConfigNode::loadString("{min_nodes: 10, matcher: {seed: 3}}"),
+      context, common::ConfigNode::loadString("{min_nodes: 10, floor_matcher: {seed: 3}}"),
       "floor_matcher");
   matcher.configure();
   matcher.activate();
@@ -161,10 +161,10 @@ TEST(FloorMatcherComponentOptions, UnknownKeysAreErrors) {
       readFloorMatcherComponentOptions(common::ConfigNode::loadString("{min_node: 3}", "fm.yaml")),
       common::ConfigError);
   EXPECT_THROW(readFloorMatcherComponentOptions(
-                   common::ConfigNode::loadString("{matcher: {filter: {beams: -1}}}", "fm.yaml")),
+                   common::ConfigNode::loadString("{floor_matcher: {filter: {beams: -1}}}", "fm.yaml")),
                common::ConfigError);
   const auto o = readFloorMatcherComponentOptions(common::ConfigNode::loadString(
-      "{min_new_nodes: 7, matcher: {min_constraints: 4}}", "fm.yaml"));
+      "{min_new_nodes: 7, floor_matcher: {min_constraints: 4}}", "fm.yaml"));
   EXPECT_EQ(o.min_new_nodes, 7);
   EXPECT_EQ(o.matcher.min_constraints, 4);
 }

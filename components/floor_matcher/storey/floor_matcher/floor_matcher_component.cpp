@@ -19,7 +19,9 @@ FloorMatcherComponentOptions readFloorMatcherComponentOptions(const common::Conf
   o.min_new_nodes = node.getInt("min_new_nodes", o.min_new_nodes, 1, 1000000);
   o.min_growth = node.getDouble("min_growth", o.min_growth, 0.0, 100.0);
   o.min_nodes = node.getInt("min_nodes", o.min_nodes, 1, 1000000);
-  if (node.has("matcher")) o.matcher = matching::readFloorMatcherOptions(node.child("matcher"));
+  // The same section `storey match --config` reads, so one file serves both.
+  if (node.has("floor_matcher"))
+    o.matcher = matching::readFloorMatcherOptions(node.child("floor_matcher"));
   node.finish();
   return o;
 }

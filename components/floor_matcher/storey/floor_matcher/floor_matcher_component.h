@@ -33,7 +33,7 @@ struct FloorMatcherComponentOptions {
   int min_nodes = 10;  // graphs smaller than this are not matched yet
   matching::FloorMatcherOptions matcher;
 };
-// Reads the component's parameters; the matcher's options are under `matcher:`.
+// Reads the component's parameters; the matcher's options are under `floor_matcher:` (as in config/floor_matcher.yaml and `storey match --config`).
 FloorMatcherComponentOptions readFloorMatcherComponentOptions(const common::ConfigNode& node);
 
 struct FloorMatcherStats {

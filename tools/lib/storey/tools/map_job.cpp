@@ -206,6 +206,11 @@ MapJobResult runMapJob(const MapJobOptions& options) {
                                      componentParameters(config_dir, "floor_matcher",
                                                          [&](YAML::Node& n) {
                                                            if (n["floor_matcher"]) n["floor_matcher"]["seed"] = options.seed;
+                                                           // Match once, on the final floor graphs, when
+                                                           // flushed: matching while graphs grow would
+                                                           // depend on thread timing, and the same input
+                                                           // and seed must give the same building.
+                                                           n["min_new_nodes"] = 1000000;
                                                          }),
                                      "floor_matcher"));
   pipeline.push_back(registry.create("graph_server", context,
