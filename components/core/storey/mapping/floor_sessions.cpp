@@ -44,6 +44,13 @@ void FloorSessions::endTransit(int floor_id, double floor_height) {
     floors_[floor_id] = std::make_unique<FloorSlam>(options_, robot_, next_graph_id_++, floor_id, floor_height);
     return;
   }
+  if (options_.relocalization.known_floor == "new_graph") {
+    common::logInfo(common::str("floor_sessions[", robot_, "]: back on floor ", floor_id,
+                                "; a new floor graph (the matcher aligns it)"));
+    retired_.push_back(std::move(it->second));
+    it->second = std::make_unique<FloorSlam>(options_, robot_, next_graph_id_++, floor_id, floor_height);
+    return;
+  }
   common::logInfo(common::str("floor_sessions[", robot_, "]: back on floor ", floor_id, "; relocalising"));
   it->second->resumeAt(exit_pose_.count(floor_id) ? exit_pose_[floor_id] : it->second->currentPose());
 }

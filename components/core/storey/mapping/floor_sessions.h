@@ -1,13 +1,14 @@
 // One robot's floor graphs: the front end of the floor it is on, and the graphs of the
 // floors it has left. A ride (floor event) pauses mapping; arriving on a new floor opens a
 // new graph, arriving on a known floor resumes its graph after localising in its map
-// around where the robot left it (the elevator or the stairs), so a floor visited twice
-// is one floor graph.
+// around where the robot left it, or (the default) opens a new graph of that floor for
+// the floor matcher to align (relocalization.known_floor).
 #pragma once
 
 #include <map>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "storey/mapping/floor_slam.h"
 
@@ -32,12 +33,16 @@ class FloorSessions {
   int currentFloor() const { return current_floor_; }
   FloorSlam& current() { return *floors_.at(current_floor_); }
   const FloorSlam& current() const { return *floors_.at(current_floor_); }
+  // The graph each floor is mapped into now (one per floor id).
   const std::map<int, std::unique_ptr<FloorSlam>>& floors() const { return floors_; }
+  // Earlier graphs of floors visited again (relocalization.known_floor: new_graph).
+  const std::vector<std::unique_ptr<FloorSlam>>& retired() const { return retired_; }
 
  private:
   FloorSlamOptions options_;
   std::string robot_;
   std::map<int, std::unique_ptr<FloorSlam>> floors_;
+  std::vector<std::unique_ptr<FloorSlam>> retired_;
   std::map<int, geometry::Pose2> exit_pose_;  // where the robot left each floor
   int current_floor_ = 0;
   int next_graph_id_ = 0;

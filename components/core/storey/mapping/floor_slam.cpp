@@ -101,6 +101,7 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
     r.angular_step = n.getDouble("angular_step", r.angular_step, 1e-4, 0.5);
     r.min_score = n.getDouble("min_score", r.min_score, 0.0, 1.0);
     r.max_attempts = n.getInt("max_attempts", r.max_attempts, 1, 100000);
+    r.known_floor = n.getChoice("known_floor", r.known_floor, {"new_graph", "relocalize"});
     n.finish();
   }
   if (node.has("optimizer")) o.optimizer = graph::readOptimizerOptions(node.child("optimizer"));

@@ -77,6 +77,15 @@ struct RelocalizationOptions {
   double angular_step = 0.01;    // rad
   double min_score = 0.6;
   int max_attempts = 10;  // scans tried before resuming on the guess alone
+  // Arriving on a floor mapped before: "new_graph" starts a new floor graph of that floor
+  // and leaves its alignment to the floor matcher (global localisation, RANSAC), which
+  // does not depend on where the robot is expected to arrive; "relocalize" resumes the old
+  // graph after a scan-matching search around the expected arrival (the way it left).
+  // A robot that leaves by the elevator and returns by the stairs arrives far from the
+  // expected point, where the local search fails (then it resumes on the guess with a weak
+  // tie); new_graph avoids that but needs the matcher to align the new graph, which on
+  // the bundled building it does less often. Hence relocalize is the default for now.
+  std::string known_floor = "relocalize";
 };
 
 struct FloorSlamOptions {

@@ -48,6 +48,9 @@ storey_msgs::msg::FloorGraphUpdate toMessage(const floor::FloorGraph& graph, con
     node.range_min(static_cast<float>(n.scan.range_min));
     node.range_max(static_cast<float>(n.scan.range_max));
     node.ranges(n.scan.ranges);
+    node.sensor_x(n.scan.sensor_offset.x());
+    node.sensor_y(n.scan.sensor_offset.y());
+    node.sensor_theta(n.scan.sensor_offset.theta());
     m.new_nodes().push_back(std::move(node));
   }
   for (const auto& e : update.new_edges) {

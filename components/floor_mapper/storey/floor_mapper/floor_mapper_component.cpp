@@ -41,8 +41,10 @@ std::uint64_t FloorMapperComponent::updatesPublished() const {
 std::size_t FloorMapperComponent::nodeCount() const {
   std::lock_guard<std::mutex> lock(mutex_);
   std::size_t n = 0;
-  if (sessions_)
+  if (sessions_) {
     for (const auto& [floor, slam] : sessions_->floors()) n += slam->floorGraph().nodes.size();
+    for (const auto& slam : sessions_->retired()) n += slam->floorGraph().nodes.size();
+  }
   return n;
 }
 
@@ -62,6 +64,9 @@ void FloorMapperComponent::onConfigure() {
   createSubscription<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType>(
       runtime::robotTopic(robot, "odom"), runtime::TopicKind::kSensor,
       [this](const nav_msgs::msg::Odometry& m) { onOdometry(m); });
+  // The laser's mounting comes, as in ROS 2, from tf_static (base_link -> laser).
+  createSubscription<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType>(
+      "tf_static", runtime::TopicKind::kGraph, [this](const tf2_msgs::msg::TFMessage& m) { onTfStatic(m); });
   createSubscription<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType>(
       runtime::robotTopic(robot, "scan"), runtime::TopicKind::kSensor,
       [this](const sensor_msgs::msg::LaserScan& m) { onScan(m); });
@@ -87,10 +92,19 @@ void FloorMapperComponent::onOdometry(const nav_msgs::msg::Odometry& message) {
   while (odometry_.size() > 2 && odometry_.front().stamp < sample.stamp - 10.0) odometry_.pop_front();
 }
 
+void FloorMapperComponent::onTfStatic(const tf2_msgs::msg::TFMessage& message) {
+  const std::string base = runtime::robotFrame(options_.robot, "base_link");
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& t : message.transforms())
+    if (t.header().frame_id() == base) laser_offsets_[t.child_frame_id()] = runtime::fromTransform(t);
+}
+
 void FloorMapperComponent::onScan(const sensor_msgs::msg::LaserScan& message) {
   if (state() != runtime::LifecycleState::kActive) return;
-  const sensor::LaserScan scan = runtime::fromMessage(message);
   std::lock_guard<std::mutex> lock(mutex_);
+  auto mounting = laser_offsets_.find(message.header().frame_id());
+  const sensor::LaserScan scan =
+      runtime::fromMessage(message, mounting == laser_offsets_.end() ? geometry::Pose2() : mounting->second);
   if (!sessions_) return;
   // Odometry at the scan's stamp: interpolated between the samples around it, or the
   // nearest one within max_odometry_gap.
@@ -132,6 +146,16 @@ void FloorMapperComponent::onFloorEvent(const storey_msgs::msg::FloorEvent& mess
     sessions_->endTransit(event.floor_id, event.floor_height);
     publishUpdates();  // the floor just left was optimised once more
   }
+}
+
+bool FloorMapperComponent::flush(double timeout_s) {
+  (void)timeout_s;  // optimisation is synchronous
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (sessions_ && sessions_->floors().count(sessions_->currentFloor())) {
+    sessions_->current().optimize();
+    publishUpdates();
+  }
+  return true;
 }
 
 void FloorMapperComponent::publishUpdates() {

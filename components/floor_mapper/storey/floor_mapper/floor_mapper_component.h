@@ -18,6 +18,7 @@
 #include "storey/runtime/component.h"
 #include "storey_msgs/msg/FloorEventPubSubTypes.h"
 #include "storey_msgs/msg/FloorGraphUpdatePubSubTypes.h"
+#include "tf2_msgs/msg/TFMessagePubSubTypes.h"
 
 namespace storey::floor_mapper {
 
@@ -40,6 +41,8 @@ class FloorMapperComponent : public runtime::Component {
 
   std::uint64_t updatesPublished() const;
   std::size_t nodeCount() const;  // over all floors
+  // Optimises the current floor graph once more and publishes what is new.
+  bool flush(double timeout_s) override;
   const FloorMapperComponentOptions& options() const { return options_; }
 
  protected:
@@ -50,12 +53,14 @@ class FloorMapperComponent : public runtime::Component {
   void onScan(const sensor_msgs::msg::LaserScan& message);
   void onOdometry(const nav_msgs::msg::Odometry& message);
   void onFloorEvent(const storey_msgs::msg::FloorEvent& message);
+  void onTfStatic(const tf2_msgs::msg::TFMessage& message);
   void publishUpdates();  // with mutex_ held
 
   FloorMapperComponentOptions options_;
   mutable std::mutex mutex_;
   std::unique_ptr<mapping::FloorSessions> sessions_;
   std::deque<sensor::OdometrySample> odometry_;
+  std::map<std::string, geometry::Pose2> laser_offsets_;  // laser frame -> mounting on base_link
   std::map<int, std::uint32_t> sequence_;  // per floor graph
   std::shared_ptr<runtime::Publisher<storey_msgs::msg::FloorGraphUpdate,
                                      storey_msgs::msg::FloorGraphUpdatePubSubType>>

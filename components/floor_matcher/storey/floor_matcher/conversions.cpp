@@ -43,6 +43,7 @@ void applyUpdate(const storey_msgs::msg::FloorGraphUpdate& m,
     node.scan.range_min = n.range_min();
     node.scan.range_max = n.range_max();
     node.scan.ranges = n.ranges();
+    node.scan.sensor_offset = geometry::Pose2(n.sensor_x(), n.sensor_y(), n.sensor_theta());
     const std::string problem = node.scan.validate();
     if (!problem.empty()) throw std::invalid_argument(at + ": " + problem);
     g.nodes.push_back(std::move(node));

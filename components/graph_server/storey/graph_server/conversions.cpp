@@ -46,6 +46,10 @@ building::FloorGraphDelta fromMessage(const storey_msgs::msg::FloorGraphUpdate& 
     node.scan.range_min = n.range_min();
     node.scan.range_max = n.range_max();
     node.scan.ranges = n.ranges();
+    requireFinite(n.sensor_x(), at + ".sensor_x");
+    requireFinite(n.sensor_y(), at + ".sensor_y");
+    requireFinite(n.sensor_theta(), at + ".sensor_theta");
+    node.scan.sensor_offset = geometry::Pose2(n.sensor_x(), n.sensor_y(), n.sensor_theta());
     const std::string problem = node.scan.validate();
     if (!problem.empty()) throw std::invalid_argument(at + ": " + problem);
     d.new_nodes.push_back(std::move(node));
