@@ -120,13 +120,7 @@ BuildingSolution BuildingGraph::optimize() {
       pose_graph_.addNode(globalId(g, node.id), transform[g] * node.pose, fix, fg.floor_id, fg.floor_height);
     }
   }
-  for (const auto& [g, fg] : graphs_)
-    for (const auto& edge : fg.edges)
-      pose_graph_.addEdge(globalId(g, edge.from), globalId(g, edge.to), edge.measurement, edge.information,
-                          toGraphKind(edge.kind));
-  for (const auto& c : constraints_)
-    pose_graph_.addEdge(globalId(c.graph_from, c.node_from), globalId(c.graph_to, c.node_to), c.relative,
-                        c.information, graph::EdgeKind::kInterFloor);
+  addEdges(pose_graph_);
 
   if (pose_graph_.numEdges() > 0) {
     graph::OptimizerOptions optimizer_options = options_.optimizer;
@@ -157,6 +151,29 @@ BuildingSolution BuildingGraph::optimize() {
   }
   solution_ = solution;
   return solution;
+}
+
+void BuildingGraph::addEdges(graph::PoseGraph& pose_graph) const {
+  for (const auto& [g, fg] : graphs_)
+    for (const auto& edge : fg.edges)
+      pose_graph.addEdge(globalId(g, edge.from), globalId(g, edge.to), edge.measurement, edge.information,
+                         toGraphKind(edge.kind));
+  for (const auto& c : constraints_)
+    pose_graph.addEdge(globalId(c.graph_from, c.node_from), globalId(c.graph_to, c.node_to), c.relative,
+                       c.information, graph::EdgeKind::kInterFloor);
+}
+
+graph::PoseGraph BuildingGraph::poseGraphAt(const BuildingSolution& solution) const {
+  graph::PoseGraph pose_graph;
+  for (const auto& [g, fg] : graphs_)
+    for (const auto& node : fg.nodes) {
+      auto pose = solution.poses.find({g, node.id});
+      pose_graph.addNode(globalId(g, node.id), pose == solution.poses.end() ? node.pose : pose->second,
+                         g == solution.reference_graph && &node == &fg.nodes.front(), fg.floor_id,
+                         fg.floor_height);
+    }
+  addEdges(pose_graph);
+  return pose_graph;
 }
 
 geometry::Pose2 fitRigidTransform(const std::vector<geometry::Pose2>& local,

@@ -74,14 +74,18 @@ class BuildingGraph {
   // to the reference keep their own frame and are reported as not aligned.
   BuildingSolution optimize();
   const BuildingSolution& lastSolution() const { return solution_; }
-  // The pose graph of the last optimize() (e.g. for g2o export).
+  // The pose graph of the last optimize().
   const graph::PoseGraph& poseGraph() const { return pose_graph_; }
+  // The building's pose graph with the poses of `solution` (e.g. for g2o export).
+  graph::PoseGraph poseGraphAt(const BuildingSolution& solution) const;
 
   static graph::NodeId globalId(int graph_id, int node_id) {
     return static_cast<graph::NodeId>(graph_id) * 1000000 + node_id;
   }
 
  private:
+  void addEdges(graph::PoseGraph& pose_graph) const;
+
   BuildingGraphOptions options_;
   std::map<int, floor::FloorGraph> graphs_;
   std::vector<InterGraphConstraint> constraints_;

@@ -149,8 +149,8 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
   }
   building::writeBuildingYaml((fs::path(dir) / "building.yaml").string(), solution, floors);
   add("building.yaml");
-  if (!graph.empty() && graph.poseGraph().numNodes() > 0) {
-    graph::writeG2o(graph.poseGraph(), (fs::path(dir) / "graph.g2o").string());
+  if (!graph.empty()) {
+    graph::writeG2o(graph.poseGraphAt(solution), (fs::path(dir) / "graph.g2o").string());
     add("graph.g2o");
   }
   eval::writeTrajectoryCsv((fs::path(dir) / "trajectory.csv").string(), trajectoryRows(graph, solution));
