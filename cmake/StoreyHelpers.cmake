@@ -49,3 +49,25 @@ function(storey_test)
     WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR}
     PROPERTIES LABELS ${ARG_LABEL} TIMEOUT ${ARG_TIMEOUT})
 endfunction()
+
+# storey_component_library(NAME <component> DEPS <targets>...)
+# A thin component: every .cpp under storey/<component>/ beside the calling CMakeLists.txt
+# into storey_<component> (alias storey::<component>), linked into the catalog and the
+# storey command through STOREY_LIBRARIES, and installed.
+function(storey_component_library)
+  cmake_parse_arguments(ARG "" "NAME" "DEPS" ${ARGN})
+  file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/storey/${ARG_NAME}/*.cpp)
+  set(target storey_${ARG_NAME})
+  add_library(${target} STATIC ${sources})
+  add_library(storey::${ARG_NAME} ALIAS ${target})
+  target_include_directories(${target} PUBLIC
+    $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}>
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+  target_link_libraries(${target} PUBLIC storey::runtime ${ARG_DEPS})
+  set_target_properties(${target} PROPERTIES EXPORT_NAME ${ARG_NAME})
+  set_property(GLOBAL APPEND PROPERTY STOREY_LIBRARIES ${target})
+  install(TARGETS ${target} EXPORT storeyTargets
+    ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+  install(DIRECTORY storey DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} FILES_MATCHING PATTERN "*.h")
+endfunction()

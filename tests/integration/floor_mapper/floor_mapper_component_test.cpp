@@ -125,7 +125,9 @@ TEST(FloorMapperComponent, MapsTwoFloorsAndPublishesTheirGraphs) {
     nodes += m.new_nodes().size();
     edges += m.new_edges().size();
     for (const auto& n : m.new_nodes()) EXPECT_FALSE(n.ranges().empty());
-    if (m.floor_id() == 1) EXPECT_DOUBLE_EQ(m.floor_height(), 3.0);
+    if (m.floor_id() == 1) {
+      EXPECT_DOUBLE_EQ(m.floor_height(), 3.0);
+    }
   }
   EXPECT_EQ(next_sequence.size(), 2u);  // two floor graphs
   EXPECT_GE(nodes, 16u);

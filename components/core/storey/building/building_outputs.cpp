@@ -98,15 +98,19 @@ void writeBuildingYaml(const std::string& path, const BuildingSolution& solution
   if (!out) throw std::runtime_error(path + ": write failed");
 }
 
+std::array<std::uint8_t, 3> floorColour(std::size_t index) {
+  static constexpr std::array<std::array<std::uint8_t, 3>, 8> kColours{{{220, 30, 30},
+                                                                       {30, 110, 220},
+                                                                       {20, 160, 60},
+                                                                       {230, 140, 0},
+                                                                       {140, 40, 180},
+                                                                       {0, 170, 170},
+                                                                       {120, 80, 30},
+                                                                       {200, 0, 120}}};
+  return kColours[index % kColours.size()];
+}
+
 grid::Image renderFloorOverlay(const std::map<int, FloorMap>& floors) {
-  static const std::array<std::array<std::uint8_t, 3>, 8> kColours{{{220, 30, 30},
-                                                                     {30, 110, 220},
-                                                                     {20, 160, 60},
-                                                                     {230, 140, 0},
-                                                                     {140, 40, 180},
-                                                                     {0, 170, 170},
-                                                                     {120, 80, 30},
-                                                                     {200, 0, 120}}};
   double min_x = std::numeric_limits<double>::infinity(), min_y = min_x, max_x = -min_x, max_y = -min_x, res = 0.05;
   for (const auto& [id, floor] : floors) {
     const grid::GridFrame& f = floor.grid.frame();
@@ -122,7 +126,7 @@ grid::Image renderFloorOverlay(const std::map<int, FloorMap>& floors) {
   grid::Image image(w, h, 3, 255);
   int index = 0;
   for (const auto& [id, floor] : floors) {
-    const auto& colour = kColours[index++ % kColours.size()];
+    const auto colour = floorColour(index++);
     const grid::GridFrame& f = floor.grid.frame();
     for (int cy = 0; cy < f.height; ++cy)
       for (int cx = 0; cx < f.width; ++cx) {

@@ -2,6 +2,8 @@
 // map_server PGM+YAML and PNG), building.yaml (floors, heights, transforms) and the building OctoMap (.bt).
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <map>
 #include <string>
 
@@ -38,6 +40,9 @@ std::size_t writeBuildingOctomap(const std::string& path, const std::map<int, Fl
 
 void writeBuildingYaml(const std::string& path, const BuildingSolution& solution,
                        const std::map<int, FloorMap>& floors);
+
+// The colour pictures use for the index-th floor (a fixed palette, repeating).
+std::array<std::uint8_t, 3> floorColour(std::size_t index);
 
 // Overlay of floors in one picture (the paper's Fig. 4): each floor's occupied cells in its
 // own colour over a common frame.

@@ -18,15 +18,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr std::array<std::array<std::uint8_t, 3>, 8> kFloorColours{{{220, 30, 30},
-                                                                     {30, 110, 220},
-                                                                     {20, 160, 60},
-                                                                     {230, 140, 0},
-                                                                     {140, 40, 180},
-                                                                     {0, 170, 170},
-                                                                     {120, 80, 30},
-                                                                     {200, 0, 120}}};
-
 void drawLine(grid::Image& image, int x0, int y0, int x1, int y1, const std::array<std::uint8_t, 3>& colour) {
   const int dx = std::abs(x1 - x0), dy = -std::abs(y1 - y0);
   const int sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
@@ -110,7 +101,7 @@ grid::Image renderGraph(const building::BuildingGraph& graph, const building::Bu
       const int next = static_cast<int>(colour_of_floor.size());
       colour_of_floor[fg.floor_id] = next;
     }
-    const auto& colour = kFloorColours[colour_of_floor[fg.floor_id] % kFloorColours.size()];
+    const auto colour = building::floorColour(static_cast<std::size_t>(colour_of_floor[fg.floor_id]));
     for (const auto& edge : fg.edges) {
       auto a = solution.poses.find({g, edge.from}), b = solution.poses.find({g, edge.to});
       if (a == solution.poses.end() || b == solution.poses.end()) continue;
