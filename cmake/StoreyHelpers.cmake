@@ -41,9 +41,7 @@ function(storey_test)
   endif()
   add_executable(${ARG_NAME} ${ARG_SOURCES})
   target_link_libraries(${ARG_NAME} PRIVATE ${ARG_LIBS} storey_test_support GTest::gtest_main)
-  target_compile_definitions(${ARG_NAME} PRIVATE
-    STOREY_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
-    STOREY_SHARED_DATA_DIR="${PROJECT_SOURCE_DIR}/../shared/data")
+  target_compile_definitions(${ARG_NAME} PRIVATE STOREY_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
   gtest_discover_tests(${ARG_NAME}
     DISCOVERY_MODE PRE_TEST
     WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR}

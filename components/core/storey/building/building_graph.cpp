@@ -37,6 +37,12 @@ BuildingGraph::BuildingGraph(const BuildingGraphOptions& options) : options_(opt
 
 void BuildingGraph::upsertFloorGraph(const floor::FloorGraph& graph) { graphs_[graph.graph_id] = graph; }
 
+floor::FloorGraph& BuildingGraph::floorGraphForUpdate(int graph_id) {
+  floor::FloorGraph& graph = graphs_[graph_id];
+  graph.graph_id = graph_id;
+  return graph;
+}
+
 void BuildingGraph::addConstraint(const InterGraphConstraint& c) {
   auto fail = [&](const std::string& why) {
     std::ostringstream out;

@@ -60,6 +60,9 @@ class BuildingGraph {
 
   // Adds or replaces a floor graph (all its nodes, edges and local poses).
   void upsertFloorGraph(const floor::FloorGraph& graph);
+  // The floor graph with this id for changing in place (created empty if absent), so an
+  // update need not copy the graph it extends.
+  floor::FloorGraph& floorGraphForUpdate(int graph_id);
   // Throws std::invalid_argument naming the constraint when it refers to an unknown
   // graph or node, or its values are not finite.
   void addConstraint(const InterGraphConstraint& constraint);
@@ -73,7 +76,6 @@ class BuildingGraph {
   // lowest graph id with constraints (or the lowest id); graphs that no constraint joins
   // to the reference keep their own frame and are reported as not aligned.
   BuildingSolution optimize();
-  const BuildingSolution& lastSolution() const { return solution_; }
   // The pose graph of the last optimize().
   const graph::PoseGraph& poseGraph() const { return pose_graph_; }
   // The building's pose graph with the poses of `solution` (e.g. for g2o export).

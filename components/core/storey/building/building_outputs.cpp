@@ -27,15 +27,6 @@ std::map<int, FloorMap> renderBuildingFloors(const BuildingGraph& graph, const B
   return floors;
 }
 
-OctomapOptions readOctomapOptions(const common::ConfigNode& node) {
-  OctomapOptions o;
-  o.resolution = node.getDouble("resolution", o.resolution, 0.01, 2.0);
-  o.wall_height = node.getDouble("wall_height", o.wall_height, 0.1, 20.0);
-  o.sensor_height = node.getDouble("sensor_height", o.sensor_height, 0.0, 5.0);
-  node.finish();
-  return o;
-}
-
 std::size_t writeBuildingOctomap(const std::string& path, const std::map<int, FloorMap>& floors,
                                  const OctomapOptions& options) {
   octomap::OcTree tree(options.resolution);

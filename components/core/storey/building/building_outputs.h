@@ -30,7 +30,6 @@ struct OctomapOptions {
   double wall_height = 2.5;     // occupied cells are extruded this far above the floor
   double sensor_height = 0.3;   // free space is marked at this height above the floor
 };
-OctomapOptions readOctomapOptions(const common::ConfigNode& node);
 
 // Writes a binary OcTree: each floor's occupied cells extruded between the floor height and
 // floor height + wall_height, and its free cells as free voxels at the sensor height.

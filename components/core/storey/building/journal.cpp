@@ -7,6 +7,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -206,33 +207,43 @@ JournalRecord decodeRecord(const std::uint8_t* data, std::size_t size) {
   throw std::runtime_error("unknown record type " + std::to_string(type));
 }
 
-void applyDelta(BuildingGraph& building, const FloorGraphDelta& delta) {
-  floor::FloorGraph graph;
+void checkDelta(const BuildingGraph& building, const FloorGraphDelta& delta) {
   auto existing = building.floorGraphs().find(delta.graph_id);
-  if (existing != building.floorGraphs().end()) graph = existing->second;
-  graph.robot = delta.robot;
-  graph.graph_id = delta.graph_id;
-  graph.floor_id = delta.floor_id;
-  graph.floor_height = delta.floor_height;
-  for (const auto& node : delta.new_nodes)
-    if (!graph.findNode(node.id)) graph.nodes.push_back(node);
+  std::set<int> known;
+  if (existing != building.floorGraphs().end())
+    for (const auto& node : existing->second.nodes) known.insert(node.id);
+  for (const auto& node : delta.new_nodes) known.insert(node.id);
   for (const auto& edge : delta.new_edges) {
-    if (!graph.findNode(edge.from) || !graph.findNode(edge.to)) {
+    if (!known.count(edge.from) || !known.count(edge.to)) {
       std::ostringstream out;
       out << "floor graph " << delta.graph_id << " (robot " << delta.robot << "): edge " << edge.from << " -> "
           << edge.to << " refers to an unknown node";
       throw std::invalid_argument(out.str());
     }
+  }
+}
+
+void applyDelta(BuildingGraph& building, const FloorGraphDelta& delta) {
+  checkDelta(building, delta);  // a rejected delta changes nothing
+  floor::FloorGraph& graph = building.floorGraphForUpdate(delta.graph_id);
+  graph.robot = delta.robot;
+  graph.floor_id = delta.floor_id;
+  graph.floor_height = delta.floor_height;
+  std::set<int> present;
+  for (const auto& node : graph.nodes) present.insert(node.id);
+  for (const auto& node : delta.new_nodes)
+    if (present.insert(node.id).second) graph.nodes.push_back(node);
+  for (const auto& edge : delta.new_edges) {
     const bool duplicate = std::any_of(graph.edges.begin(), graph.edges.end(), [&](const floor::FloorEdge& e) {
       return e.from == edge.from && e.to == edge.to && e.kind == edge.kind;
     });
     if (!duplicate) graph.edges.push_back(edge);
   }
-  for (auto& node : graph.nodes) {
-    auto pose = delta.poses.find(node.id);
-    if (pose != delta.poses.end()) node.pose = pose->second;
-  }
-  building.upsertFloorGraph(graph);
+  if (!delta.poses.empty())
+    for (auto& node : graph.nodes) {
+      auto pose = delta.poses.find(node.id);
+      if (pose != delta.poses.end()) node.pose = pose->second;
+    }
 }
 
 JournalReadResult readJournal(const std::string& path) {

@@ -29,10 +29,13 @@ struct FloorGraphDelta {
   std::map<int, geometry::Pose2> poses;
 };
 
-// Applies a delta to a building graph. Nodes already present are not duplicated (a
-// re-sent update is harmless); edges whose nodes are unknown are rejected with an
-// std::invalid_argument naming the graph and the edge.
+// Applies a delta to a building graph, in place. Nodes already present are not
+// duplicated (a re-sent update is harmless); a delta with an edge whose nodes are unknown
+// is rejected whole, with an std::invalid_argument naming the graph and the edge, and
+// changes nothing.
 void applyDelta(BuildingGraph& building, const FloorGraphDelta& delta);
+// The check applyDelta makes first: throws as it would, changes nothing.
+void checkDelta(const BuildingGraph& building, const FloorGraphDelta& delta);
 
 using JournalRecord = std::variant<FloorGraphDelta, InterGraphConstraint>;
 

@@ -4,16 +4,11 @@
 #include <stdexcept>
 #include <string>
 
+#include "storey/runtime/graph_conversions.h"
 #include "storey/runtime/sensor_conversions.h"
 
 namespace storey::floor_matcher {
-namespace {
-
-void requireFinite(double value, const std::string& field) {
-  if (!std::isfinite(value)) throw std::invalid_argument(field + " is not finite");
-}
-
-}  // namespace
+using runtime::requireFinite;
 
 void applyUpdate(const storey_msgs::msg::FloorGraphUpdate& m,
                  std::map<int, floor::FloorGraph>* graphs) {
@@ -27,25 +22,8 @@ void applyUpdate(const storey_msgs::msg::FloorGraphUpdate& m,
   g.floor_id = m.floor_id();
   g.floor_height = m.floor_height();
   for (const auto& n : m.new_nodes()) {
-    const std::string at = where + ": node " + std::to_string(n.node_id());
-    requireFinite(n.x(), at + ".x");
-    requireFinite(n.y(), at + ".y");
-    requireFinite(n.theta(), at + ".theta");
-    if (g.findNode(static_cast<int>(n.node_id()))) continue;
-    floor::FloorNode node;
-    node.id = static_cast<int>(n.node_id());
-    node.stamp = runtime::fromTimeMessage(n.stamp());
-    node.pose = geometry::Pose2(n.x(), n.y(), n.theta());
-    node.odometry = node.pose;
-    node.scan.stamp = node.stamp;
-    node.scan.angle_min = n.angle_min();
-    node.scan.angle_increment = n.angle_increment();
-    node.scan.range_min = n.range_min();
-    node.scan.range_max = n.range_max();
-    node.scan.ranges = n.ranges();
-    node.scan.sensor_offset = geometry::Pose2(n.sensor_x(), n.sensor_y(), n.sensor_theta());
-    const std::string problem = node.scan.validate();
-    if (!problem.empty()) throw std::invalid_argument(at + ": " + problem);
+    floor::FloorNode node = runtime::fromMessage(n, where);
+    if (g.findNode(node.id)) continue;
     g.nodes.push_back(std::move(node));
   }
   for (const auto& e : m.new_edges()) {

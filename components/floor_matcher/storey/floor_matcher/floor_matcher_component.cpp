@@ -18,6 +18,7 @@ FloorMatcherComponentOptions readFloorMatcherComponentOptions(const common::Conf
   o.constraint_topic = node.get<std::string>("constraint_topic", o.constraint_topic);
   o.min_new_nodes = node.getInt("min_new_nodes", o.min_new_nodes, 1, 1000000);
   o.min_growth = node.getDouble("min_growth", o.min_growth, 0.0, 100.0);
+  o.match_while_growing = node.get<bool>("match_while_growing", o.match_while_growing);
   o.min_nodes = node.getInt("min_nodes", o.min_nodes, 1, 1000000);
   // The same section `storey match --config` reads, so one file serves both.
   if (node.has("floor_matcher"))
@@ -92,7 +93,7 @@ void FloorMatcherComponent::onUpdate(const storey_msgs::msg::FloorGraphUpdate& m
     logWarn(str(name(), ": update rejected: ", e.what()));
     return;
   }
-  if (grewEnough(graphs_.at(static_cast<int>(message.floor_graph_id())))) {
+  if (options_.match_while_growing && grewEnough(graphs_.at(static_cast<int>(message.floor_graph_id())))) {
     pending_ = true;
     changed_.notify_all();
   }

@@ -30,6 +30,9 @@ struct FloorMatcherComponentOptions {
   // `min_growth` (fraction of its size at the last matching).
   int min_new_nodes = 20;
   double min_growth = 0.2;
+  // false: match only when flushed (storey map), so the result does not depend on when
+  // updates arrived while the worker was busy.
+  bool match_while_growing = true;
   int min_nodes = 10;  // graphs smaller than this are not matched yet
   matching::FloorMatcherOptions matcher;
 };

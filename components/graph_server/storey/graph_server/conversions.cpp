@@ -3,9 +3,12 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "storey/runtime/graph_conversions.h"
 #include "storey/runtime/sensor_conversions.h"
 
 namespace storey::graph_server {
+using runtime::requireFinite;
+
 namespace {
 
 Eigen::Matrix3d informationFrom(const std::array<double, 9>& values) {
@@ -13,10 +16,6 @@ Eigen::Matrix3d informationFrom(const std::array<double, 9>& values) {
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) m(r, c) = values[r * 3 + c];
   return m;
-}
-
-void requireFinite(double value, const std::string& field) {
-  if (!std::isfinite(value)) throw std::invalid_argument(field + " is not finite");
 }
 
 }  // namespace
@@ -30,30 +29,7 @@ building::FloorGraphDelta fromMessage(const storey_msgs::msg::FloorGraphUpdate& 
   d.sequence = m.sequence_number();
   const std::string where = "floor graph " + std::to_string(d.graph_id) + " update " + std::to_string(d.sequence);
   requireFinite(d.floor_height, where + ": floor_height");
-  for (const auto& n : m.new_nodes()) {
-    floor::FloorNode node;
-    node.id = static_cast<int>(n.node_id());
-    node.stamp = runtime::fromTimeMessage(n.stamp());
-    const std::string at = where + ": node " + std::to_string(node.id);
-    requireFinite(n.x(), at + ".x");
-    requireFinite(n.y(), at + ".y");
-    requireFinite(n.theta(), at + ".theta");
-    node.pose = geometry::Pose2(n.x(), n.y(), n.theta());
-    node.odometry = node.pose;
-    node.scan.stamp = node.stamp;
-    node.scan.angle_min = n.angle_min();
-    node.scan.angle_increment = n.angle_increment();
-    node.scan.range_min = n.range_min();
-    node.scan.range_max = n.range_max();
-    node.scan.ranges = n.ranges();
-    requireFinite(n.sensor_x(), at + ".sensor_x");
-    requireFinite(n.sensor_y(), at + ".sensor_y");
-    requireFinite(n.sensor_theta(), at + ".sensor_theta");
-    node.scan.sensor_offset = geometry::Pose2(n.sensor_x(), n.sensor_y(), n.sensor_theta());
-    const std::string problem = node.scan.validate();
-    if (!problem.empty()) throw std::invalid_argument(at + ": " + problem);
-    d.new_nodes.push_back(std::move(node));
-  }
+  for (const auto& n : m.new_nodes()) d.new_nodes.push_back(runtime::fromMessage(n, where));
   for (const auto& e : m.new_edges()) {
     floor::FloorEdge edge;
     edge.from = static_cast<int>(e.from_node());

@@ -49,9 +49,10 @@ void GraphServer::onConfigure() {
         logWarn(str(name(), ": journal record not applied: ", e.what()));
       }
     }
-    if (stats_.replayed_from_journal)
+    if (stats_.replayed_from_journal) {
       logInfo(str(name(), ": resumed ", stats_.replayed_from_journal, " records from ", options_.journal_path));
-    if (stats_.replayed_from_journal) ++accepted_generation_;
+      ++accepted_generation_;  // optimise what was resumed
+    }
   }
   state_publisher_ =
       createPublisher<storey_msgs::msg::BuildingState, storey_msgs::msg::BuildingStatePubSubType>(
@@ -92,12 +93,11 @@ void GraphServer::stopWorker() {
 
 void GraphServer::accept(const building::JournalRecord& record) {
   std::lock_guard<std::mutex> lock(mutex_);
-  // Validate against a copy first so a bad record changes nothing, then journal, then apply.
+  // Check, journal, then apply: a bad record changes nothing and is never journalled.
   if (const auto* d = std::get_if<building::FloorGraphDelta>(&record)) {
-    building::BuildingGraph trial = building_;
-    building::applyDelta(trial, *d);
+    building::checkDelta(building_, *d);
     if (journal_) journal_->append(record);
-    building_ = std::move(trial);
+    building::applyDelta(building_, *d);
     ++stats_.updates_accepted;
   } else {
     const auto& constraint = std::get<building::InterGraphConstraint>(record);

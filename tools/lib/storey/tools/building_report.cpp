@@ -151,7 +151,7 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
   add("building.bt");
   grid::writePng((fs::path(dir) / "overlay.png").string(), building::renderFloorOverlay(floors));
   add("overlay.png");
-  const building::BuildingSolution before = solveWithoutConstraints(graph);
+  const building::BuildingSolution before = extras.unaligned ? *extras.unaligned : solveWithoutConstraints(graph);
   grid::writePng((fs::path(dir) / "graph_before.png").string(), renderGraph(graph, before, false));
   grid::writePng((fs::path(dir) / "graph_after.png").string(), renderGraph(graph, solution, true));
   add("graph_before.png");

@@ -30,6 +30,8 @@ struct ReportExtras {
   std::vector<Timing> timings;
   std::optional<eval::Evaluation> evaluation;           // with inter-floor constraints
   std::optional<eval::Evaluation> evaluation_unaligned;  // same graphs, no inter-floor constraints
+  // solveWithoutConstraints(graph) when the caller has it already; computed when absent.
+  std::optional<building::BuildingSolution> unaligned;
   double recording_seconds = 0.0;          // for the real-time factor
   std::vector<std::string> notes;
 };

@@ -210,7 +210,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
                                                            // flushed: matching while graphs grow would
                                                            // depend on thread timing, and the same input
                                                            // and seed must give the same building.
-                                                           n["min_new_nodes"] = 1000000;
+                                                           n["match_while_growing"] = false;
                                                          }),
                                      "floor_matcher"));
   pipeline.push_back(registry.create("graph_server", context,
@@ -251,29 +251,22 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   // component has seen everything up to that stamp before the next one: as fast as the
   // subscribers take it, and the same order every run.
   phase_start = Clock::now();
-  ReplayOptions replay_options;
-  replay_options.settle_seconds = 0.0;
-  SensorReplayer replayer(context, replay_options);
-  double first_stamp = std::numeric_limits<double>::infinity(), last_stamp = -first_stamp;
   std::uint64_t messages = 0;
   for (const auto& p : prepared) {
-    ReplayOptions source_options;
-    source_options.log_robot = p.robot;
-    auto source = openSensorSource(p.recording, source_options);
-    runtime::SensorRecord record;
-    double input_first = std::numeric_limits<double>::infinity(), input_last = -input_first;
-    while (source->next(record)) {
-      replayer.publish(record);
+    ReplayOptions replay_options;
+    replay_options.settle_seconds = 0.0;
+    replay_options.log_robot = p.robot;
+    replay_options.after_each = [&context] {
       context.executor().drain();
       context.executor().drain();  // what the first drain's tasks published
-      input_first = std::min(input_first, record.stamp);
-      input_last = std::max(input_last, record.stamp);
-      ++messages;
-    }
-    if (input_last > input_first) result.recording_seconds += input_last - input_first;
-    first_stamp = std::min(first_stamp, input_first);
-    last_stamp = std::max(last_stamp, input_last);
-    if (source->skipped()) say(p.recording + ": " + std::to_string(source->skipped()) + " records skipped");
+    };
+    SensorReplayer replayer(context, replay_options);
+    auto source = openSensorSource(p.recording, replay_options);
+    const ReplaySummary summary = replayer.replay(*source);
+    if (summary.total > 0 && summary.last_stamp > summary.first_stamp)
+      result.recording_seconds += summary.last_stamp - summary.first_stamp;
+    messages += summary.total;
+    if (summary.skipped) say(p.recording + ": " + std::to_string(summary.skipped) + " records skipped");
   }
   result.timings.push_back({"replay + detection + mapping", secondsSince(phase_start)});
   say("replayed " + std::to_string(messages) + " messages (" + std::to_string(result.recording_seconds) +
@@ -288,7 +281,6 @@ MapJobResult runMapJob(const MapJobOptions& options) {
                                std::to_string(options.flush_timeout) + " s");
     context.executor().drain();
   }
-  if (!server->flush(options.flush_timeout)) throw std::runtime_error("graph_server did not finish");
   result.timings.push_back({"matching + building optimisation", secondsSince(phase_start)});
 
   // 6. The building.
@@ -300,11 +292,11 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   extras.title = result.scenario.empty() ? "storey building" : "storey building: " + result.scenario;
   for (const auto& input : inputs) extras.input += (extras.input.empty() ? "" : ", ") + input.path;
   extras.recording_seconds = result.recording_seconds;
+  extras.unaligned = solveWithoutConstraints(graph);
   if (!ground_truth_dir.empty()) {
     const auto truth = eval::readTrajectoryCsv((fs::path(ground_truth_dir) / "trajectory.csv").string());
     result.evaluation = eval::evaluate(trajectoryRows(graph, solution), truth, corridors);
-    result.evaluation_unaligned =
-        eval::evaluate(trajectoryRows(graph, solveWithoutConstraints(graph)), truth, corridors);
+    result.evaluation_unaligned = eval::evaluate(trajectoryRows(graph, *extras.unaligned), truth, corridors);
     extras.evaluation = result.evaluation;
     extras.evaluation_unaligned = result.evaluation_unaligned;
   }

@@ -181,7 +181,7 @@ ReplaySummary SensorReplayer::replay(SensorSource& source, const std::atomic<boo
       break;
     }
     if (first) {
-      summary.first_stamp = recording_start = record.stamp;
+      summary.first_stamp = summary.last_stamp = recording_start = record.stamp;
       first = false;
     }
     if (options_.rate > 0.0) {
@@ -190,8 +190,10 @@ ReplaySummary SensorReplayer::replay(SensorSource& source, const std::atomic<boo
       std::this_thread::sleep_until(due);
     }
     publish(record);
+    if (options_.after_each) options_.after_each();
     ++summary.published[options_.topic_prefix + record.topic.substr(record.topic.front() == '/' ? 1 : 0)];
     ++summary.total;
+    summary.first_stamp = std::min(summary.first_stamp, record.stamp);
     summary.last_stamp = std::max(summary.last_stamp, record.stamp);
     if (progress && summary.total % 200 == 0) progress(summary.total, source.expectedCount());
   }

@@ -23,12 +23,14 @@ struct ReplayOptions {
   std::string log_robot = "robot";   // CARMEN logs carry no robot name
   std::string topic_prefix;          // prepended to every topic ("" -> "<robot>/scan")
   double settle_seconds = 0.3;       // wait after creating publishers, for discovery
+  // Called after each message is published (e.g. to wait until subscribers processed it).
+  std::function<void()> after_each;
 };
 
 struct ReplaySummary {
   std::map<std::string, std::uint64_t> published;  // per topic
   std::uint64_t total = 0;
-  double first_stamp = 0.0;
+  double first_stamp = 0.0;  // earliest and latest sample stamps
   double last_stamp = 0.0;
   double wall_seconds = 0.0;
   std::uint64_t skipped = 0;       // records of other types, or unreadable

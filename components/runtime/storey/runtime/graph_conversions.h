@@ -1,0 +1,18 @@
+// storey_msgs floor-graph messages -> core floor graph types, shared by every component
+// that receives floor graphs (floor_matcher, graph_server).
+#pragma once
+
+#include <string>
+
+#include "storey/floor/floor_graph.h"
+#include "storey_msgs/msg/FloorGraphNode.h"
+
+namespace storey::runtime {
+
+// Throws std::invalid_argument for a value that cannot be accepted (a non-finite pose,
+// height or sensor mounting, a scan with bad limits): `where` and the field lead the
+// message. The message carries no raw odometry: the node's odometry is its pose.
+floor::FloorNode fromMessage(const storey_msgs::msg::FloorGraphNode& message, const std::string& where);
+void requireFinite(double value, const std::string& field);
+
+}  // namespace storey::runtime
