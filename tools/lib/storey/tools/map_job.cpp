@@ -149,6 +149,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
       writeSimulationBag(run, (recording / "bag").string());
       sim::writeGroundTruth(run, (recording / "ground_truth").string());
       ground_truth_dir = (recording / "ground_truth").string();
+      result.ground_truth_dir = ground_truth_dir;
       corridors = eval::readCorridors((recording / "ground_truth" / "corridors.yaml").string());
       result.scenario = scenario.name;
       p.recording = (recording / "bag").string();
@@ -303,6 +304,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   extras.timings = result.timings;
   result.outputs = writeBuildingOutputs(options.output_dir, graph, solution, options.outputs, extras);
   result.timings.push_back({"outputs", secondsSince(phase_start)});
+  if (options.keep_graph) result.graph = std::make_shared<const building::BuildingGraph>(std::move(graph));
   result.total_seconds = secondsSince(job_start);
   return result;
 }

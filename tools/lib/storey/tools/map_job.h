@@ -4,6 +4,7 @@
 // When everything is processed the building is written to the output folder.
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -31,6 +32,7 @@ struct MapJobOptions {
   BuildingOutputOptions outputs;
   double flush_timeout = 600.0;  // seconds allowed per component to finish its work
   bool quiet = false;
+  bool keep_graph = false;  // return the final building graph (MapJobResult::graph)
 };
 
 struct MapJobResult {
@@ -40,6 +42,9 @@ struct MapJobResult {
   std::optional<eval::Evaluation> evaluation;            // when ground truth is known
   std::optional<eval::Evaluation> evaluation_unaligned;  // the same without inter-floor constraints
   std::vector<Timing> timings;
+  std::string ground_truth_dir;  // when a simulated building was mapped
+  // The final building graph (floor graphs and inter-floor constraints), with keep_graph.
+  std::shared_ptr<const building::BuildingGraph> graph;
   double recording_seconds = 0.0;
   double total_seconds = 0.0;
 };

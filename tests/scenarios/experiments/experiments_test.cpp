@@ -1,0 +1,192 @@
+// `storey experiments`: the table of one tower10 seed must agree with a direct evaluation
+// of the run's outputs; the constraint check and the odometry baseline on small graphs.
+#include "storey/tools/experiments.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "storey/eval/corridors.h"
+#include "test_support.h"
+
+namespace storey::tools {
+namespace {
+namespace fs = std::filesystem;
+using geometry::Pose2;
+
+floor::FloorGraph lineGraph(int id, const std::string& robot, int floor_id, double start_stamp,
+                            const std::vector<Pose2>& poses) {
+  floor::FloorGraph g;
+  g.robot = robot;
+  g.graph_id = id;
+  g.floor_id = floor_id;
+  g.floor_height = 3.0 * floor_id;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    floor::FloorNode n;
+    n.id = static_cast<int>(i);
+    n.stamp = start_stamp + static_cast<double>(i);
+    n.pose = poses[i];
+    n.odometry = poses[i];
+    g.nodes.push_back(n);
+    if (i > 0) g.edges.push_back({static_cast<int>(i - 1), static_cast<int>(i), poses[i - 1].inverse() * poses[i]});
+  }
+  return g;
+}
+
+TEST(Experiments, SummaryStatistics) {
+  const Statistic s = summarise({1.0, 2.0, 3.0, 6.0});
+  EXPECT_EQ(s.count, 4u);
+  EXPECT_DOUBLE_EQ(s.mean, 3.0);
+  EXPECT_NEAR(s.std, std::sqrt(14.0 / 3.0), 1e-12);
+  EXPECT_DOUBLE_EQ(s.worst, 6.0);
+  EXPECT_DOUBLE_EQ(summarise({2.5}).std, 0.0);
+  EXPECT_EQ(summarise({}).count, 0u);
+}
+
+TEST(Experiments, ConstraintsAreCheckedAgainstTruth) {
+  // Two floors whose graphs are in frames unrelated to the truth: a constraint is right
+  // when it relates the two nodes as their true poses do.
+  const Pose2 a0(0, 0, 0), a1(1, 0, 0), b0(0.5, 0.2, 0.3);
+  building::BuildingGraph graph;
+  graph.upsertFloorGraph(lineGraph(1, "r", 0, 0.0, {Pose2(5, 5, 1), Pose2(5, 6, 1)}));
+  graph.upsertFloorGraph(lineGraph(2, "r", 1, 10.0, {Pose2(-3, 2, 2), Pose2(-3, 3, 2)}));
+  std::vector<eval::PoseRow> truth;
+  for (auto [stamp, floor, pose] : std::vector<std::tuple<double, std::string, Pose2>>{
+           {0.0, "F0", a0}, {1.0, "F0", a1}, {10.0, "F1", b0}})
+    truth.push_back({stamp, "r", floor, pose, 0.0});
+  building::InterGraphConstraint right;
+  right.id = 1;
+  right.graph_from = 1;
+  right.node_from = 1;
+  right.graph_to = 2;
+  right.node_to = 0;
+  right.relative = a1.inverse() * b0;
+  building::InterGraphConstraint wrong = right;
+  wrong.id = 2;
+  wrong.relative = right.relative * Pose2(0.5, 0.0, 0.0);
+  building::InterGraphConstraint turned = right;
+  turned.id = 3;
+  turned.relative = right.relative * Pose2(0.0, 0.0, 0.05);
+  building::InterGraphConstraint unknown = right;
+  unknown.id = 4;
+  unknown.node_to = 1;  // no true pose at its stamp
+  for (const auto& c : {right, wrong, turned, unknown}) graph.addConstraint(c);
+
+  const auto checks = checkConstraints(graph, truth, ExperimentGoals{});
+  ASSERT_EQ(checks.size(), 4u);
+  EXPECT_TRUE(checks[0].checked);
+  EXPECT_EQ(checks[0].floor_from, "F0");
+  EXPECT_EQ(checks[0].floor_to, "F1");
+  EXPECT_NEAR(checks[0].translation_error, 0.0, 1e-9);
+  EXPECT_FALSE(checks[0].wrong);
+  EXPECT_NEAR(checks[1].translation_error, 0.5, 1e-9);
+  EXPECT_TRUE(checks[1].wrong);
+  EXPECT_NEAR(checks[2].rotation_error, 0.05, 1e-9);
+  EXPECT_TRUE(checks[2].wrong);  // 2.9 degrees
+  EXPECT_FALSE(checks[3].checked);
+  EXPECT_FALSE(checks[3].wrong);
+}
+
+TEST(Experiments, OdometryChainPlacesTheNextFloorWhereOdometrySays) {
+  building::BuildingGraph graph;
+  graph.upsertFloorGraph(lineGraph(1, "r", 0, 0.0, {Pose2(0, 0, 0), Pose2(1, 0, 0)}));
+  graph.upsertFloorGraph(lineGraph(2, "r", 1, 10.0, {Pose2(0, 0, 0), Pose2(0, 1, M_PI / 2)}));
+  // Odometry: at stamp 1 the robot is at (1, 0, 0); at stamp 10 it has turned around in
+  // the elevator at (3, 0).
+  std::map<std::string, std::vector<sensor::OdometrySample>> odometry;
+  for (auto [stamp, pose] : std::vector<std::pair<double, Pose2>>{
+           {0.0, Pose2(0, 0, 0)}, {1.0, Pose2(1, 0, 0)}, {5.0, Pose2(3, 0, 0)}, {10.0, Pose2(3, 0, M_PI)}}) {
+    sensor::OdometrySample s;
+    s.stamp = stamp;
+    s.pose = pose;
+    odometry["r"].push_back(s);
+  }
+  const auto solution = solveWithOdometryChain(graph, odometry);
+  const Pose2 first = solution.poses.at({1, 1});
+  const Pose2 second = solution.poses.at({2, 0});
+  const Pose2 relative = first.inverse() * second;
+  EXPECT_NEAR(relative.x(), 2.0, 1e-6);
+  EXPECT_NEAR(relative.y(), 0.0, 1e-6);
+  EXPECT_NEAR(std::abs(relative.theta()), M_PI, 1e-6);
+  EXPECT_THROW(solveWithOdometryChain(graph, {}), std::invalid_argument);
+}
+
+TEST(Experiments, UnknownExperimentIsAnError) {
+  ExperimentOptions options;
+  options.experiment = "tower11";
+  options.output_dir = test::makeTempDir("storey_experiments_bad");
+  try {
+    runExperiments(options);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("tower11"), std::string::npos);
+  }
+  options.experiment = "tower10";
+  options.domain_id = 230;
+  options.jobs = 4;
+  EXPECT_THROW(runExperiments(options), std::invalid_argument);  // domains beyond 232
+}
+
+// One tower10 seed end to end: the table's figures are those of a direct evaluation of
+// the run's written trajectory against its ground truth.
+TEST(Experiments, Tower10TableAgreesWithDirectEvaluation) {
+  ExperimentOptions options;
+  options.experiment = "tower10";
+  options.seeds = 1;
+  options.first_seed = 3;
+  options.domain_id = 78;
+  options.output_dir = test::makeTempDir("storey_experiments");
+  const auto tables = runExperiments(options);
+  ASSERT_EQ(tables.size(), 1u);
+  const ExperimentTable& table = tables.front();
+  ASSERT_EQ(table.runs.size(), 1u);
+  const RunFigures& run = table.runs.front();
+  EXPECT_EQ(run.seed, 3u);
+  ASSERT_EQ(table.floors.size(), 10u);
+  for (const char* file : {"experiments.md", "experiments.csv"})
+    EXPECT_TRUE(fs::exists(fs::path(options.output_dir) / file)) << file;
+
+  const fs::path dir = run.output_dir;
+  const auto estimate = eval::readTrajectoryCsv((dir / "trajectory.csv").string());
+  const auto truth = eval::readTrajectoryCsv((dir / "recording/ground_truth/trajectory.csv").string());
+  const auto direct = eval::evaluate(estimate, truth,
+                                     eval::readCorridors((dir / "recording/ground_truth/corridors.yaml").string()));
+  ASSERT_EQ(direct.floors.size(), table.floors.size());
+  std::size_t touching = 0;
+  for (std::size_t i = 0; i < direct.floors.size(); ++i) {
+    const FloorRow& row = table.floors[i];
+    EXPECT_EQ(row.floor, direct.floors[i].floor);
+    EXPECT_EQ(row.translation_with.count, 1u);
+    // trajectory.csv holds the poses to the precision it prints them.
+    EXPECT_NEAR(row.translation_with.mean, direct.floors[i].residual_translation, 1e-4) << row.floor;
+    EXPECT_NEAR(row.rotation_with.mean, direct.floors[i].residual_rotation, 1e-4) << row.floor;
+    EXPECT_DOUBLE_EQ(row.translation_with.std, 0.0);
+    EXPECT_DOUBLE_EQ(row.translation_with.worst, row.translation_with.mean);
+    const bool within = row.translation_with.worst <= options.goals.floor_translation &&
+                        row.rotation_with.worst <= options.goals.floor_rotation;
+    EXPECT_EQ(row.goal_met, within) << row.floor;
+    touching += static_cast<std::size_t>(row.constraints.mean);
+  }
+  // A constraint is counted on both floors it joins.
+  EXPECT_GT(table.constraints, 0u);
+  EXPECT_EQ(table.constraints, run.constraints.size());
+  std::size_t ends = 0;
+  for (const auto& c : run.constraints)
+    if (c.checked) ends += c.floor_from == c.floor_to ? 1 : 2;
+  EXPECT_EQ(touching, ends);
+  // The floors joined by odometry alone carry the elevator's heading errors; inter-floor
+  // constraints must remove most of them.
+  EXPECT_LT(run.with.ate_rmse, run.without.ate_rmse);
+  EXPECT_GT(run.without.ate_rmse, 0.0);
+  // The Markdown table names every floor and says whether the goal is met.
+  std::ifstream md(fs::path(options.output_dir) / "experiments.md");
+  std::stringstream text;
+  text << md.rdbuf();
+  for (const auto& row : table.floors) EXPECT_NE(text.str().find("| " + row.floor + " |"), std::string::npos);
+  EXPECT_NE(text.str().find("every floor within 0.05 m / 0.2 deg"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace storey::tools
