@@ -218,48 +218,6 @@ TEST(FloorSlam, LoopClosureCorrectsDrift) {
   // correction over them, so the absolute error does not drop as much as the loop error.
 }
 
-TEST(FloorSessions, KnownFloorIsResumedAfterRelocalisation) {
-  const test::World office = test::officeWorld();
-  test::World other;
-  other.addBox(0, 0, 6, 5);
-  other.addBox(2, 2, 2.5, 2.5);
-  FloorSessions sessions(FloorSlamOptions{}, "robot", 0, 0.0);
-  double t = 0;
-  Pose2 odometry;
-  Pose2 prev_truth(1, 1, 0);
-  auto drive = [&](const test::World& world, const std::vector<Pose2>& poses) {
-    ScanResult last;
-    for (const auto& p : poses) {
-      odometry = odometry * prev_truth.between(p);
-      prev_truth = p;
-      last = sessions.addScan(world.scan(p, t += 0.1), odometry);
-    }
-    return last;
-  };
-  drive(office, path({{1, 1}, {4, 1}, {4, 4}}));
-  sessions.beginTransit();
-  sessions.endTransit(1, 3.0);
-  EXPECT_EQ(sessions.floors().size(), 2u);
-  // The robot is somewhere else on floor 1 (odometry continues through the ride).
-  prev_truth = Pose2(1, 1, 0.5);
-  drive(other, path({{1, 1}, {4, 1}, {4, 3}}));
-  sessions.beginTransit();
-  sessions.endTransit(0, 0.0);
-  EXPECT_EQ(sessions.floors().size(), 2u);  // the same graph, not a third
-  EXPECT_TRUE(sessions.current().awaitingRelocalization());
-  // Back on floor 0 near where it left (4, 4), turned by the ride.
-  prev_truth = Pose2(4.2, 3.9, 2.0);
-  const std::size_t before = sessions.current().floorGraph().nodes.size();
-  const ScanResult r = drive(office, {Pose2(4.2, 3.9, 2.0)});
-  EXPECT_TRUE(r.relocalized);
-  EXPECT_EQ(sessions.current().floorGraph().nodes.size(), before + 1);
-  // Floor 0's frame is the first pose (1, 1, 0).
-  const Pose2 expected = Pose2(1, 1, 0).between(Pose2(4.2, 3.9, 2.0));
-  EXPECT_LT((r.pose.translation() - expected.translation()).norm(), 0.05);
-  EXPECT_LT(std::abs(geometry::angleDiff(r.pose.theta(), expected.theta())), 0.02);
-  EXPECT_EQ(sessions.current().floorGraph().edges.back().kind, floor::EdgeKind::kLoopClosure);
-}
-
 TEST(FloorSlamOptions, ShippedConfigurationLoads) {
   const auto root = common::ConfigNode::loadFile(storey::test::sourceDir() + "/config/floor_mapper.yaml");
   const FloorSlamOptions o = readFloorSlamOptions(root.child("slam"));

@@ -1,8 +1,12 @@
 #include "storey/mapping/floor_sessions.h"
 
+#include <cmath>
+
 #include "storey/common/log.h"
 
 namespace storey::mapping {
+
+using common::str;
 
 FloorSessions::FloorSessions(FloorSlamOptions options, std::string robot, int initial_floor,
                              double initial_height)
@@ -11,19 +15,84 @@ FloorSessions::FloorSessions(FloorSlamOptions options, std::string robot, int in
       std::make_unique<FloorSlam>(options_, robot_, next_graph_id_++, initial_floor, initial_height);
 }
 
+FloorSessions::~FloorSessions() = default;
+
 ScanResult FloorSessions::addScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry) {
+  ScanResult r;
+  r.pose = current().currentPose();
   if (in_transit_) {
-    ScanResult r;
     r.status = ScanStatus::kSkipped;
     r.reason = "in transit";
-    r.pose = current().currentPose();
     return r;
   }
-  return current().addScan(scan, odometry);
+  if (!relocalizer_) return current().addScan(scan, odometry);
+
+  // Buffered scans must be as valid as the front end requires (it never sees them one
+  // by one when the floor is resumed).
+  std::string why = scan.validate();
+  if (why.empty() && !std::isfinite(scan.stamp)) why = "non-finite stamp";
+  if (why.empty() && !odometry.isFinite()) why = "non-finite odometry pose";
+  const auto& buffer = relocalizer_->buffer();
+  if (why.empty() && !buffer.empty() && scan.stamp < buffer.back().scan.stamp)
+    why = str("time went backwards (", scan.stamp, " < ", buffer.back().scan.stamp, ")");
+  if (why.empty() &&
+      filterPoints(scan.pointsInRobotFrame(), options_.matcher.point_filter_distance).size() <
+          static_cast<std::size_t>(options_.matcher.min_points))
+    why = "too few valid returns";
+  if (!why.empty()) {
+    common::logWarn(str("floor_sessions[", robot_, "]: scan at ", scan.stamp, " rejected: ", why));
+    r.status = ScanStatus::kRejected;
+    r.reason = why;
+    return r;
+  }
+  const RelocalizationStatus status = relocalizer_->add(scan, odometry);
+  last_relocalization_ = relocalizer_->result();
+  if (status == RelocalizationStatus::kSearching) {
+    r.status = ScanStatus::kSkipped;
+    r.reason = "relocalising";
+    return r;
+  }
+  if (status == RelocalizationStatus::kFailed) {
+    openNewGraphOfCurrentFloor(str("no unique global localisation in ", relocalizer_->buffer().size(),
+                                   " scans (", last_relocalization_.last_problem, ")"));
+    r.pose = current().currentPose();
+    r.status = ScanStatus::kNode;
+    return r;
+  }
+  const RelocalizationResult& result = relocalizer_->result();
+  const int node = current().resumeLocalized(relocalizer_->buffer(), result.pose, result.covariance);
+  ++stats_.global_relocalizations;
+  common::logInfo(str("floor_sessions[", robot_, "]: relocalised on floor ", current_floor_, " after ",
+                      relocalizer_->buffer().size(), " scans at (", result.pose.x(), ", ", result.pose.y(), ", ",
+                      result.pose.theta(), "), score ", result.score, ", best elsewhere ", result.best_other,
+                      " vs ", result.own));
+  relocalizer_.reset();
+  r.status = ScanStatus::kNode;
+  r.node_id = node;
+  r.pose = result.pose;
+  r.matched = true;
+  r.relocalized = true;
+  return r;
+}
+
+void FloorSessions::openNewGraphOfCurrentFloor(const std::string& why) {
+  ++stats_.fallbacks;
+  common::logInfo(str("floor_sessions[", robot_, "]: back on floor ", current_floor_, ": a new floor graph (",
+                      why, "); the matcher aligns it"));
+  auto& slot = floors_.at(current_floor_);
+  const double height = slot->floorGraph().floor_height;
+  retired_.push_back(std::move(slot));
+  slot = std::make_unique<FloorSlam>(options_, robot_, next_graph_id_++, current_floor_, height);
+  if (relocalizer_) {
+    const auto reloc = std::move(relocalizer_);
+    for (const auto& b : reloc->buffer()) slot->addScan(b.scan, b.odometry);
+  }
 }
 
 void FloorSessions::beginTransit() {
   if (in_transit_) return;
+  // Leaving before the floor was recognised: keep what was seen, in a graph of its own.
+  if (relocalizer_) openNewGraphOfCurrentFloor("left again before localising");
   in_transit_ = true;
   exit_pose_[current_floor_] = current().currentPose();
 }
@@ -33,26 +102,35 @@ void FloorSessions::endTransit(int floor_id, double floor_height) {
   in_transit_ = false;
   if (floor_id == current_floor_) {
     // Back where it started (an aborted ride): continue, but re-check the pose first.
-    current().resumeAt(exit_pose_[floor_id]);
+    if (!current().floorGraph().nodes.empty()) current().resumeAt(exit_pose_[floor_id]);
     return;
   }
   current().optimize();
   current_floor_ = floor_id;
   auto it = floors_.find(floor_id);
   if (it == floors_.end()) {
-    common::logInfo(common::str("floor_sessions[", robot_, "]: new floor ", floor_id, " at ", floor_height, " m"));
+    common::logInfo(str("floor_sessions[", robot_, "]: new floor ", floor_id, " at ", floor_height, " m"));
     floors_[floor_id] = std::make_unique<FloorSlam>(options_, robot_, next_graph_id_++, floor_id, floor_height);
     return;
   }
+  if (it->second->floorGraph().nodes.empty()) return;  // nothing to localise in
   if (options_.relocalization.known_floor == "new_graph") {
-    common::logInfo(common::str("floor_sessions[", robot_, "]: back on floor ", floor_id,
-                                "; a new floor graph (the matcher aligns it)"));
-    retired_.push_back(std::move(it->second));
-    it->second = std::make_unique<FloorSlam>(options_, robot_, next_graph_id_++, floor_id, floor_height);
+    openNewGraphOfCurrentFloor("relocalization.known_floor: new_graph");
     return;
   }
-  common::logInfo(common::str("floor_sessions[", robot_, "]: back on floor ", floor_id, "; relocalising"));
-  it->second->resumeAt(exit_pose_.count(floor_id) ? exit_pose_[floor_id] : it->second->currentPose());
+  common::logInfo(str("floor_sessions[", robot_, "]: back on floor ", floor_id, "; localising globally"));
+  GlobalRelocalizationOptions g = options_.relocalization.global;
+  // Deterministic, but not the same stream for every arrival.
+  g.seed = g.seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(++arrivals_) * 0xC2B2AE3D27D4EB4FULL +
+           static_cast<std::uint64_t>(floor_id);
+  relocalizer_ = std::make_unique<GlobalRelocalizer>(it->second->floorGraph(), g, options_.loop_closure.matcher,
+                                                     options_.local_map.field,
+                                                     options_.local_map.max_insert_range);
+}
+
+void FloorSessions::flush() {
+  if (relocalizer_) openNewGraphOfCurrentFloor("the input ended before localising");
+  if (floors_.count(current_floor_)) current().optimize();
 }
 
 }  // namespace storey::mapping

@@ -1,8 +1,11 @@
 // One robot's floor graphs: the front end of the floor it is on, and the graphs of the
 // floors it has left. A ride (floor event) pauses mapping; arriving on a new floor opens a
-// new graph, arriving on a known floor resumes its graph after localising in its map
-// around where the robot left it, or (the default) opens a new graph of that floor for
-// the floor matcher to align (relocalization.known_floor).
+// new graph; arriving on a known floor (relocalization.known_floor: relocalize) buffers
+// the arriving scans while localising them globally in that floor's map
+// (GlobalRelocalizer) and then resumes its graph there. When global localisation does not
+// give a checked estimate (or known_floor is new_graph) a new graph of that floor is
+// opened for the floor matcher to align, and the buffered scans go into it: never a tie
+// on a guess.
 #pragma once
 
 #include <map>
@@ -11,16 +14,24 @@
 #include <vector>
 
 #include "storey/mapping/floor_slam.h"
+#include "storey/mapping/global_relocalizer.h"
 
 namespace storey::mapping {
+
+struct FloorSessionStats {
+  std::size_t global_relocalizations = 0;  // known floors resumed after global localisation
+  std::size_t fallbacks = 0;               // known floors given a new graph instead
+};
 
 class FloorSessions {
  public:
   FloorSessions(FloorSlamOptions options, std::string robot, int initial_floor = 0,
                 double initial_height = 0.0);
+  ~FloorSessions();
 
   // Passes the scan to the current floor's front end; while in transit, scans are
-  // ignored (returned as kSkipped with the reason "in transit").
+  // ignored (returned as kSkipped with the reason "in transit"); while relocalising they
+  // are buffered (kSkipped, "relocalising") and added once it is decided.
   ScanResult addScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry);
 
   // A ride or stair climb started: stop mapping until it ends.
@@ -28,24 +39,38 @@ class FloorSessions {
   // It ended on `floor_id`. The same floor resumes as it was; another floor is opened or
   // resumed (after relocalisation).
   void endTransit(int floor_id, double floor_height);
+  // End of input: a relocalisation still undecided falls back to a new graph (so no scan
+  // is lost), and the current floor is optimised.
+  void flush();
 
   bool inTransit() const { return in_transit_; }
+  bool relocalizing() const { return relocalizer_ != nullptr; }
+  const GlobalRelocalizer* relocalizer() const { return relocalizer_.get(); }
   int currentFloor() const { return current_floor_; }
   FloorSlam& current() { return *floors_.at(current_floor_); }
   const FloorSlam& current() const { return *floors_.at(current_floor_); }
   // The graph each floor is mapped into now (one per floor id).
   const std::map<int, std::unique_ptr<FloorSlam>>& floors() const { return floors_; }
-  // Earlier graphs of floors visited again (relocalization.known_floor: new_graph).
+  // Earlier graphs of floors visited again and not relocalised in (new_graph).
   const std::vector<std::unique_ptr<FloorSlam>>& retired() const { return retired_; }
+  const FloorSessionStats& stats() const { return stats_; }
+  // The result of the last global relocalisation attempt (accepted or not).
+  const RelocalizationResult& lastRelocalization() const { return last_relocalization_; }
 
  private:
+  void openNewGraphOfCurrentFloor(const std::string& why);
+
   FloorSlamOptions options_;
   std::string robot_;
   std::map<int, std::unique_ptr<FloorSlam>> floors_;
   std::vector<std::unique_ptr<FloorSlam>> retired_;
   std::map<int, geometry::Pose2> exit_pose_;  // where the robot left each floor
+  std::unique_ptr<GlobalRelocalizer> relocalizer_;
+  RelocalizationResult last_relocalization_;
+  FloorSessionStats stats_;
   int current_floor_ = 0;
   int next_graph_id_ = 0;
+  int arrivals_ = 0;  // seeds differ per arrival
   bool in_transit_ = false;
 };
 

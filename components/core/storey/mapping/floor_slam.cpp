@@ -102,6 +102,7 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
     r.min_score = n.getDouble("min_score", r.min_score, 0.0, 1.0);
     r.max_attempts = n.getInt("max_attempts", r.max_attempts, 1, 100000);
     r.known_floor = n.getChoice("known_floor", r.known_floor, {"new_graph", "relocalize"});
+    if (n.has("global")) r.global = readGlobalRelocalizationOptions(n.child("global"));
     n.finish();
   }
   if (node.has("optimizer")) o.optimizer = graph::readOptimizerOptions(node.child("optimizer"));
@@ -490,6 +491,55 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
     common::logDebug(str("floor_slam: no marginal covariance: ", ex.what()));
   }
   return true;
+}
+
+int FloorSlam::resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& scans, const Pose2& pose,
+                               const Eigen::Matrix3d& covariance) {
+  Impl& s = *impl_;
+  if (scans.empty()) throw std::invalid_argument("resumeLocalized: no scans");
+  if (floor_graph_.nodes.empty()) throw std::logic_error("resumeLocalized: the floor has no map");
+  // Which scans become nodes: the node-creation rule along the buffered odometry; the
+  // last (the localised one) always.
+  std::vector<std::size_t> keep;
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    if (!keep.empty()) {
+      const Pose2 step = scans[keep.back()].odometry.between(scans[i].odometry);
+      if (step.translation().norm() < options_.node.min_translation &&
+          std::abs(step.theta()) < options_.node.min_rotation)
+        continue;
+    }
+    keep.push_back(i);
+  }
+  if (keep.back() != scans.size() - 1) keep.back() = scans.size() - 1;
+  // The tie goes to the old node nearest the localised pose (before the chain exists).
+  const floor::FloorNode anchor = floor_graph_.nodes[floor_graph_.nearestNodeIndex(pose.translation())];
+  const Pose2& last_odometry = scans.back().odometry;
+  int previous = -1;
+  Pose2 previous_pose;
+  for (std::size_t i : keep) {
+    const Pose2 p = pose * last_odometry.between(scans[i].odometry);
+    appendNode(scans[i].scan, scans[i].odometry, p);
+    const int id = floor_graph_.nodes.back().id;
+    if (previous >= 0) {
+      const Pose2 motion = previous_pose.between(p);
+      appendEdge(previous, id, motion, odometryInformation(motion, options_.odometry), floor::EdgeKind::kOdometry);
+    }
+    previous = id;
+    previous_pose = p;
+  }
+  appendEdge(anchor.id, previous, anchor.pose.between(pose),
+             safeInformation(rotateCovariance(covariance, anchor.pose.theta())), floor::EdgeKind::kScanMatch);
+  covariance_ = covariance;
+  relocalize_ = false;
+  ++stats_.relocalizations;
+  s.have_last = true;
+  s.have_odometry = true;
+  s.last_stamp = scans.back().scan.stamp;
+  s.last_odometry = last_odometry;
+  s.beam_count = scans.back().scan.size();
+  s.local_dirty = true;
+  s.nodes_since_attempt = 0;
+  return previous;
 }
 
 ScanResult FloorSlam::relocalizeWith(const sensor::LaserScan& scan, const Pose2& odometry,

@@ -26,6 +26,7 @@
 #include "storey/graph/pose_graph.h"
 #include "storey/grid/likelihood_field.h"
 #include "storey/grid/occupancy_grid.h"
+#include "storey/mapping/global_relocalizer.h"
 #include "storey/mapping/scan_matcher.h"
 #include "storey/sensor/laser_scan.h"
 
@@ -72,20 +73,19 @@ struct LoopClosureOptions {
 };
 
 struct RelocalizationOptions {
+  // Local search (FloorSlam::resumeAt: an aborted ride, back on the floor it left).
   double linear_window = 3.0;    // m around the expected arrival point
   double angular_window = M_PI;  // rad
   double angular_step = 0.01;    // rad
   double min_score = 0.6;
   int max_attempts = 10;  // scans tried before resuming on the guess alone
-  // Arriving on a floor mapped before: "new_graph" starts a new floor graph of that floor
-  // and leaves its alignment to the floor matcher (global localisation, RANSAC), which
-  // does not depend on where the robot is expected to arrive; "relocalize" resumes the old
-  // graph after a scan-matching search around the expected arrival (the way it left).
-  // A robot that leaves by the elevator and returns by the stairs arrives far from the
-  // expected point, where the local search fails (then it resumes on the guess with a weak
-  // tie); new_graph avoids that but needs the matcher to align the new graph, which on
-  // the bundled building it does less often. Hence relocalize is the default for now.
+  // Arriving on a floor mapped before: "relocalize" localises the arriving scans globally
+  // in that floor's map (GlobalRelocalizer: the matcher's particle filter, then a
+  // refinement and uniqueness check) and resumes the old graph there; when that does not
+  // succeed it falls back to "new_graph": a new graph of the floor, aligned later by the
+  // floor matcher.
   std::string known_floor = "relocalize";
+  GlobalRelocalizationOptions global;
 };
 
 struct FloorSlamOptions {
@@ -157,6 +157,13 @@ class FloorSlam {
   // the floor: the elevator) before mapping continues.
   void resumeAt(const geometry::Pose2& guess);
   bool awaitingRelocalization() const { return relocalize_; }
+  // Resumes this floor after global relocalisation: `scans` (in time order) were recorded
+  // since the arrival, and the last of them was localised at `pose` with `covariance`
+  // (world frame). The scans that moved enough become a chain of nodes placed by odometry
+  // relative to the last; the last is tied to the nearest old node by a scan-match edge
+  // (information from `covariance`). Returns the last node's id.
+  int resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& scans, const geometry::Pose2& pose,
+                      const Eigen::Matrix3d& covariance);
 
   const floor::FloorGraph& floorGraph() const { return floor_graph_; }
   const graph::PoseGraph& poseGraph() const { return pose_graph_; }

@@ -55,6 +55,7 @@ void FloorMapperComponent::onConfigure() {
     sessions_ = std::make_unique<mapping::FloorSessions>(options_.slam, options_.robot, options_.initial_floor,
                                                          options_.initial_height);
     odometry_.clear();
+    pending_scans_.clear();
     sequence_.clear();
     published_ = 0;
   }
@@ -89,6 +90,7 @@ void FloorMapperComponent::onOdometry(const nav_msgs::msg::Odometry& message) {
   if (!std::isfinite(sample.stamp) || !sample.pose.isFinite()) return;
   if (!odometry_.empty() && sample.stamp < odometry_.back().stamp) return;  // out of order
   odometry_.push_back(sample);
+  processPendingScans(false);
   while (odometry_.size() > 2 && odometry_.front().stamp < sample.stamp - 10.0) odometry_.pop_front();
 }
 
@@ -103,9 +105,29 @@ void FloorMapperComponent::onScan(const sensor_msgs::msg::LaserScan& message) {
   if (state() != runtime::LifecycleState::kActive) return;
   std::lock_guard<std::mutex> lock(mutex_);
   auto mounting = laser_offsets_.find(message.header().frame_id());
-  const sensor::LaserScan scan =
-      runtime::fromMessage(message, mounting == laser_offsets_.end() ? geometry::Pose2() : mounting->second);
   if (!sessions_) return;
+  pending_scans_.push_back(
+      runtime::fromMessage(message, mounting == laser_offsets_.end() ? geometry::Pose2() : mounting->second));
+  processPendingScans(false);
+}
+
+// Scan and odometry topics are delivered independently; a scan handled before the
+// odometry around its stamp has arrived would get another pose, or be dropped, depending
+// on thread timing. So a scan waits until odometry at or after its stamp is here (or
+// kMaxScanWait of later scans says none is coming), and the result does not depend on
+// how the topics interleave.
+void FloorMapperComponent::processPendingScans(bool all) {
+  constexpr double kMaxScanWait = 5.0;  // s of stamps
+  while (!pending_scans_.empty()) {
+    const sensor::LaserScan& scan = pending_scans_.front();
+    const bool odometry_after = !odometry_.empty() && odometry_.back().stamp >= scan.stamp;
+    if (!all && !odometry_after && pending_scans_.back().stamp - scan.stamp <= kMaxScanWait) return;
+    addScan(scan);
+    pending_scans_.pop_front();
+  }
+}
+
+void FloorMapperComponent::addScan(const sensor::LaserScan& scan) {
   // Odometry at the scan's stamp: interpolated between the samples around it, or the
   // nearest one within max_odometry_gap.
   const sensor::OdometrySample* before = nullptr;
@@ -140,6 +162,12 @@ void FloorMapperComponent::onFloorEvent(const storey_msgs::msg::FloorEvent& mess
   }
   std::lock_guard<std::mutex> lock(mutex_);
   if (!sessions_) return;
+  // Scans from before the event belong to the floor as it was.
+  const double stamp = runtime::fromTimeMessage(message.stamp());
+  while (!pending_scans_.empty() && pending_scans_.front().stamp <= stamp) {
+    addScan(pending_scans_.front());
+    pending_scans_.pop_front();
+  }
   if (event.transit_started) {
     sessions_->beginTransit();
   } else {
@@ -151,8 +179,9 @@ void FloorMapperComponent::onFloorEvent(const storey_msgs::msg::FloorEvent& mess
 bool FloorMapperComponent::flush(double timeout_s) {
   (void)timeout_s;  // optimisation is synchronous
   std::lock_guard<std::mutex> lock(mutex_);
-  if (sessions_ && sessions_->floors().count(sessions_->currentFloor())) {
-    sessions_->current().optimize();
+  if (sessions_) {
+    processPendingScans(true);
+    sessions_->flush();
     publishUpdates();
   }
   return true;

@@ -1,0 +1,193 @@
+#include "storey/mapping/global_relocalizer.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "storey/common/log.h"
+#include "storey/grid/occupancy_grid.h"
+
+namespace storey::mapping {
+
+using common::str;
+using geometry::Pose2;
+
+namespace {
+
+constexpr int kSearchLevels = 7;  // pyramid depth: windows of a few metres start coarse
+constexpr int kSectors = 4;       // the whole-map search splits headings into sectors
+
+}  // namespace
+
+GlobalRelocalizationOptions readGlobalRelocalizationOptions(const common::ConfigNode& node) {
+  GlobalRelocalizationOptions o;
+  if (node.has("filter")) o.filter = matching::readParticleFilterOptions(node.child("filter"));
+  if (node.has("likelihood_field"))
+    o.likelihood_field = grid::readLikelihoodFieldOptions(node.child("likelihood_field"));
+  o.map_resolution = node.getDouble("map_resolution", o.map_resolution, 0.01, 1.0);
+  o.feed_translation = node.getDouble("feed_translation", o.feed_translation, 0.0, 100.0);
+  o.feed_rotation = node.getDouble("feed_rotation", o.feed_rotation, 0.0, M_PI);
+  o.min_sequence = node.getInt("min_sequence", o.min_sequence, 1, 100000);
+  o.max_sequence = node.getInt("max_sequence", o.max_sequence, 1, 100000);
+  if (o.max_sequence < o.min_sequence) node.fail("max_sequence", "must be at least min_sequence");
+  o.max_scans = node.getInt("max_scans", o.max_scans, 1, 10000000);
+  o.refine_scans = node.getInt("refine_scans", o.refine_scans, 1, 100000);
+  o.refine_linear_window = node.getDouble("refine_linear_window", o.refine_linear_window, 0.0, 100.0);
+  o.refine_angular_window = node.getDouble("refine_angular_window", o.refine_angular_window, 0.0, M_PI);
+  o.max_refine_correction = node.getDouble("max_refine_correction", o.max_refine_correction, 0.0, 100.0);
+  o.min_score = node.getDouble("min_score", o.min_score, 0.0, 1.0);
+  o.ambiguity_ratio = node.getDouble("ambiguity_ratio", o.ambiguity_ratio, 0.0, 10.0);
+  o.ambiguity_distance = node.getDouble("ambiguity_distance", o.ambiguity_distance, 0.0, 1000.0);
+  o.ambiguity_angle = node.getDouble("ambiguity_angle", o.ambiguity_angle, 0.0, M_PI);
+  o.search_tile = node.getDouble("search_tile", o.search_tile, 0.5, 1000.0);
+  o.search_point_distance = node.getDouble("search_point_distance", o.search_point_distance, 0.0, 10.0);
+  o.seed = static_cast<std::uint64_t>(node.get<std::int64_t>("seed", static_cast<std::int64_t>(o.seed)));
+  node.finish();
+  return o;
+}
+
+struct GlobalRelocalizer::Impl {
+  Impl(const grid::OccupancyGrid& grid, const GlobalRelocalizationOptions& o,
+       const grid::LikelihoodFieldOptions& match_field, const ScanMatcherOptions& matcher_options)
+      : map(grid, o.likelihood_field),
+        filter(map, o.filter, o.seed),
+        target(grid, match_field, kSearchLevels) {
+    ScanMatcherOptions m = matcher_options;
+    m.translation_penalty = 0.0;  // no prediction to prefer: the best fit anywhere
+    m.rotation_penalty = 0.0;
+    m.min_score = 0.0;            // scores are judged here, not by the matcher
+    refiner = ScanMatcher(m);
+    m.angular_step = 0.01;        // the whole-map search only compares modes
+    searcher = ScanMatcher(m);
+  }
+  matching::LocalizationMap map;
+  matching::ParticleFilter filter;
+  MatchTarget target;
+  ScanMatcher refiner, searcher;
+  int fed_since_start = 0;
+};
+
+GlobalRelocalizer::GlobalRelocalizer(const floor::FloorGraph& graph, GlobalRelocalizationOptions options,
+                                     ScanMatcherOptions matcher_options, const grid::LikelihoodFieldOptions& match_field,
+                                     double max_insert_range)
+    : options_(std::move(options)) {
+  grid::OccupancyGridOptions go;
+  go.resolution = options_.map_resolution;
+  go.max_insert_range = max_insert_range;
+  grid::OccupancyGrid grid(go);
+  for (const auto& node : graph.nodes) grid.insertScan(node.scan, node.pose);
+  impl_ = std::make_unique<Impl>(grid, options_, match_field, matcher_options);
+}
+
+GlobalRelocalizer::~GlobalRelocalizer() = default;
+
+RelocalizationStatus GlobalRelocalizer::add(const sensor::LaserScan& scan, const Pose2& odometry) {
+  if (status_ != RelocalizationStatus::kSearching) return status_;
+  buffer_.push_back({scan, odometry});
+  Impl& s = *impl_;
+  if (!fed_.empty()) {
+    const Pose2 step = buffer_[fed_.back()].odometry.between(odometry);
+    if (step.translation().norm() < options_.feed_translation && std::abs(step.theta()) < options_.feed_rotation) {
+      if (static_cast<int>(buffer_.size()) >= options_.max_scans) status_ = RelocalizationStatus::kFailed;
+      return status_;
+    }
+  }
+  if (fed_.empty() || s.fed_since_start >= options_.max_sequence) {
+    // (Re)start from particles spread over the whole floor.
+    s.filter.initializeUniform();
+    s.fed_since_start = 0;
+    ++result_.filter_runs;
+    fed_.clear();
+  } else {
+    s.filter.predict(buffer_[fed_.back()].odometry.between(odometry));
+  }
+  fed_.push_back(buffer_.size() - 1);
+  ++s.fed_since_start;
+  s.filter.update(scan);
+  const matching::FilterState state = s.filter.state();
+  common::logDebug(str("global_relocalizer: scan ", buffer_.size(), " run ", result_.filter_runs, " fed ",
+                       s.fed_since_start, ": ", state.particles, " particles, mass ", state.mass_within, " at (",
+                       state.mean.x(), ", ", state.mean.y(), ", ", state.mean.theta(), ")"));
+  if (s.fed_since_start >= options_.min_sequence && state.converged) {
+    ++result_.candidates;
+    if (checkCandidate(state.mean)) {
+      status_ = RelocalizationStatus::kLocalized;
+      return status_;
+    }
+    common::logDebug(str("global_relocalizer: candidate (", state.mean.x(), ", ", state.mean.y(), ", ",
+                         state.mean.theta(), ") refused: ", result_.last_problem));
+    s.fed_since_start = options_.max_sequence;  // restart with the next fed scan
+  } else {
+    s.filter.resampleIfNeeded();
+  }
+  if (static_cast<int>(buffer_.size()) >= options_.max_scans) status_ = RelocalizationStatus::kFailed;
+  return status_;
+}
+
+bool GlobalRelocalizer::checkCandidate(const Pose2& estimate) {
+  Impl& s = *impl_;
+  // The last fed scans, placed by odometry in the frame of the last one.
+  const Pose2& last_odometry = buffer_[fed_.back()].odometry;
+  std::vector<Eigen::Vector2d> points;
+  const std::size_t first = fed_.size() > static_cast<std::size_t>(options_.refine_scans)
+                                ? fed_.size() - options_.refine_scans
+                                : 0;
+  for (std::size_t i = first; i < fed_.size(); ++i) {
+    const Buffered& b = buffer_[fed_[i]];
+    const Pose2 relative = last_odometry.between(b.odometry);
+    for (const auto& p : b.scan.pointsInRobotFrame()) points.push_back(relative.transformPoint(p));
+  }
+  const std::vector<Eigen::Vector2d> dense =
+      filterPoints(points, s.refiner.options().point_filter_distance);
+  const MatchResult refined =
+      s.refiner.match(s.target, dense, estimate, options_.refine_linear_window, options_.refine_angular_window);
+  if (!refined.success) {
+    result_.last_problem = str("refinement failed: ", refined.problem);
+    return false;
+  }
+  const double correction = (refined.pose.translation() - estimate.translation()).norm();
+  if (correction > options_.max_refine_correction) {
+    result_.last_problem = str("refinement moved the estimate by ", correction, " m");
+    return false;
+  }
+  if (refined.score < options_.min_score) {
+    result_.last_problem = str("refined score ", refined.score, " < ", options_.min_score);
+    return false;
+  }
+
+  // Uniqueness: the best fit of the same points anywhere else on the floor.
+  const std::vector<Eigen::Vector2d> sparse = filterPoints(points, options_.search_point_distance);
+  const MatchResult own = s.searcher.correlativeSearch(s.target, sparse, refined.pose, 0.1, 0.05);
+  double own_score = own.correlative_score;
+  double best_other = 0.0;
+  const grid::GridFrame& frame = s.target.field().frame();
+  const double half = 0.5 * options_.search_tile;
+  const double x_end = frame.origin_x + frame.width * frame.resolution;
+  const double y_end = frame.origin_y + frame.height * frame.resolution;
+  const double sector = M_PI / kSectors;  // half width of one heading sector
+  for (double cy = frame.origin_y + half; cy - half < y_end; cy += options_.search_tile) {
+    for (double cx = frame.origin_x + half; cx - half < x_end; cx += options_.search_tile) {
+      for (int k = 0; k < kSectors; ++k) {
+        const Pose2 centre(cx, cy, -M_PI + sector + 2.0 * sector * k);
+        const MatchResult r = s.searcher.correlativeSearch(s.target, sparse, centre, half, sector);
+        if (r.correlative_score <= 0.0) continue;
+        const bool near = (r.pose.translation() - refined.pose.translation()).norm() <= options_.ambiguity_distance &&
+                          std::abs(geometry::angleDiff(r.pose.theta(), refined.pose.theta())) <=
+                              options_.ambiguity_angle;
+        if (near) own_score = std::max(own_score, r.correlative_score);
+        else best_other = std::max(best_other, r.correlative_score);
+      }
+    }
+  }
+  result_.own = own_score;
+  result_.best_other = best_other;
+  if (best_other >= options_.ambiguity_ratio * own_score) {
+    result_.last_problem = str("ambiguous: a pose elsewhere scores ", best_other, " against ", own_score);
+    return false;
+  }
+  result_.pose = refined.pose;
+  result_.covariance = refined.covariance;
+  result_.score = refined.score;
+  return true;
+}
+
+}  // namespace storey::mapping

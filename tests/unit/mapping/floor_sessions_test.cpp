@@ -1,0 +1,192 @@
+// Floor sessions: a robot that leaves a floor and comes back elsewhere is localised
+// globally in that floor's map before its graph is resumed; an ambiguous floor gives a new
+// graph instead of a wrong tie.
+#include "storey/mapping/floor_sessions.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "synthetic_world.h"
+#include "test_support.h"
+
+namespace storey::mapping {
+namespace {
+
+using geometry::Pose2;
+
+std::vector<Pose2> legs(const std::vector<Eigen::Vector2d>& waypoints, double heading0, double step = 0.2) {
+  std::vector<Pose2> poses;
+  double heading = heading0;
+  for (std::size_t i = 0; i + 1 < waypoints.size(); ++i) {
+    const Eigen::Vector2d d = waypoints[i + 1] - waypoints[i];
+    const double next = std::atan2(d.y(), d.x());
+    const double turn = geometry::angleDiff(next, heading);
+    for (int k = 1; k <= 4; ++k) poses.emplace_back(waypoints[i].x(), waypoints[i].y(), heading + turn * k / 4);
+    heading = next;
+    const int n = static_cast<int>(std::ceil(d.norm() / step));
+    for (int k = 1; k <= n; ++k)
+      poses.emplace_back(waypoints[i].x() + d.x() * k / n, waypoints[i].y() + d.y() * k / n, heading);
+  }
+  return poses;
+}
+
+struct Robot {
+  FloorSessions sessions;
+  Pose2 odometry, truth;
+  double t = 0.0;
+  Robot(const FloorSlamOptions& o, const Pose2& start) : sessions(o, "robot", 0, 0.0), truth(start) {}
+  std::vector<ScanResult> drive(const test::World& world, const std::vector<Pose2>& poses) {
+    std::vector<ScanResult> results;
+    for (const auto& p : poses) {
+      odometry = odometry * truth.between(p);
+      truth = p;
+      results.push_back(sessions.addScan(world.scan(p, t += 0.1), odometry));
+    }
+    return results;
+  }
+  // A ride: the odometry goes on (the robot turns and moves in the cabin/stairs).
+  void ride(int floor, double height, const Pose2& arrival) {
+    sessions.beginTransit();
+    odometry = odometry * Pose2(0.3, 0.1, 1.0);
+    truth = arrival;
+    sessions.endTransit(floor, height);
+  }
+};
+
+// Office with a corridor-like north part: asymmetric, 16 m x 10 m.
+test::World asymmetricFloor() {
+  test::World w;
+  w.addBox(0, 0, 16, 10);
+  w.addWall(0, 6, 5, 6);
+  w.addWall(6.5, 6, 16, 6);
+  w.addWall(5, 0, 5, 3.5);
+  w.addWall(10, 0, 10, 2.5);
+  w.addBox(2, 1.5, 3, 2.3);
+  w.addBox(12, 7.5, 13.5, 8.2);
+  w.addBox(7, 3, 7.6, 3.6);
+  return w;
+}
+
+// Symmetric under a 180 degree turn about (8, 5): a robot seeing part of it cannot tell
+// which half it is in.
+test::World symmetricFloor() {
+  test::World w;
+  w.addBox(0, 0, 16, 10);
+  w.addWall(0, 6, 5, 6);
+  w.addWall(16, 4, 11, 4);
+  w.addWall(5, 0, 5, 2.5);
+  w.addWall(11, 10, 11, 7.5);
+  w.addBox(2, 1.5, 3, 2.3);
+  w.addBox(13, 7.7, 14, 8.5);
+  return w;
+}
+
+test::World upperFloor() {
+  test::World w;
+  w.addBox(0, 0, 8, 6);
+  w.addBox(3, 2, 3.5, 2.5);
+  return w;
+}
+
+TEST(FloorSessions, ReturningRobotIsLocalisedGloballyAndResumesItsGraph) {
+  const test::World floor0 = asymmetricFloor();
+  const Pose2 start(1, 8, 0);
+  Robot robot(FloorSlamOptions{}, start);
+  robot.drive(floor0, legs({{1, 8}, {14, 8}, {14, 4}, {8, 4}, {8, 1.5}, {2, 4}}, 0.0));
+  const std::size_t nodes_before = robot.sessions.current().floorGraph().nodes.size();
+  robot.ride(1, 3.0, Pose2(1, 1, 0.5));
+  robot.drive(upperFloor(), legs({{1, 1}, {6, 1}, {6, 4}}, 0.5));
+  // Back on floor 0 far from where it left (2, 4), heading unknown to the mapper.
+  robot.ride(0, 0.0, Pose2(15, 3, M_PI));
+  EXPECT_TRUE(robot.sessions.relocalizing());
+  const auto results = robot.drive(floor0, legs({{15, 3}, {11, 3}, {11, 5}, {6, 5}}, M_PI));
+  EXPECT_FALSE(robot.sessions.relocalizing());
+  EXPECT_EQ(robot.sessions.stats().global_relocalizations, 1u);
+  EXPECT_EQ(robot.sessions.stats().fallbacks, 0u);
+  EXPECT_TRUE(robot.sessions.retired().empty());
+  EXPECT_EQ(robot.sessions.floors().size(), 2u);  // the same graph of floor 0, not a third
+  std::size_t first = results.size();
+  for (std::size_t i = 0; i < results.size(); ++i)
+    if (results[i].relocalized) first = i;
+  ASSERT_LT(first, results.size());
+  // The floor frame is the first pose; the relocalised pose is where the robot was.
+  const auto& graph = robot.sessions.current().floorGraph();
+  Pose2 truth_at = legs({{15, 3}, {11, 3}, {11, 5}, {6, 5}}, M_PI)[first];
+  const Pose2 expected = start.between(truth_at);
+  EXPECT_LT((results[first].pose.translation() - expected.translation()).norm(), 0.05);
+  EXPECT_LT(std::abs(geometry::angleDiff(results[first].pose.theta(), expected.theta())), 0.02);
+  EXPECT_GT(graph.nodes.size(), nodes_before + 1);  // the buffered chain and the tie
+  bool tie = false;
+  for (const auto& e : graph.edges)
+    if (e.kind == floor::EdgeKind::kScanMatch && e.from < static_cast<int>(nodes_before) &&
+        e.to >= static_cast<int>(nodes_before))
+      tie = true;
+  EXPECT_TRUE(tie);
+  // Mapping goes on in the old frame: the last pose is where the robot is.
+  robot.sessions.flush();
+  const Pose2 last = robot.sessions.current().currentPose();
+  const Pose2 last_expected = start.between(robot.truth);
+  EXPECT_LT((last.translation() - last_expected.translation()).norm(), 0.1);
+  // Every node of the chain is where it was recorded.
+  for (const auto& node : graph.nodes) EXPECT_TRUE(node.pose.isFinite());
+}
+
+TEST(FloorSessions, SymmetricFloorGivesANewGraphNotAWrongTie) {
+  const test::World floor0 = symmetricFloor();
+  for (std::uint64_t seed : {1u, 2u}) {
+    FloorSlamOptions options;
+    options.relocalization.global.seed = seed;
+    const Pose2 start(1, 8, 0);
+    Robot robot(options, start);
+    // Both halves mapped: the map is as symmetric as the floor.
+    robot.drive(floor0, legs({{1, 8}, {9, 8}, {8, 5}, {15, 5}, {8, 5}, {2, 4}, {7, 3}, {8, 1}, {15, 1}}, 0.0));
+    robot.ride(1, 3.0, Pose2(1, 1, 0.5));
+    robot.drive(upperFloor(), legs({{1, 1}, {6, 1}}, 0.5));
+    // Return where the symmetric view is as good as the true one.
+    const auto back = legs({{15, 2}, {8, 2}, {8, 5}, {13, 6}}, M_PI);
+    robot.ride(0, 0.0, back.front());
+    const auto results = robot.drive(floor0, back);
+    robot.sessions.flush();
+    const auto& stats = robot.sessions.stats();
+    EXPECT_EQ(stats.global_relocalizations + stats.fallbacks, 1u) << "seed " << seed;
+    // Whatever it decided, a relocalised pose must be the true one (never the mirror).
+    for (std::size_t i = 0; i < results.size(); ++i) {
+      if (!results[i].relocalized) continue;
+      const Pose2 expected = start.between(back[i]);
+      EXPECT_LT((results[i].pose.translation() - expected.translation()).norm(), 0.1) << "seed " << seed;
+    }
+    // Here the views are symmetric all along: it must not commit.
+    EXPECT_EQ(stats.global_relocalizations, 0u) << "seed " << seed;
+    EXPECT_EQ(robot.sessions.retired().size(), 1u) << "seed " << seed;
+    EXPECT_FALSE(robot.sessions.current().floorGraph().nodes.empty());
+  }
+}
+
+TEST(FloorSessions, NewGraphModeNeverRelocalises) {
+  FloorSlamOptions options;
+  options.relocalization.known_floor = "new_graph";
+  Robot robot(options, Pose2(1, 8, 0));
+  robot.drive(asymmetricFloor(), legs({{1, 8}, {8, 8}}, 0.0));
+  robot.ride(1, 3.0, Pose2(1, 1, 0));
+  robot.drive(upperFloor(), legs({{1, 1}, {4, 1}}, 0.0));
+  robot.ride(0, 0.0, Pose2(8, 8, M_PI));
+  EXPECT_FALSE(robot.sessions.relocalizing());
+  EXPECT_EQ(robot.sessions.retired().size(), 1u);
+  EXPECT_EQ(robot.sessions.floors().size(), 2u);
+}
+
+TEST(GlobalRelocalizationOptions, ReadStrictly) {
+  const auto o = readGlobalRelocalizationOptions(
+      common::ConfigNode::loadString("min_sequence: 4\nmax_sequence: 30\nfilter: {beams: 40}\nseed: 7\n"));
+  EXPECT_EQ(o.min_sequence, 4);
+  EXPECT_EQ(o.filter.beams, 40);
+  EXPECT_EQ(o.seed, 7u);
+  EXPECT_THROW(readGlobalRelocalizationOptions(common::ConfigNode::loadString("min_sequenc: 4\n")),
+               common::ConfigError);
+  EXPECT_THROW(readGlobalRelocalizationOptions(common::ConfigNode::loadString("min_sequence: 9\nmax_sequence: 5\n")),
+               common::ConfigError);
+}
+
+}  // namespace
+}  // namespace storey::mapping
