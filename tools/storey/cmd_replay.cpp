@@ -24,6 +24,9 @@ int run_replay(Args& args) {
       .option("prefix", "P", "prepended to every topic name", "")
       .option("domain", "ID", "DDS domain id (default: ROS_DOMAIN_ID, else 0)", "-1")
       .option("wait", "SECONDS", "wait this long before publishing, for subscribers to appear", "1")
+      .option("subscribers", "N",
+              "first wait until each topic of a robot has a subscriber and its scan topic N, then --wait",
+              "0")
       .flag("quiet", "no progress bar");
   if (!args.parse()) return 0;
   const std::string input = args.positional(0, "INPUT");
@@ -33,6 +36,8 @@ int run_replay(Args& args) {
   options.log_robot = args.get("robot");
   options.topic_prefix = args.get("prefix");
   options.settle_seconds = args.getDouble("wait");
+  options.min_subscribers = static_cast<int>(args.getInt("subscribers"));
+  if (options.min_subscribers < 0) throw UsageError("--subscribers must not be negative");
   runtime::ContextOptions context_options;
   context_options.domain_id = static_cast<int>(args.getInt("domain"));
   context_options.participant_name = "storey_replay";

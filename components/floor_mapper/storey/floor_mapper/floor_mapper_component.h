@@ -55,11 +55,14 @@ class FloorMapperComponent : public runtime::Component {
   void onFloorEvent(const storey_msgs::msg::FloorEvent& message);
   void onTfStatic(const tf2_msgs::msg::TFMessage& message);
   void publishUpdates();  // with mutex_ held
+  void processPendingScans(bool all);  // with mutex_ held
+  void addScan(const sensor::LaserScan& scan);  // with mutex_ held
 
   FloorMapperComponentOptions options_;
   mutable std::mutex mutex_;
   std::unique_ptr<mapping::FloorSessions> sessions_;
   std::deque<sensor::OdometrySample> odometry_;
+  std::deque<sensor::LaserScan> pending_scans_;  // waiting for odometry past their stamps
   std::map<std::string, geometry::Pose2> laser_offsets_;  // laser frame -> mounting on base_link
   std::map<int, std::uint32_t> sequence_;  // per floor graph
   std::shared_ptr<runtime::Publisher<storey_msgs::msg::FloorGraphUpdate,

@@ -5,6 +5,7 @@
 // published is not published again (re-matching a grown graph may confirm it).
 #pragma once
 
+#include <chrono>
 #include <condition_variable>
 #include <map>
 #include <memory>
@@ -33,6 +34,10 @@ struct FloorMatcherComponentOptions {
   // false: match only when flushed (storey map), so the result does not depend on when
   // updates arrived while the worker was busy.
   bool match_while_growing = true;
+  // > 0: match once no floor-graph update has arrived for this long (s) and a graph grew
+  // since its last matching, so a deployment matches the final graphs when input ends
+  // (and a restarted matcher re-matches what its topic history gave it).
+  double match_after_idle = 2.0;
   int min_nodes = 10;  // graphs smaller than this are not matched yet
   matching::FloorMatcherOptions matcher;
 };
@@ -65,6 +70,8 @@ class FloorMatcherComponent : public runtime::Component {
  private:
   void onUpdate(const storey_msgs::msg::FloorGraphUpdate& message);
   bool grewEnough(const floor::FloorGraph& graph) const;  // caller holds mutex_
+  bool grewSinceMatched() const;                          // caller holds mutex_
+  void onIdleCheck();
   void workerLoop();
   void matchOnce(std::unique_lock<std::mutex>& lock);
   void stopWorker();
@@ -80,6 +87,7 @@ class FloorMatcherComponent : public runtime::Component {
   std::set<std::tuple<int, int, int, int>> published_;
   std::uint32_t next_constraint_id_ = 0;
   bool pending_ = false;
+  std::chrono::steady_clock::time_point last_update_;
   bool busy_ = false;
   bool stop_ = true;
   std::thread worker_;

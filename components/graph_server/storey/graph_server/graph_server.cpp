@@ -1,5 +1,6 @@
 #include "storey/graph_server/graph_server.h"
 
+#include <algorithm>
 #include <chrono>
 
 #include "storey/common/log.h"
@@ -91,16 +92,60 @@ void GraphServer::stopWorker() {
   if (worker_.joinable()) worker_.join();
 }
 
+namespace {
+
+// True when applying `d` would change nothing (every node, edge and pose already held).
+bool changesNothing(const building::BuildingGraph& building, const building::FloorGraphDelta& d) {
+  auto it = building.floorGraphs().find(d.graph_id);
+  if (it == building.floorGraphs().end()) return false;
+  const floor::FloorGraph& g = it->second;
+  if (g.robot != d.robot || g.floor_id != d.floor_id || g.floor_height != d.floor_height) return false;
+  for (const auto& node : d.new_nodes)
+    if (!g.findNode(node.id)) return false;
+  for (const auto& edge : d.new_edges) {
+    const bool held = std::any_of(g.edges.begin(), g.edges.end(), [&](const floor::FloorEdge& e) {
+      return e.from == edge.from && e.to == edge.to && e.kind == edge.kind;
+    });
+    if (!held) return false;
+  }
+  for (const auto& [id, pose] : d.poses) {
+    const floor::FloorNode* node = g.findNode(id);
+    if (!node || !(node->pose.x() == pose.x() && node->pose.y() == pose.y() && node->pose.theta() == pose.theta()))
+      return false;
+  }
+  return true;
+}
+
+// The same pair of nodes constrained again (matching is repeated; ids restart with the
+// matcher).
+bool holdsConstraint(const building::BuildingGraph& building, const building::InterGraphConstraint& c) {
+  for (const auto& held : building.constraints())
+    if (held.graph_from == c.graph_from && held.node_from == c.node_from && held.graph_to == c.graph_to &&
+        held.node_to == c.node_to)
+      return true;
+  return false;
+}
+
+}  // namespace
+
 void GraphServer::accept(const building::JournalRecord& record) {
   std::lock_guard<std::mutex> lock(mutex_);
   // Check, journal, then apply: a bad record changes nothing and is never journalled.
   if (const auto* d = std::get_if<building::FloorGraphDelta>(&record)) {
     building::checkDelta(building_, *d);
+    if (changesNothing(building_, *d)) {
+      ++stats_.duplicates_ignored;
+      return;
+    }
     if (journal_) journal_->append(record);
     building::applyDelta(building_, *d);
     ++stats_.updates_accepted;
   } else {
     const auto& constraint = std::get<building::InterGraphConstraint>(record);
+    if (holdsConstraint(building_, constraint)) {
+      ++stats_.duplicates_ignored;
+      return;
+    }
     building_.addConstraint(constraint);  // validates
     if (journal_) {
       try {

@@ -40,6 +40,9 @@ struct GraphServerStats {
   std::uint64_t rejected = 0;
   std::uint64_t optimisations = 0;
   std::uint64_t replayed_from_journal = 0;
+  // Already held (a restarted server gets its publishers' whole history again; a
+  // restarted matcher re-publishes what it finds again): ignored, not journalled.
+  std::uint64_t duplicates_ignored = 0;
 };
 
 class GraphServer : public runtime::Component {

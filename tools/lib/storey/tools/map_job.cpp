@@ -212,6 +212,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
                                                            // depend on thread timing, and the same input
                                                            // and seed must give the same building.
                                                            n["match_while_growing"] = false;
+                                                           n["match_after_idle"] = 0.0;
                                                          }),
                                      "floor_matcher"));
   pipeline.push_back(registry.create("graph_server", context,

@@ -126,6 +126,15 @@ SensorReplayer::Publishers& SensorReplayer::publishersFor(const std::string& rob
   auto& slot = publishers_[robot];
   if (!slot) {
     slot = std::make_unique<Publishers>(context_, options_.topic_prefix + robot);
+    if (options_.min_subscribers > 0) {
+      const double t = options_.subscriber_timeout;
+      const bool matched = slot->scan.waitForSubscribers(options_.min_subscribers, t) &&
+                           slot->odom.waitForSubscribers(1, t) && slot->pressure.waitForSubscribers(1, t) &&
+                           slot->imu.waitForSubscribers(1, t);
+      if (!matched)
+        throw std::runtime_error("replay: no " + std::to_string(options_.min_subscribers) +
+                                 " subscribers on the topics of '" + robot + "' within " + std::to_string(t) + " s");
+    }
     if (options_.settle_seconds > 0)
       std::this_thread::sleep_for(std::chrono::duration<double>(options_.settle_seconds));
   }

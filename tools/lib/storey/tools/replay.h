@@ -23,6 +23,11 @@ struct ReplayOptions {
   std::string log_robot = "robot";   // CARMEN logs carry no robot name
   std::string topic_prefix;          // prepended to every topic ("" -> "<robot>/scan")
   double settle_seconds = 0.3;       // wait after creating publishers, for discovery
+  // > 0: before a robot's first message, wait until each of its topics has a subscriber
+  // and its scan topic this many (e.g. detector + mapper), then settle_seconds; so a
+  // deployment started beforehand misses nothing (throws after subscriber_timeout).
+  int min_subscribers = 0;
+  double subscriber_timeout = 60.0;
   // Called after each message is published (e.g. to wait until subscribers processed it).
   std::function<void()> after_each;
 };
