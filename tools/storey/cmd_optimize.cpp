@@ -23,8 +23,8 @@ int run_optimize(Args& args) {
               "none")
       .option("delta", "D", "robust kernel width (Huber/Cauchy) or DCS Phi", "1")
       .option("iterations", "N", "iteration cap", "100")
-      .option("linear-solver", "cholmod|cholmod_supernodal|eigen", "sparse Cholesky backend",
-              "cholmod")
+      .option("linear-solver", "cholmod|cholmod_supernodal|cholmod_nd|eigen",
+              "sparse Cholesky backend (cholmod_nd: supernodal, METIS ordering)", "cholmod")
       .option("config", "FILE", "optimizer options (YAML); overrides the options above")
       .flag("per-component", "fix the first node of every connected component lacking one")
       .flag("verbose", "log every iteration");
@@ -53,9 +53,11 @@ int run_optimize(Args& args) {
   if (iterations < 1) throw UsageError("--iterations must be at least 1");
   options.max_iterations = static_cast<int>(iterations);
   options.linear_solver = args.get("linear-solver");
-  if (options.linear_solver != "cholmod" && options.linear_solver != "cholmod_supernodal" &&
+  if (options.linear_solver != "cholmod" &&
+      options.linear_solver != "cholmod_supernodal" && options.linear_solver != "cholmod_nd" &&
       options.linear_solver != "eigen") {
-    throw UsageError("--linear-solver must be cholmod, cholmod_supernodal or eigen");
+    throw UsageError(
+        "--linear-solver must be cholmod, cholmod_supernodal, cholmod_nd or eigen");
   }
   if (args.flagSet("per-component")) options.gauge = graph::GaugeMode::kPerComponent;
   options.verbose = args.flagSet("verbose");
@@ -84,7 +86,8 @@ int run_optimize(Args& args) {
     std::cout << "robust cost  " << r.initial_cost << " -> " << r.final_cost << "\n";
   }
   std::cout << "iterations " << r.iterations << " (accepted " << r.accepted_steps
-            << ", factorisations " << r.factorizations << "), "
+            << ", factorisations " << r.factorizations << ", chord steps " << r.chord_steps
+            << "), "
             << (r.converged ? "converged: " : "not converged: ") << r.termination << "\n";
   std::cout << std::setprecision(3) << std::fixed;
   std::cout << "time [ms]: assembly " << 1e3 * r.time.assembly << ", symbolic "

@@ -32,7 +32,7 @@ TEST(Optimizer, GaussNewtonAndLevenbergMarquardtAgreeOnBothBackends) {
   const testing::Synthetic s = testing::makeLaps(3, 6, 0.05, 0.02, 11);
   std::vector<PoseGraph> results;
   for (Algorithm algorithm : {Algorithm::kGaussNewton, Algorithm::kLevenbergMarquardt}) {
-    for (const char* backend : {"cholmod", "cholmod_supernodal", "eigen"}) {
+    for (const char* backend : {"cholmod", "cholmod_supernodal", "cholmod_nd", "eigen"}) {
       PoseGraph g = s.graph;
       OptimizerOptions options;
       options.algorithm = algorithm;
@@ -92,6 +92,25 @@ TEST(Optimizer, LevenbergMarquardtConvergesFromAPoorStart) {
   EXPECT_TRUE(r.converged) << r.termination;
   EXPECT_NEAR(r.final_chi2, reference.chi2(), 1e-6 * reference.chi2())
       << "initial " << r.initial_chi2 << " iterations " << r.iterations << " " << r.termination;
+}
+
+TEST(Optimizer, ChordStepsReachTheSameOptimumWithFewerFactorizations) {
+  const testing::Synthetic s = testing::makeLaps(4, 8, 0.05, 0.02, 21);
+  OptimizerOptions with;
+  OptimizerOptions without;
+  without.chord_min_ratio = 0.0;
+  PoseGraph a = s.graph, b = s.graph;
+  const OptimizerResult ra = Optimizer(with).optimize(a);
+  const OptimizerResult rb = Optimizer(without).optimize(b);
+  ASSERT_TRUE(ra.converged) << ra.termination;
+  ASSERT_TRUE(rb.converged) << rb.termination;
+  EXPECT_EQ(rb.chord_steps, 0);
+  EXPECT_GT(ra.chord_steps, 0);
+  EXPECT_LT(ra.factorizations, rb.factorizations);
+  EXPECT_NEAR(ra.final_chi2, rb.final_chi2, 1e-6 * rb.final_chi2);
+  double angle = 0.0;
+  EXPECT_LT(maxPoseDistance(a, b, &angle), 1e-3);
+  EXPECT_LT(angle, 1e-4);
 }
 
 TEST(Optimizer, DisablingAnEdgeKeepsTheStructure) {

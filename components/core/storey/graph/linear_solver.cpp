@@ -45,9 +45,10 @@ std::unique_ptr<LinearSolver> makeEigenSolver() { return std::make_unique<EigenS
 std::unique_ptr<LinearSolver> makeLinearSolver(const std::string& name) {
   if (name == "cholmod") return makeCholmodSolver(false);
   if (name == "cholmod_supernodal") return makeCholmodSolver(true);
+  if (name == "cholmod_nd") return makeCholmodSolver(true, true);
   if (name == "eigen") return makeEigenSolver();
   throw std::invalid_argument("unknown linear solver '" + name +
-                              "' (cholmod, cholmod_supernodal, eigen)");
+                              "' (cholmod, cholmod_supernodal, cholmod_nd, eigen)");
 }
 
 }  // namespace storey::graph

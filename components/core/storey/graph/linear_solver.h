@@ -2,8 +2,9 @@
 // matrix is given as its upper triangle in compressed sparse columns; the pattern is
 // analysed once (ordering, symbolic factorisation) and reused for every numeric
 // factorisation until analyze() is called again. Backends: "cholmod" (SuiteSparse CHOLMOD,
-// simplicial LDLᵀ), "cholmod_supernodal" (CHOLMOD supernodal LLᵀ on BLAS) — CHOLMOD stays
-// private to its .cpp — and "eigen" (Eigen's SimplicialLDLT, a dependency-free reference).
+// simplicial LDLᵀ, AMD), "cholmod_supernodal" (CHOLMOD supernodal LLᵀ on BLAS, AMD),
+// "cholmod_nd" (supernodal, METIS nested dissection) — CHOLMOD stays private to its .cpp —
+// and "eigen" (Eigen's SimplicialLDLT, a dependency-free reference).
 #pragma once
 
 #include <Eigen/Core>
@@ -38,9 +39,12 @@ class LinearSolver {
   virtual void solve(const Eigen::MatrixXd& b, Eigen::MatrixXd* x) = 0;
 };
 
-// "cholmod", "cholmod_supernodal" or "eigen"; throws std::invalid_argument otherwise.
+// "cholmod", "cholmod_supernodal", "cholmod_nd" or "eigen"; throws std::invalid_argument
+// otherwise. ("auto" is resolved by the optimiser from the graph's size.)
 std::unique_ptr<LinearSolver> makeLinearSolver(const std::string& name);
-std::unique_ptr<LinearSolver> makeCholmodSolver(bool supernodal = false);
+// Nested dissection (METIS on the block pattern) implies supernodal.
+std::unique_ptr<LinearSolver> makeCholmodSolver(bool supernodal = false,
+                                                bool nested_dissection = false);
 std::unique_ptr<LinearSolver> makeEigenSolver();
 
 }  // namespace storey::graph

@@ -92,7 +92,7 @@ OptimizerOptions readOptimizerOptions(const common::ConfigNode& config) {
   const std::string algorithm = config.getChoice("algorithm", "lm", {"gn", "lm"});
   o.algorithm = algorithm == "gn" ? Algorithm::kGaussNewton : Algorithm::kLevenbergMarquardt;
   o.linear_solver = config.getChoice("linear_solver", o.linear_solver,
-                                     {"cholmod", "cholmod_supernodal", "eigen"});
+                                     {"cholmod", "cholmod_supernodal", "cholmod_nd", "eigen"});
   o.max_iterations = config.getInt("max_iterations", o.max_iterations, 1, 1000000);
   o.relative_chi2_tolerance =
       config.getDouble("relative_chi2_tolerance", o.relative_chi2_tolerance, 0.0, 1.0);
@@ -102,6 +102,8 @@ OptimizerOptions readOptimizerOptions(const common::ConfigNode& config) {
   o.max_lambda = config.getDouble("max_lambda", o.max_lambda, 1e-10, 1e30);
   o.lambda_decrease_limit =
       config.getDouble("lambda_decrease_limit", o.lambda_decrease_limit, 1e-6, 1.0);
+  o.chord_min_ratio = config.getDouble("chord_min_ratio", o.chord_min_ratio, 0.0, 1.0);
+  o.chord_max_change = config.getDouble("chord_max_change", o.chord_max_change, 0.0, 1.0);
   const std::string gauge =
       config.getChoice("gauge", "first_node", {"first_node", "per_component"});
   o.gauge = gauge == "first_node" ? GaugeMode::kFirstNode : GaugeMode::kPerComponent;
@@ -211,7 +213,6 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
   const Clock::time_point start = Clock::now();
   OptimizerResult result;
   if (graph.numNodes() == 0) throw GraphError("cannot optimise an empty graph");
-  if (!solver_) solver_ = makeLinearSolver(options_.linear_solver);
 
   // --- Structure (only when it changed).
   Clock::time_point phase = Clock::now();
@@ -287,7 +288,12 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
   }
   Structure& s = *structure_;
   const int n_vars = static_cast<int>(s.node_of_var.size());
-  if (result.reanalysed && n_vars > 0) {
+  if (!solver_) {
+    solver_ = makeLinearSolver(options_.linear_solver);
+    s.analysed = false;
+  }
+  if ((result.reanalysed || !s.analysed) && n_vars > 0) {
+    result.reanalysed = true;
     solver_->analyze(s.h);
     s.analysed = true;
   }
@@ -404,6 +410,12 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
     result.converged = true;
     result.termination = "no free nodes";
   }
+  // Chord steps: the factor of (H + λD) from the last full step, with its λ and D, is
+  // reused with the gradient at the new poses while H changes little (near the optimum the
+  // last Gauss-Newton step is then one solve instead of one factorisation).
+  bool try_chord = false;
+  double factor_lambda = 0.0;
+  std::vector<double> factor_diag;
   while (n_vars > 0 && result.iterations < options_.max_iterations) {
     ++result.iterations;
     if (cost <= std::numeric_limits<double>::min()) {
@@ -411,19 +423,26 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
       result.termination = "zero cost";
       break;
     }
-    // Damped diagonal: H_ii + λ·max(H_ii, ε); the undamped values are restored after.
-    s.diag_saved.resize(s.diag_entry.size());
-    for (std::size_t i = 0; i < s.diag_entry.size(); ++i) {
-      double& d = s.h.values[s.diag_entry[i]];
-      s.diag_saved[i] = d;
-      if (lm) d += lambda * std::max(d, 1e-6);
-    }
-    phase = Clock::now();
-    const bool ok = solver_->factorize(s.h);
-    ++result.factorizations;
-    result.time.numeric += secondsSince(phase);
-    for (std::size_t i = 0; i < s.diag_entry.size(); ++i) {
-      s.h.values[s.diag_entry[i]] = s.diag_saved[i];
+    const bool chord = try_chord;
+    try_chord = false;
+    bool ok = true;
+    if (!chord) {
+      // Damped diagonal: H_ii + λ·max(H_ii, ε); the undamped values are restored after.
+      s.diag_saved.resize(s.diag_entry.size());
+      for (std::size_t i = 0; i < s.diag_entry.size(); ++i) {
+        double& d = s.h.values[s.diag_entry[i]];
+        s.diag_saved[i] = d;
+        if (lm) d += lambda * std::max(d, 1e-6);
+      }
+      phase = Clock::now();
+      ok = solver_->factorize(s.h);
+      ++result.factorizations;
+      result.time.numeric += secondsSince(phase);
+      for (std::size_t i = 0; i < s.diag_entry.size(); ++i) {
+        s.h.values[s.diag_entry[i]] = s.diag_saved[i];
+      }
+      factor_lambda = lambda;
+      factor_diag = s.diag_saved;
     }
     if (!ok) {
       if (!lm) {
@@ -474,9 +493,10 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
       continue;
     }
     // Gain ratio against the damped quadratic model: L(0) − L(Δ) = −bᵀΔ + λ Δᵀ D Δ.
+    // (For a chord step the model is the one of the reused factor.)
     double predicted = -b.dot(dx);
-    for (std::size_t i = 0; i < s.diag_entry.size(); ++i) {
-      predicted += lambda * std::max(s.diag_saved[i], 1e-6) * dx[i] * dx[i];
+    for (std::size_t i = 0; i < factor_diag.size(); ++i) {
+      predicted += factor_lambda * std::max(factor_diag[i], 1e-6) * dx[i] * dx[i];
     }
     // When the model promises less than the tolerance we are at the optimum (this also
     // catches steps whose effect drowns in rounding): keep the step if it helped, then stop.
@@ -487,15 +507,22 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
     result.time.evaluate += secondsSince(phase);
     const double rho = (cost - trial_cost) / std::max(predicted, 1e-300);
     if (options_.verbose) {
-      common::logInfo(str("lm ", result.iterations, ": cost ", std::setprecision(12), cost, " -> ",
-                          trial_cost, " lambda ", lambda, " rho ", rho));
+      common::logInfo(str("lm ", result.iterations, chord ? " (chord)" : "", ": cost ",
+                          std::setprecision(12), cost, " -> ", trial_cost, " lambda ",
+                          factor_lambda, " rho ", rho));
     }
     if (std::isfinite(trial_cost) && trial_cost < cost && rho > 0.0) {
       ++result.accepted_steps;
       const double change = (cost - trial_cost) / cost;
-      lambda *= std::max(options_.lambda_decrease_limit, 1.0 - std::pow(2.0 * rho - 1.0, 3));
-      if (lambda > 0.0) lambda = std::max(lambda, 1e-15);  // 0 stays Gauss-Newton
-      nu = 2.0;
+      if (chord) {
+        ++result.chord_steps;  // λ belongs to the full steps' trust region: unchanged
+      } else {
+        lambda *= std::max(options_.lambda_decrease_limit, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+        if (lambda > 0.0) lambda = std::max(lambda, 1e-15);  // 0 stays Gauss-Newton
+        nu = 2.0;
+      }
+      try_chord = options_.chord_min_ratio > 0.0 && rho > options_.chord_min_ratio &&
+                  (chord || change < options_.chord_max_change);
       phase = Clock::now();
       cost = assemble(&chi2);
       result.time.assembly += secondsSince(phase);
@@ -504,6 +531,10 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
         result.termination = "relative chi2 change below tolerance";
         break;
       }
+    } else if (chord) {
+      // The old factor no longer models the cost well: refactorise, λ unchanged.
+      for (int k = 0; k < n_vars; ++k) graph.setPoseAt(s.node_of_var[k], saved[k]);
+      continue;
     } else {
       for (int k = 0; k < n_vars; ++k) graph.setPoseAt(s.node_of_var[k], saved[k]);
       lambda = lambda > 0.0 ? lambda * nu : options_.restart_lambda;

@@ -42,7 +42,8 @@ void robustKernel(const RobustKernel& kernel, double s, double* rho, double* wei
 
 struct OptimizerOptions {
   Algorithm algorithm = Algorithm::kLevenbergMarquardt;
-  std::string linear_solver = "cholmod";  // "cholmod", "cholmod_supernodal" or "eigen"
+  // "cholmod", "cholmod_supernodal", "cholmod_nd" or "eigen" (linear_solver.h).
+  std::string linear_solver = "cholmod";
   int max_iterations = 100;               // accepted + rejected steps
   // Stop when |Δχ²| / χ² of an accepted step falls below this (Ceres's default function
   // tolerance; on intel, manhattan and city10000 it stops within 2e-7 of the optimum).
@@ -59,6 +60,15 @@ struct OptimizerOptions {
   // After a good step λ shrinks by max(this, 1 − (2ρ − 1)³) (Nielsen's rule uses 1/3; 0.1
   // saved 1-3 steps on intel and city10000 and 30 on MIT, costing 5 on manhattan).
   double lambda_decrease_limit = 0.1;
+  // LM chord steps: after a full step with gain ratio above chord_min_ratio that lowered
+  // the cost by less than the fraction chord_max_change (near the optimum, where H changes
+  // little), the next step reuses the last factorisation with the new gradient (one solve
+  // instead of one factorisation) and is kept if it lowers the cost; another chord step
+  // follows while their gain ratio stays above chord_min_ratio. Early in a solve the
+  // rotations still move and a chord step explodes (city10000, manhattan: cost ×1e4-1e12),
+  // hence the change limit. chord_min_ratio 0 disables them.
+  double chord_min_ratio = 0.5;
+  double chord_max_change = 0.5;
   GaugeMode gauge = GaugeMode::kFirstNode;
   std::array<RobustKernel, kEdgeKindCount> robust{};  // indexed by EdgeKind
   // Edges whose final robust weight is below this are reported as down-weighted.
@@ -68,7 +78,7 @@ struct OptimizerOptions {
 
 // Reads, strictly (unknown keys fail), e.g.
 //   algorithm: lm            # gn | lm
-//   linear_solver: cholmod   # cholmod | cholmod_supernodal | eigen
+//   linear_solver: cholmod   # cholmod | cholmod_supernodal | cholmod_nd | eigen
 //   max_iterations: 100
 //   relative_chi2_tolerance: 1e-6
 //   step_tolerance: 1e-10
@@ -76,6 +86,8 @@ struct OptimizerOptions {
 //   restart_lambda: 1e-5
 //   max_lambda: 1e10
 //   lambda_decrease_limit: 0.1
+//   chord_min_ratio: 0.5
+//   chord_max_change: 0.5
 //   gauge: first_node        # first_node | per_component
 //   downweight_threshold: 0.5
 //   verbose: false
@@ -103,6 +115,7 @@ struct OptimizerResult {
   int iterations = 0;  // steps tried
   int accepted_steps = 0;
   int factorizations = 0;
+  int chord_steps = 0;  // accepted steps that reused the previous factorisation
   bool reanalysed = false;  // the structure was (re)analysed in this call
   double final_lambda = 0.0;
   PhaseTimes time;
