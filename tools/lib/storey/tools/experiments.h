@@ -64,7 +64,8 @@ struct ConstraintCheck {
   std::string floor_from, floor_to;  // true floors of its two nodes
   bool checked = false;              // false when a node has no ground-truth pose
   double translation_error = 0.0;    // m
-  double rotation_error = 0.0;       // rad
+  double rotation_error = 0.0;       // rad, |signed_rotation_error|
+  double signed_rotation_error = 0.0;  // rad, implied heading of node_to minus its true one
   bool wrong = false;
 };
 
@@ -106,6 +107,9 @@ struct FloorRow {
   Statistic translation_without, rotation_without;  // m, rad; joined by odometry only
   Statistic translation_with, rotation_with;
   Statistic constraints;  // constraints touching the floor, per run
+  // Signed heading error of those constraints (rad), over all runs: a bias here turns
+  // the floor by about as much.
+  Statistic constraint_rotation;
   std::size_t wrong = 0;  // wrong constraints touching the floor, all runs
   bool goal_met = false;  // every run within the goal
 };
@@ -136,13 +140,15 @@ struct ExperimentTable {
 ExperimentTable summariseExperiment(const ExperimentSpec& spec, const ExperimentGoals& goals,
                                     std::vector<RunFigures> runs);
 
-// Runs the experiments; writes every run's outputs, and <output_dir>/experiments.md and
-// experiments.csv (one row per run and floor or corridor). Throws std::invalid_argument
+// Runs the experiments; writes every run's outputs, and <output_dir>/experiments.md,
+// experiments.csv (one row per run and floor or corridor) and constraints.csv (every
+// inter-floor constraint checked against truth). Throws std::invalid_argument
 // for an unknown experiment or bad counts.
 std::vector<ExperimentTable> runExperiments(const ExperimentOptions& options);
 
 // The tables as Markdown (what `storey experiments` prints) and as CSV.
 std::string toMarkdown(const std::vector<ExperimentTable>& tables);
 std::string toCsv(const std::vector<ExperimentTable>& tables);
+std::string constraintsCsv(const std::vector<ExperimentTable>& tables);
 
 }  // namespace storey::tools
