@@ -65,6 +65,39 @@ TEST(ParticleFilter, GlobalLocalisationConvergesToTheTruePoseAndShrinks) {
   EXPECT_LT(pf.size(), initial / 4) << "KLD-sampling should shrink a converged filter";
 }
 
+// Coarse-to-fine: the global phase with few beams must still converge to the truth, and
+// use fewer particle-beam evaluations than the same filter with every beam.
+TEST(ParticleFilter, CoarseBeamsInTheGlobalPhaseStillConverge) {
+  const auto g = driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 2);
+  const LocalizationMap map(floor::renderFloorMap(g, {}), {});
+  std::uint64_t evaluations[2] = {0, 0};
+  for (int coarse = 0; coarse < 2; ++coarse) {
+    ParticleFilterOptions o;
+    o.initial_particles_per_m2 = 200.0;  // a global phase well above coarse_particles
+    o.coarse_beams = coarse ? 15 : 0;
+    o.coarse_particles = 2000;
+    ParticleFilter pf(map, o, 11);
+    pf.initializeUniform();
+    ASSERT_GT(pf.size(), 2000u);
+    bool converged = false;
+    for (std::size_t n = 0; n < 40 && n < g.nodes.size(); ++n) {
+      if (n > 0) pf.predict(g.nodes[n - 1].odometry.between(g.nodes[n].odometry));
+      pf.update(g.nodes[n].scan);
+      const FilterState s = pf.state();
+      if (n >= 2 && s.converged) {
+        EXPECT_LT(translationError(s.mean, g.nodes[n].pose), 0.3) << "coarse " << coarse;
+        EXPECT_LT(angleError(s.mean, g.nodes[n].pose), 0.1) << "coarse " << coarse;
+        converged = true;
+        break;
+      }
+      pf.resampleIfNeeded();
+    }
+    EXPECT_TRUE(converged) << "coarse " << coarse;
+    evaluations[coarse] = pf.beamEvaluations();
+  }
+  EXPECT_LT(evaluations[1], evaluations[0]);
+}
+
 TEST(ParticleFilter, LikelihoodIsHigherAtTheTruePose) {
   const auto g = driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 3);
   const LocalizationMap map(floor::renderFloorMap(g, {}), {});
@@ -128,6 +161,49 @@ TEST(FloorMatcher, TwoFloorsWithSharedStructureAlign) {
   const Pose2 truth = r.reference_graph_id == 0 ? frame : frame.inverse();
   EXPECT_LT(translationError(pair->alignment, truth), 0.05) << report.str();
   EXPECT_LT(angleError(pair->alignment, truth), 0.0035);
+}
+
+// When g_i's own sequences are not enough, g_ref's scans localised in g_i's map join the
+// RANSAC; they must read exactly like forward candidates (alignment of g_i in g_ref, and
+// a constraint from a g_ref node to a g_i node).
+TEST(FloorMatcher, BothDirectionsAddReversedCandidatesThatReadAsForwardOnes) {
+  const Pose2 frame(1.3, -0.7, 0.3);  // floor 1's graph frame in floor 0's
+  const floor::FloorGraph g0 = driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 8);
+  const floor::FloorGraph g1 = driveFloor(officeFloor(1), officePath(1), frame, 1, 3.2, 9);
+  FloorMatcherOptions o = fastOptions();
+  const PreparedFloor ref = prepareFloor(g0, o), other = prepareFloor(g1, o);
+  o.match_both_directions = false;
+  const PairResult forward = matchPair(ref, other, o, 3);
+  int forward_consistent = 0;
+  for (const auto& c : forward.candidates)
+    forward_consistent += c.status == CandidateStatus::kAccepted;
+  ASSERT_GE(forward_consistent, 1);
+  // Ask for more than one direction can give.
+  o.min_constraints = forward_consistent + 1;
+  o.match_both_directions = true;
+  const PairResult both = matchPair(ref, other, o, 3);
+  std::ostringstream report;
+  MatchResult wrapped;
+  wrapped.pairs.push_back(both);
+  printMatchReport(report, wrapped);
+  EXPECT_GT(both.reversed_candidates, 0) << report.str();
+  ASSERT_TRUE(both.accepted) << report.str();
+  int reversed_accepted = 0;
+  for (const auto& c : both.candidates) {
+    if (c.status != CandidateStatus::kAccepted) continue;
+    reversed_accepted += c.reversed;
+    EXPECT_EQ(c.reference_graph_id, 0);
+    EXPECT_EQ(c.graph_id, 1);
+    EXPECT_NEAR(c.dz, 3.2, 1e-9);
+    const Pose2& pk = g1.findNode(c.node_id)->pose;
+    EXPECT_EQ(g1.nodes[c.node_index].id, c.node_id);
+    EXPECT_LT(translationError(c.alignment * pk, frame * pk), 0.1) << report.str();
+    const Pose2 implied = g0.findNode(c.reference_node_id)->pose * c.measurement * pk.inverse();
+    EXPECT_LT(translationError(implied * pk, frame * pk), 0.1) << report.str();
+    EXPECT_LT(angleError(implied, frame), 0.02) << report.str();
+  }
+  EXPECT_GT(reversed_accepted, 0) << report.str();
+  EXPECT_LT(translationError(both.alignment, frame), 0.05) << report.str();
 }
 
 TEST(FloorMatcher, SameSeedSameResult) {

@@ -51,6 +51,7 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
   o.constraint_sigma_theta =
       node.getDouble("constraint_sigma_theta", o.constraint_sigma_theta, 1e-6, M_PI);
   o.self_check = node.get<bool>("self_check", o.self_check);
+  o.match_both_directions = node.get<bool>("match_both_directions", o.match_both_directions);
   o.threads = node.getInt("threads", o.threads, 1, 256);
   o.seed = static_cast<std::uint64_t>(node.get<std::int64_t>("seed", 1));
   node.finish();
@@ -144,7 +145,7 @@ std::vector<std::size_t> largestConsistentSet(const std::vector<Candidate>& cand
     std::vector<std::size_t> set;
     double score = 0.0;
     for (std::size_t i : pool) {
-      const Pose2& pk = graph.nodes[cands[i].first_index].pose;
+      const Pose2& pk = graph.nodes[cands[i].node_index].pose;
       if (agrees(cands[h].alignment, cands[i].alignment, pk, o.ransac_translation_tolerance,
                  o.ransac_rotation_tolerance)) {
         set.push_back(i);
@@ -253,23 +254,24 @@ double learnLikelihoodThreshold(const floor::FloorGraph& graph, const FloorMatch
   return std::max(quantile(values, options.likelihood_quantile), 0.5 * quantile(values, 0.5));
 }
 
-PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_data,
-                     const FloorMatcherOptions& o, std::uint64_t seed) {
-  const auto start = std::chrono::steady_clock::now();
-  const floor::FloorGraph& ref = *reference.graph;
-  const floor::FloorGraph& g = *floor_data.graph;
-  PairResult result;
-  result.reference_graph_id = ref.graph_id;
-  result.graph_id = g.graph_id;
-  result.l_min = o.likelihood_scale * std::min(reference.l_min, floor_data.l_min);
-  const double dz = g.floor_height - ref.floor_height;
-  const int count = static_cast<int>(g.nodes.size());
-  std::mt19937_64 rng(seed);
+namespace {
 
-  ParticleFilter filter(*reference.map, o.filter, seed ^ 0x5EEDULL);
+// Algorithm 1's loop: replays `scans`' node scans in `map`'s map from uniform particles,
+// one sequence after another, and turns each converged filter into a candidate whose
+// alignment is `scans`' frame in `map`'s frame (the caller re-expresses it when the
+// direction is reversed). Gated against `l_min`.
+std::vector<Candidate> localiseSequences(const PreparedFloor& map_floor,
+                                         const PreparedFloor& scans_floor, double l_min,
+                                         const FloorMatcherOptions& o, std::uint64_t seed,
+                                         PairResult* counters, std::uint64_t* evaluations) {
+  const floor::FloorGraph& ref = *map_floor.graph;
+  const floor::FloorGraph& g = *scans_floor.graph;
+  const int count = static_cast<int>(g.nodes.size());
+  std::vector<Candidate> out;
+  ParticleFilter filter(*map_floor.map, o.filter, seed ^ 0x5EEDULL);
   int k = 0;
   while (k + o.min_sequence <= count && !ref.nodes.empty()) {
-    ++result.sequences;
+    ++counters->sequences;
     filter.initializeUniform();
     const int end = std::min(count, k + o.max_sequence);
     int m = k;
@@ -287,7 +289,7 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_
       filter.resampleIfNeeded();
     }
     if (!converged) {
-      ++result.not_converged;
+      ++counters->not_converged;
       k += o.restart_stride;
       continue;
     }
@@ -296,15 +298,16 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_
     c.graph_id = g.graph_id;
     c.first_index = k;
     c.last_index = m;
+    c.node_index = k;
     c.node_id = g.nodes[k].id;
     c.estimate = st.mean;
     c.likelihood = lt;
-    c.l_min = result.l_min;
+    c.l_min = l_min;
     c.particles = st.particles;
     c.mass_within = st.mass_within;
-    c.dz = dz;
+    c.dz = g.floor_height - ref.floor_height;
     Pose2 alignment = st.mean * g.nodes[m].pose.inverse();
-    c.fit = refineAlignment(reference.map->field(), g, {{k, m}}, o.refine_beams,
+    c.fit = refineAlignment(map_floor.map->field(), g, {{k, m}}, o.refine_beams,
                             o.refine_iterations, &alignment);
     c.alignment = alignment;
     const Pose2 refined_m = alignment * g.nodes[m].pose;
@@ -313,19 +316,50 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_
     const int q = ref.nearestNodeIndex(x_k.translation());
     c.reference_node_id = ref.nodes[q].id;
     c.measurement = ref.nodes[q].pose.between(x_k);
-    if (lt < result.l_min) {
+    if (lt < l_min) {
       c.status = CandidateStatus::kLowLikelihood;
-      c.reason = common::str("l_t ", lt, " < l_min ", result.l_min);
+      c.reason = common::str("l_t ", lt, " < l_min ", l_min);
     } else if (c.refine_correction > o.max_refine_correction || c.fit < o.min_fit) {
       c.status = CandidateStatus::kPoorFit;
       c.reason = common::str("refinement moved ", c.refine_correction, " m, fit ", c.fit);
     } else {
-      c.status = CandidateStatus::kOutlier;  // decided by RANSAC below
+      c.status = CandidateStatus::kOutlier;  // decided by RANSAC
     }
-    result.candidates.push_back(std::move(c));
+    out.push_back(std::move(c));
     k = m + 1;
   }
+  *evaluations += filter.beamEvaluations();
+  return out;
+}
 
+// A candidate found by localising g_ref's scans in g_i's map, re-expressed as evidence
+// about g_i in g_ref: the alignment is inverted, and the constraint between node k of
+// g_ref and the nearest node q of g_i is written from g_ref's node to g_i's node.
+Candidate reverseCandidate(const Candidate& r, const floor::FloorGraph& ref,
+                           const floor::FloorGraph& g) {
+  Candidate c = r;
+  c.reversed = true;
+  c.reference_graph_id = ref.graph_id;
+  c.graph_id = g.graph_id;
+  c.alignment = r.alignment.inverse();
+  c.dz = -r.dz;
+  // r.node_id is node k of g_ref, r.reference_node_id the nearest node q of g_i, and
+  // r.measurement is node k in node q's frame.
+  int q = 0;
+  while (q < static_cast<int>(g.nodes.size()) && g.nodes[q].id != r.reference_node_id) ++q;
+  c.node_index = q;
+  c.node_id = r.reference_node_id;
+  c.reference_node_id = r.node_id;
+  c.measurement = r.measurement.inverse();
+  return c;
+}
+
+void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& floor_data,
+                         const FloorMatcherOptions& o, int count, std::mt19937_64* rng_ptr,
+                         PairResult* result_ptr) {
+  PairResult& result = *result_ptr;
+  std::mt19937_64& rng = *rng_ptr;
+  const floor::FloorGraph& g = *floor_data.graph;
   // RANSAC over the candidates that passed the gate.
   std::vector<std::size_t> pool;
   for (std::size_t i = 0; i < result.candidates.size(); ++i)
@@ -383,18 +417,81 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_
     markAll(rest, CandidateStatus::kOutlier, "disagrees with the largest consistent set");
     markAll(best, CandidateStatus::kAccepted, "inlier of the largest consistent set");
     std::vector<Pose2> alignments;
-    std::vector<std::pair<int, int>> ranges;
+    std::vector<std::pair<int, int>> ranges, reversed_ranges;
     for (std::size_t i : best) {
-      alignments.push_back(result.candidates[i].alignment);
-      ranges.emplace_back(result.candidates[i].first_index, result.candidates[i].last_index);
+      const Candidate& c = result.candidates[i];
+      alignments.push_back(c.alignment);
+      (c.reversed ? reversed_ranges : ranges).emplace_back(c.first_index, c.last_index);
     }
     Pose2 joint = meanAlignment(alignments);
-    refineAlignment(reference.map->field(), g, ranges, o.refine_beams, o.refine_iterations, &joint);
+    if (!ranges.empty()) {
+      refineAlignment(reference.map->field(), g, ranges, o.refine_beams, o.refine_iterations,
+                      &joint);
+    } else {  // only g_ref's scans localised: fit them in g_i's map
+      Pose2 inverse = joint.inverse();
+      refineAlignment(floor_data.map->field(), *reference.graph, reversed_ranges, o.refine_beams,
+                      o.refine_iterations, &inverse);
+      joint = inverse.inverse();
+    }
     result.alignment = joint;
+    // Each accepted constraint is re-expressed through the joint alignment, which fits
+    // every inlier's scans at once: one candidate's own refinement may be off by a few
+    // tenths of a degree more than RANSAC's tolerance lets through.
+    const floor::FloorGraph& ref = *reference.graph;
+    for (std::size_t i : best) {
+      Candidate& c = result.candidates[i];
+      const Pose2 x = joint * g.nodes[c.node_index].pose;
+      const int q = ref.nearestNodeIndex(x.translation());
+      c.reference_node_id = ref.nodes[q].id;
+      c.measurement = ref.nodes[q].pose.between(x);
+    }
   }
-  result.beam_evaluations = filter.beamEvaluations();
+}
+
+PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor& floor_data,
+                             const FloorMatcherOptions& o, std::uint64_t seed,
+                             bool both_directions) {
+  const auto start = std::chrono::steady_clock::now();
+  const floor::FloorGraph& ref = *reference.graph;
+  const floor::FloorGraph& g = *floor_data.graph;
+  PairResult result;
+  result.reference_graph_id = ref.graph_id;
+  result.graph_id = g.graph_id;
+  result.l_min = o.likelihood_scale * std::min(reference.l_min, floor_data.l_min);
+  const int count = static_cast<int>(g.nodes.size());
+  std::mt19937_64 rng(seed);
+  std::uint64_t evaluations = 0;
+  result.candidates =
+      localiseSequences(reference, floor_data, result.l_min, o, seed, &result, &evaluations);
+  decideConsistentSet(reference, floor_data, o, count, &rng, &result);
+  if (!result.accepted && both_directions && ref.graph_id != g.graph_id) {
+    // Too few or two rival consistent sets: g_ref's scans localised in g_i's map are
+    // independent evidence about the same alignment (shared structure that g_i's robot
+    // passed only briefly may be where g_ref's robot spent longer).
+    PairResult reverse;
+    const std::vector<Candidate> back = localiseSequences(
+        floor_data, reference, result.l_min, o, seed ^ 0xBAC4ULL, &reverse, &evaluations);
+    result.sequences += reverse.sequences;
+    result.not_converged += reverse.not_converged;
+    result.reversed_candidates = static_cast<int>(back.size());
+    for (const Candidate& r : back) result.candidates.push_back(reverseCandidate(r, ref, g));
+    for (Candidate& c : result.candidates)
+      if (c.status != CandidateStatus::kLowLikelihood && c.status != CandidateStatus::kPoorFit)
+        c.status = CandidateStatus::kOutlier;
+    result.ambiguous = false;
+    result.set_alignments.clear();
+    decideConsistentSet(reference, floor_data, o, count, &rng, &result);
+  }
+  result.beam_evaluations = evaluations;
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
+}
+
+}  // namespace
+
+PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_data,
+                     const FloorMatcherOptions& o, std::uint64_t seed) {
+  return matchPairDirected(reference, floor_data, o, seed, o.match_both_directions);
 }
 
 FloorCheck checkSelfSimilarity(const PreparedFloor& floor_data, const FloorMatcherOptions& o,
@@ -403,13 +500,13 @@ FloorCheck checkSelfSimilarity(const PreparedFloor& floor_data, const FloorMatch
   check.graph_id = floor_data.graph->graph_id;
   check.structure = floor_data.structure;
   check.l_min = floor_data.l_min;
-  const PairResult own = matchPair(floor_data, floor_data, o, seed);
+  const PairResult own = matchPairDirected(floor_data, floor_data, o, seed, false);
   std::vector<std::size_t> elsewhere;
   for (std::size_t i = 0; i < own.candidates.size(); ++i) {
     const Candidate& c = own.candidates[i];
     if (c.status == CandidateStatus::kLowLikelihood || c.status == CandidateStatus::kPoorFit)
       continue;
-    const Pose2& pk = floor_data.graph->nodes[c.first_index].pose;
+    const Pose2& pk = floor_data.graph->nodes[c.node_index].pose;
     if (agrees(Pose2(), c.alignment, pk, o.ransac_translation_tolerance,
                o.ransac_rotation_tolerance))
       ++check.at_identity;
@@ -504,8 +601,8 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
   });
   // A floor that failed for lack of evidence tries the other floors, those of the same
   // floor id (another robot's graph of the same floor) first, then by structure. One
-  // that failed as ambiguous tries only graphs of its own floor id, and a retry is then
-  // accepted only if, composed with that graph's accepted alignment to the reference,
+  // that failed as ambiguous tries only graphs already aligned to the reference (its own
+  // floor id first), and a retry is then accepted only if, composed with that graph's accepted alignment to the reference,
   // it agrees with one of the two ambiguous sets: two independent paths must agree.
   std::map<int, Pose2> to_reference;  // accepted alignments into the reference's frame
   to_reference[ref] = Pose2();
@@ -523,9 +620,8 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
     std::vector<int> refs;
     for (int r : order)
       if (r != ref && r != i && graphs[r].floor_id == graphs[i].floor_id) refs.push_back(r);
-    if (!before.ambiguous)
-      for (int r : order)
-        if (r != ref && r != i && graphs[r].floor_id != graphs[i].floor_id) refs.push_back(r);
+    for (int r : order)
+      if (r != ref && r != i && graphs[r].floor_id != graphs[i].floor_id) refs.push_back(r);
     for (int r : refs) {
       if (before.ambiguous && !to_reference.count(r)) continue;
       PairResult p = matchPair(prepared[r], prepared[i], o, seedFor(r, i));
@@ -600,7 +696,8 @@ void printMatchReport(std::ostream& out, const MatchResult& result) {
         << std::setprecision(4) << p.l_min << ", " << std::setprecision(3) << p.seconds << " s)\n";
     if (p.accepted) out << "  alignment (graph frame in reference frame): " << p.alignment << "\n";
     for (const auto& c : p.candidates) {
-      out << "  scans " << c.first_index << ".." << c.last_index << " node " << c.node_id
+      out << "  " << (c.reversed ? "ref scans " : "scans ") << c.first_index << ".."
+          << c.last_index << " node " << c.node_id
           << " -> ref node " << c.reference_node_id << "  l_t " << std::setprecision(4)
           << c.likelihood << "  fit " << std::setprecision(3) << c.fit << "  particles "
           << c.particles << "  alignment " << c.alignment << "  c " << c.measurement << " dz "

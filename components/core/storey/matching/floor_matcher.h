@@ -89,6 +89,10 @@ struct FloorMatcherOptions {
   // max(2, ambiguity_ratio * the set at the identity), is symmetric or periodic: it is
   // never a reference and never gets a constraint.
   bool self_check = true;
+  // When a pair is not accepted (too few consistent candidates, or two rival sets), g_ref's
+  // scans are also localised in g_i's map and those candidates, inverted, join the same
+  // RANSAC: structure g_i's robot passed only briefly may be where g_ref's robot stayed.
+  bool match_both_directions = true;
   int threads = 2;
   std::uint64_t seed = 1;
 };
@@ -108,13 +112,19 @@ const char* candidateStatusName(CandidateStatus status);
 struct Candidate {
   int reference_graph_id = 0;
   int graph_id = 0;
-  int first_index = 0;  // node indices (into graph.nodes) of the sequence z_k .. z_m
+  // Node indices of the sequence z_k .. z_m: into g_i's nodes, or into g_ref's nodes when
+  // `reversed` (g_ref's scans were localised in g_i's map; the alignment and the
+  // measurement are then inverted so they read as for a forward candidate).
+  int first_index = 0;
   int last_index = 0;
-  int node_id = 0;              // id of node k in g_i
-  int reference_node_id = 0;    // id of node q in g_ref
+  bool reversed = false;
+  int node_index = 0;           // index into g_i's nodes of node_id
+  int node_id = 0;              // id of node k in g_i (reversed: g_i's node nearest g_ref's k)
+  int reference_node_id = 0;    // id of node q in g_ref (reversed: g_ref's node k)
   geometry::Pose2 estimate;     // MCL mean at z_m, g_ref frame (before refinement)
   geometry::Pose2 alignment;    // T_i implied by this candidate (refined)
-  geometry::Pose2 measurement;  // node k in the frame of node q
+  geometry::Pose2 measurement;  // node k in the frame of node q (accepted: from the joint
+                                // alignment of all inliers, q the reference node nearest)
   double dz = 0.0;
   double likelihood = 0.0;  // l_t at convergence
   double l_min = 0.0;
@@ -150,6 +160,7 @@ struct PairResult {
   double l_min = 0.0;
   int sequences = 0;      // filters started
   int not_converged = 0;  // filters dropped without converging
+  int reversed_candidates = 0;  // candidates from g_ref's scans in g_i's map (both directions)
   std::vector<Candidate> candidates;
   std::uint64_t beam_evaluations = 0;
   double seconds = 0.0;
@@ -188,7 +199,8 @@ PreparedFloor prepareFloor(const floor::FloorGraph& graph, const FloorMatcherOpt
 double learnLikelihoodThreshold(const floor::FloorGraph& graph, const FloorMatcherOptions& options,
                                 std::uint64_t seed);
 
-// Algorithm 1 for one pair: candidates, gate, refinement, RANSAC.
+// Algorithm 1 for one pair: candidates, gate, refinement, RANSAC; when that does not
+// accept and options.match_both_directions, g_ref's scans localised in g_i's map join in.
 PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor,
                      const FloorMatcherOptions& options, std::uint64_t seed);
 
@@ -199,8 +211,9 @@ FloorCheck checkSelfSimilarity(const PreparedFloor& floor, const FloorMatcherOpt
 // All floor graphs: the reference is the graph with most structure among those not
 // self-similar; every other graph is matched to it in parallel. A graph that fails for
 // too few consistent candidates tries the others (same floor id first, then by
-// structure) until one accepts; one found ambiguous tries only graphs of its own floor
-// id, and such a retry must agree, through the reference, with one of its two sets.
+// structure) until one accepts; one found ambiguous tries only graphs already aligned
+// to the reference (its own floor id first), and such a retry must agree, through the
+// reference, with one of its two sets.
 MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
                         const FloorMatcherOptions& options);
 

@@ -23,6 +23,8 @@ ParticleFilterOptions readParticleFilterOptions(const common::ConfigNode& node) 
   o.kld_bin_theta = node.getDouble("kld_bin_theta", o.kld_bin_theta, 1e-3, M_PI);
   o.resample_threshold = node.getDouble("resample_threshold", o.resample_threshold, 0.0, 1.0);
   o.beams = node.getInt("beams", o.beams, 1, 100000);
+  o.coarse_beams = node.getInt("coarse_beams", o.coarse_beams, 0, 100000);
+  o.coarse_particles = node.getInt("coarse_particles", o.coarse_particles, 1, 100000000);
   o.effective_beams = node.getDouble("effective_beams", o.effective_beams, 1e-3, 100000.0);
   o.off_free_log_penalty =
       node.getDouble("off_free_log_penalty", o.off_free_log_penalty, -1e6, 0.0);
@@ -159,7 +161,10 @@ void ParticleFilter::predict(const Pose2& delta) {
 }
 
 double ParticleFilter::update(const sensor::LaserScan& scan) {
-  const std::vector<Eigen::Vector2d> beams = selectBeams(scan, options_.beams);
+  const bool coarse = options_.coarse_beams > 0 &&
+                      x_.size() > static_cast<std::size_t>(options_.coarse_particles);
+  const std::vector<Eigen::Vector2d> beams =
+      selectBeams(scan, coarse ? options_.coarse_beams : options_.beams);
   const std::size_t nb = beams.size(), n = x_.size();
   if (nb == 0 || n == 0) return 0.0;
   std::vector<float> bx(nb), by(nb);

@@ -49,6 +49,12 @@ struct ParticleFilterOptions {
   double resample_threshold = 0.5;
   // Beams used per scan (evenly subsampled valid returns).
   int beams = 60;
+  // Coarse-to-fine: while the filter holds more than `coarse_particles` particles (the
+  // global phase, spread over the whole floor) only `coarse_beams` beams are used. A scan
+  // counts as `effective_beams` independent beams whatever their number, so the weights
+  // keep their scale; once the filter has shrunk, all `beams` are used. 0 turns it off.
+  int coarse_beams = 0;
+  int coarse_particles = 5000;
   // Observation weight: log w += effective_beams * (mean over beams of log p(beam)). The
   // beams of one scan are far from independent (the map and the scan share errors), so a
   // scan counts as this many independent beams; more makes the filter collapse early onto
