@@ -1,24 +1,40 @@
-// End-to-end latency (ping-pong, one way = round trip / 2) and throughput of a 1080-beam
-// LaserScan through storey's runtime (Publisher -> Subscription callback on the Executor)
-// and through raw Fast DDS (DataWriter -> DataReaderListener), with the same QoS profile,
-// in one process and across two processes (the bench re-executes itself as the echo).
-// Prints a table with the runtime/raw ratios after the benchmarks.
+// End-to-end latency and throughput of a 1080-beam LaserScan through storey's runtime
+// (Publisher -> Subscription callback on the Executor) next to raw Fast DDS (DataWriter ->
+// DataReaderListener) with the same QoS profile, in one process and across two (the bench
+// re-executes itself as the echo).
 //
-//   bench_runtime [--benchmark_filter=...] [--qos sensor|graph]
+// The runtime/raw comparison is made trustworthy on a shared machine by alternating them:
+// `--rounds` rounds, each a block of `--per-round` ping-pongs through raw DDS then one
+// through the runtime (the order flips every round), so load drifts hit both alike. Each
+// round trip is one sample; the tables give median, p90, p99 and mean of one-way latency
+// (round trip / 2, stamped inside the ping's callback, so the waking of the measuring
+// thread is not counted) and their runtime/raw ratios, plus the CPU time both processes
+// spent per round trip. Throughput alternates the same way.
+//
+// Google Benchmark runs the hand-off floor first: a bare condition-variable ping-pong
+// between two threads (what any thread hand-off costs on this machine) and the same with a
+// polling receiver.
+//
+//   bench_runtime [--qos sensor|graph] [--rounds N] [--per-round M] [--skip-throughput]
+//                 [--processes 1|2] [--benchmark_filter=...]
 #include <benchmark/benchmark.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
 #include <cstring>
-#include <map>
+#include <fstream>
 #include <memory>
 #include <mutex>
+#include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "sensor_msgs/msg/LaserScan.h"
 #include "sensor_msgs/msg/LaserScanPubSubTypes.h"
@@ -39,7 +55,19 @@ using Clock = std::chrono::steady_clock;
 
 constexpr int kBeams = 1080;
 constexpr int kThroughputBatch = 2000;
-TopicKind g_kind = TopicKind::kSensor;
+// Domain ids (the ports of ids above 232 overflow): 180/181 one process raw/runtime,
+// 182/183 two processes, 184 throughput.
+constexpr int kDomainBase = 180;
+
+struct Settings {
+  TopicKind kind = TopicKind::kSensor;
+  int rounds = 20;
+  int per_round = 250;
+  int warmup = 300;
+  bool throughput = true;
+  int processes = 0;  // 1 or 2: only that latency comparison (for profiling); 0: both
+};
+Settings g_settings;
 std::string g_self;
 
 Scan makeScan() {
@@ -53,17 +81,39 @@ Scan makeScan() {
   return scan;
 }
 
-// Counts arrivals; the ping side waits on it.
+double processCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+// utime + stime of another process, from /proc (clock-tick resolution).
+double childCpuSeconds(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string line;
+  std::getline(in, line);
+  const auto close = line.rfind(')');
+  if (close == std::string::npos) return 0;
+  std::istringstream fields(line.substr(close + 2));
+  std::string skip;
+  for (int i = 3; i < 14; ++i) fields >> skip;  // fields 3..13
+  double utime = 0, stime = 0;
+  fields >> utime >> stime;
+  return (utime + stime) / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
+
+// Counts arrivals and stamps the last one in the receiving callback; the ping side waits.
 struct Arrivals {
   std::mutex mutex;
   std::condition_variable cv;
   long count = 0;
   Clock::time_point last;
   void arrived() {
+    const auto now = Clock::now();
     {
       std::lock_guard<std::mutex> lock(mutex);
       ++count;
-      last = Clock::now();
+      last = now;
     }
     cv.notify_all();
   }
@@ -71,9 +121,16 @@ struct Arrivals {
     std::lock_guard<std::mutex> lock(mutex);
     return count;
   }
-  bool waitFor(long target, std::chrono::milliseconds timeout) {
+  // The stamp of arrival number `target`, or nullopt-like false on timeout.
+  bool waitFor(long target, std::chrono::milliseconds timeout, Clock::time_point* stamp) {
     std::unique_lock<std::mutex> lock(mutex);
-    return cv.wait_for(lock, timeout, [&] { return count >= target; });
+    if (!cv.wait_for(lock, timeout, [&] { return count >= target; })) return false;
+    if (stamp) *stamp = last;
+    return true;
+  }
+  void resync(long target) {
+    std::lock_guard<std::mutex> lock(mutex);
+    count = std::max(count, target);
   }
 };
 
@@ -98,12 +155,11 @@ class RawNode : public fdds::DataReaderListener {
                   : participant_->create_topic(Context::ddsTopicName(in), type.get_type_name(),
                                                fdds::TOPIC_QOS_DEFAULT);
     if (!pub || !sub || !out_topic || !in_topic) throw std::runtime_error("raw: no topic");
-    writer_ = pub->create_datawriter_with_profile(out_topic, Context::profileName(g_kind, true));
+    const TopicKind kind = g_settings.kind;
+    writer_ = pub->create_datawriter_with_profile(out_topic, Context::profileName(kind, true));
     reader_ =
-        sub->create_datareader_with_profile(in_topic, Context::profileName(g_kind, false), this);
-    if (!pub || !sub || !out_topic || !in_topic || !writer_ || !reader_) {
-      throw std::runtime_error("raw: cannot create the DDS entities");
-    }
+        sub->create_datareader_with_profile(in_topic, Context::profileName(kind, false), this);
+    if (!writer_ || !reader_) throw std::runtime_error("raw: cannot create the DDS entities");
   }
   ~RawNode() override {
     participant_->delete_contained_entities();
@@ -142,14 +198,21 @@ class RawNode : public fdds::DataReaderListener {
 
 // ---- runtime -------------------------------------------------------------------------
 
+std::unique_ptr<Context> makeContext(int domain) {
+  storey::runtime::ContextOptions options;
+  options.domain_id = domain;
+  return std::make_unique<Context>(options);
+}
+
 struct RuntimeNode {
   RuntimeNode(Context& context, const std::string& out, const std::string& in, bool echo,
               Arrivals* arrivals)
-      : publisher(context, out, g_kind),
-        subscription(context, in, g_kind, [this, echo, arrivals](const Scan& scan) {
+      : publisher(context, out, g_settings.kind),
+        subscription(context, in, g_settings.kind, [this, echo, arrivals](const Scan& scan) {
           if (echo) publisher.publish(scan);
           if (arrivals) arrivals->arrived();
         }) {}
+  void publish(Scan& scan) { publisher.publish(scan); }
   bool waitMatched(double timeout_s) {
     if (!publisher.waitForSubscribers(1, timeout_s)) return false;
     const auto end = Clock::now() + std::chrono::duration<double>(timeout_s);
@@ -165,7 +228,7 @@ struct RuntimeNode {
 
 // ---- the echo process ----------------------------------------------------------------
 
-// Echoes until SIGTERM (taken with sigtimedwait, so DDS shuts down cleanly).
+// Echoes ping -> pong until SIGTERM (taken with sigtimedwait, so DDS shuts down cleanly).
 int runEcho(const std::string& mode, int domain) {
   storey::runtime::BlockedTerminationSignals signals;
   if (mode == "raw") {
@@ -174,17 +237,15 @@ int runEcho(const std::string& mode, int domain) {
     while (signals.wait(1.0) == 0) {
     }
   } else {
-    storey::runtime::ContextOptions options;
-    options.domain_id = domain;
-    Context context(options);
-    RuntimeNode node(context, "pong", "ping", true, nullptr);
+    auto context = makeContext(domain);
+    RuntimeNode node(*context, "pong", "ping", true, nullptr);
     while (signals.wait(1.0) == 0) {
     }
   }
   return 0;
 }
 
-// A child process running the echo until the benchmark kills it.
+// A child process running the echo until it is destroyed.
 class EchoProcess {
  public:
   EchoProcess(const std::string& mode, int domain) {
@@ -192,7 +253,7 @@ class EchoProcess {
     if (pid_ == 0) {
       const std::string d = std::to_string(domain);
       execl(g_self.c_str(), g_self.c_str(), "--echo", mode.c_str(), d.c_str(),
-            g_kind == TopicKind::kSensor ? "sensor" : "graph", nullptr);
+            g_settings.kind == TopicKind::kSensor ? "sensor" : "graph", nullptr);
       _exit(127);
     }
   }
@@ -202,61 +263,177 @@ class EchoProcess {
       waitpid(pid_, nullptr, 0);
     }
   }
+  pid_t pid() const { return pid_; }
 
  private:
   pid_t pid_ = -1;
 };
 
-// ---- benchmarks ----------------------------------------------------------------------
+// ---- statistics ----------------------------------------------------------------------
 
-std::map<std::string, double> g_results;  // name -> figure, for the ratio table
-std::unique_ptr<Context> g_context;       // the bench process's one participant
+struct Summary {
+  double median = 0, p90 = 0, p99 = 0, mean = 0;
+};
 
-Context& benchContext(int domain) {
-  if (!g_context || g_context->domainId() != domain) {
-    g_context.reset();
-    storey::runtime::ContextOptions options;
-    options.domain_id = domain;
-    g_context = std::make_unique<Context>(options);
-  }
-  return *g_context;
+Summary summarize(std::vector<double> values) {
+  Summary s;
+  if (values.empty()) return s;
+  std::sort(values.begin(), values.end());
+  const auto at = [&](double q) {
+    const std::size_t i = static_cast<std::size_t>(q * (values.size() - 1) + 0.5);
+    return values[std::min(i, values.size() - 1)];
+  };
+  s.median = at(0.5);
+  s.p90 = at(0.9);
+  s.p99 = at(0.99);
+  double sum = 0;
+  for (double v : values) sum += v;
+  s.mean = sum / values.size();
+  return s;
 }
 
-template <typename Node>
-void pingPong(benchmark::State& state, Node& ping, Arrivals& arrivals, const std::string& key) {
-  Scan scan = makeScan();
-  double total_us = 0;
-  long rounds = 0, lost = 0;
-  for (auto _ : state) {
-    const long target = arrivals.current() + 1;
-    const auto start = Clock::now();
-    ping.publish(scan);
-    if (!arrivals.waitFor(target, std::chrono::milliseconds(500))) {
-      ++lost;  // best effort may drop; resynchronise
-      std::lock_guard<std::mutex> lock(arrivals.mutex);
-      arrivals.count = target;
-      state.SetIterationTime(0.5);
-      continue;
+double ratio(double a, double b) { return b > 0 ? a / b : 0.0; }
+
+// ---- A/B latency ---------------------------------------------------------------------
+
+// One side of the comparison: a ping node, its arrivals and (two processes) the echo child.
+struct LatencySide {
+  std::string name;
+  Arrivals arrivals;
+  std::unique_ptr<Context> context;
+  std::unique_ptr<EchoProcess> echo_process;
+  std::unique_ptr<RuntimeNode> runtime_echo, runtime_ping;
+  std::unique_ptr<RawNode> raw_echo, raw_ping;
+  std::vector<double> one_way_us;
+  double cpu_s = 0;
+  long round_trips = 0, lost = 0;
+
+  LatencySide(bool runtime, bool two_processes, int domain) {
+    name = runtime ? "runtime" : "raw DDS";
+    if (two_processes) {
+      echo_process = std::make_unique<EchoProcess>(runtime ? "runtime" : "raw", domain);
     }
-    const double one_way = std::chrono::duration<double>(Clock::now() - start).count() / 2;
-    state.SetIterationTime(one_way);
-    total_us += one_way * 1e6;
-    ++rounds;
+    if (runtime) {
+      context = makeContext(domain);
+      if (!two_processes) {
+        runtime_echo = std::make_unique<RuntimeNode>(*context, "pong", "ping", true, nullptr);
+      }
+      runtime_ping = std::make_unique<RuntimeNode>(*context, "ping", "pong", false, &arrivals);
+    } else {
+      if (!two_processes)
+        raw_echo = std::make_unique<RawNode>(domain, "pong", "ping", true, nullptr);
+      raw_ping = std::make_unique<RawNode>(domain, "ping", "pong", false, &arrivals);
+    }
   }
-  state.counters["one_way_us"] = rounds ? total_us / rounds : 0;
-  state.counters["lost"] = lost;
-  g_results[key] = rounds ? total_us / rounds : 0;
+  bool waitMatched() {
+    return runtime_ping ? runtime_ping->waitMatched(10) : raw_ping->waitMatched(10);
+  }
+  // `count` ping-pongs; recorded when `record`.
+  void run(int count, bool record) {
+    Scan scan = makeScan();
+    const double cpu_before = processCpuSeconds();
+    const double child_before = echo_process ? childCpuSeconds(echo_process->pid()) : 0;
+    for (int i = 0; i < count; ++i) {
+      const long target = arrivals.current() + 1;
+      const auto start = Clock::now();
+      if (runtime_ping) {
+        runtime_ping->publish(scan);
+      } else {
+        raw_ping->publish(scan);
+      }
+      Clock::time_point stamp;
+      if (!arrivals.waitFor(target, std::chrono::milliseconds(500), &stamp)) {
+        if (record) ++lost;  // best effort may drop: resynchronise
+        arrivals.resync(target);
+        continue;
+      }
+      if (record)
+        one_way_us.push_back(std::chrono::duration<double>(stamp - start).count() / 2 * 1e6);
+    }
+    if (record) {
+      cpu_s += processCpuSeconds() - cpu_before;
+      if (echo_process) cpu_s += childCpuSeconds(echo_process->pid()) - child_before;
+      round_trips += count;
+    }
+  }
+};
+
+void printLatencyTable(const char* title, const LatencySide& raw, const LatencySide& runtime) {
+  const Summary a = summarize(raw.one_way_us), b = summarize(runtime.one_way_us);
+  const double cpu_a = raw.round_trips ? raw.cpu_s / raw.round_trips * 1e6 : 0;
+  const double cpu_b = runtime.round_trips ? runtime.cpu_s / runtime.round_trips * 1e6 : 0;
+  std::printf("\n%s: one-way latency, us (%zu/%zu round trips, lost %ld/%ld)\n", title,
+              raw.one_way_us.size(), runtime.one_way_us.size(), raw.lost, runtime.lost);
+  std::printf("%-10s %9s %9s %9s %9s %14s\n", "", "median", "p90", "p99", "mean", "cpu us/rtrip");
+  std::printf("%-10s %9.1f %9.1f %9.1f %9.1f %14.1f\n", "raw DDS", a.median, a.p90, a.p99, a.mean,
+              cpu_a);
+  std::printf("%-10s %9.1f %9.1f %9.1f %9.1f %14.1f\n", "runtime", b.median, b.p90, b.p99, b.mean,
+              cpu_b);
+  std::printf("%-10s %9.2f %9.2f %9.2f %9.2f %14.2f\n", "ratio", ratio(b.median, a.median),
+              ratio(b.p90, a.p90), ratio(b.p99, a.p99), ratio(b.mean, a.mean), ratio(cpu_b, cpu_a));
 }
 
-template <typename Node>
-void blast(benchmark::State& state, Node& sender, Arrivals& arrivals, const std::string& key) {
-  Scan scan = makeScan();
-  double total_rate = 0;
-  int runs = 0;
-  for (auto _ : state) {
+void compareLatency(bool two_processes) {
+  const int domain = kDomainBase + (two_processes ? 2 : 0);
+  LatencySide raw(false, two_processes, domain);
+  LatencySide runtime(true, two_processes, domain + 1);
+  if (!raw.waitMatched() || !runtime.waitMatched()) {
+    std::printf("latency %s: endpoints did not match within 10 s\n",
+                two_processes ? "2 processes" : "1 process");
+    return;
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  raw.run(g_settings.warmup, false);
+  runtime.run(g_settings.warmup, false);
+  for (int round = 0; round < g_settings.rounds; ++round) {
+    LatencySide& first = round % 2 == 0 ? static_cast<LatencySide&>(raw) : runtime;
+    LatencySide& second = round % 2 == 0 ? static_cast<LatencySide&>(runtime) : raw;
+    first.run(10, false);  // re-warm caches after the other side's block
+    first.run(g_settings.per_round, true);
+    second.run(10, false);
+    second.run(g_settings.per_round, true);
+  }
+  printLatencyTable(two_processes ? "2 processes" : "1 process", raw, runtime);
+}
+
+// ---- A/B throughput ------------------------------------------------------------------
+
+// One process: the sender's own subscription on the same topic counts. Two processes: the
+// child echoes them back and they are counted here.
+struct ThroughputSide {
+  Arrivals arrivals;
+  std::unique_ptr<Context> context;
+  std::unique_ptr<EchoProcess> echo_process;
+  std::unique_ptr<RuntimeNode> runtime_node;
+  std::unique_ptr<RawNode> raw_node;
+  std::vector<double> rates, fractions;
+
+  ThroughputSide(bool runtime, bool two_processes, int domain) {
+    const std::string in = two_processes ? "pong" : "ping";
+    if (two_processes) {
+      echo_process = std::make_unique<EchoProcess>(runtime ? "runtime" : "raw", domain);
+    }
+    if (runtime) {
+      context = makeContext(domain);
+      runtime_node = std::make_unique<RuntimeNode>(*context, "ping", in, false, &arrivals);
+    } else {
+      raw_node = std::make_unique<RawNode>(domain, "ping", in, false, &arrivals);
+    }
+  }
+  bool waitMatched() {
+    return runtime_node ? runtime_node->waitMatched(10) : raw_node->waitMatched(10);
+  }
+  void blast() {
+    Scan scan = makeScan();
     const long before = arrivals.current();
     const auto start = Clock::now();
-    for (int i = 0; i < kThroughputBatch; ++i) sender.publish(scan);
+    for (int i = 0; i < kThroughputBatch; ++i) {
+      if (runtime_node) {
+        runtime_node->publish(scan);
+      } else {
+        raw_node->publish(scan);
+      }
+    }
     // Received = what arrived until nothing more came for 100 ms.
     long seen = -1;
     while (seen != arrivals.current()) {
@@ -270,106 +447,177 @@ void blast(benchmark::State& state, Node& sender, Arrivals& arrivals, const std:
     }
     const long received = arrivals.current() - before;
     const double seconds = std::chrono::duration<double>(last - start).count();
-    state.SetIterationTime(seconds);
-    total_rate += received / seconds;
-    state.counters["received_fraction"] = static_cast<double>(received) / kThroughputBatch;
-    ++runs;
+    rates.push_back(seconds > 0 ? received / seconds : 0);
+    fractions.push_back(static_cast<double>(received) / kThroughputBatch);
   }
-  state.counters["msgs_per_s"] = total_rate / runs;
-  g_results[key] = total_rate / runs;
-}
+};
 
-// Ping-pong latency: the echo mirrors ping -> pong in this process or in a child.
-void BM_Latency(benchmark::State& state, bool runtime, bool two_processes) {
-  const int domain = 180 + (runtime ? 0 : 1) + (two_processes ? 2 : 0);
-  Context& context = benchContext(domain);  // also loads the QoS profiles
-  Arrivals arrivals;
-  std::unique_ptr<EchoProcess> echo_process;
-  std::unique_ptr<RuntimeNode> runtime_echo;
-  std::unique_ptr<RawNode> raw_echo;
-  if (two_processes) {
-    echo_process = std::make_unique<EchoProcess>(runtime ? "runtime" : "raw", domain);
-  } else if (runtime) {
-    runtime_echo = std::make_unique<RuntimeNode>(context, "pong", "ping", true, nullptr);
-  } else {
-    raw_echo = std::make_unique<RawNode>(domain, "pong", "ping", true, nullptr);
-  }
-  const std::string key = std::string("latency_us ") + (two_processes ? "2proc" : "1proc");
-  if (runtime) {
-    RuntimeNode ping(context, "ping", "pong", false, &arrivals);
-    if (!ping.waitMatched(10)) return state.SkipWithError("no match");
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    pingPong(state, ping.publisher, arrivals, key + " runtime");
-  } else {
-    RawNode ping(domain, "ping", "pong", false, &arrivals);
-    if (!ping.waitMatched(10)) return state.SkipWithError("no match");
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    pingPong(state, ping, arrivals, key + " raw");
-  }
-}
-
-// Throughput: one sender blasts kThroughputBatch scans; the receiver is in this process or
-// in a child which echoes them back (so the count is taken here).
-void BM_Throughput(benchmark::State& state, bool runtime, bool two_processes) {
-  const int domain = 190 + (runtime ? 0 : 1) + (two_processes ? 2 : 0);
-  Context& context = benchContext(domain);
-  Arrivals arrivals;
-  std::unique_ptr<EchoProcess> echo_process;
-  if (two_processes) {
-    echo_process = std::make_unique<EchoProcess>(runtime ? "runtime" : "raw", domain);
-  }
-  const std::string key = std::string("msgs_per_s ") + (two_processes ? "2proc" : "1proc");
-  // One process: the sender's own subscription on the same topic counts.
-  const std::string in = two_processes ? "pong" : "ping";
-  if (runtime) {
-    RuntimeNode node(context, "ping", in, false, &arrivals);
-    if (!node.waitMatched(10)) return state.SkipWithError("no match");
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    blast(state, node.publisher, arrivals, key + " runtime");
-  } else {
-    RawNode node(domain, "ping", in, false, &arrivals);
-    if (!node.waitMatched(10)) return state.SkipWithError("no match");
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    blast(state, node, arrivals, key + " raw");
-  }
-}
-
-void registerBenchmarks() {
-  for (bool two : {false, true}) {
-    for (bool runtime : {false, true}) {
-      const std::string suffix =
-          std::string(runtime ? "runtime" : "raw") + (two ? "/2proc" : "/1proc");
-      benchmark::RegisterBenchmark(("Latency/" + suffix).c_str(), BM_Latency, runtime, two)
-          ->UseManualTime()
-          ->Unit(benchmark::kMicrosecond)
-          ->Iterations(2000);
-      benchmark::RegisterBenchmark(("Throughput/" + suffix).c_str(), BM_Throughput, runtime, two)
-          ->UseManualTime()
-          ->Unit(benchmark::kMillisecond)
-          ->Iterations(5);
+void compareThroughput(bool two_processes) {
+  // Sides are made one after the other on one domain (a side is torn down before the
+  // next starts), each round alternating which goes first.
+  std::vector<double> rates[2], fractions[2];
+  const int rounds = 6;
+  for (int round = 0; round < rounds; ++round) {
+    for (int k = 0; k < 2; ++k) {
+      const bool runtime = (k == 1) != (round % 2 == 1);
+      ThroughputSide side(runtime, two_processes, kDomainBase + 4);
+      if (!side.waitMatched()) {
+        std::printf("throughput: endpoints did not match within 10 s\n");
+        return;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      side.blast();
+      rates[runtime].push_back(side.rates.back());
+      fractions[runtime].push_back(side.fractions.back());
     }
   }
+  const Summary a = summarize(rates[0]), b = summarize(rates[1]);
+  const Summary fa = summarize(fractions[0]), fb = summarize(fractions[1]);
+  std::printf("\n%s: throughput, bursts of %d scans (%d alternating rounds)\n",
+              two_processes ? "2 processes" : "1 process", kThroughputBatch, rounds);
+  std::printf("%-10s %12s %12s %12s %10s\n", "", "median msg/s", "min", "mean", "received");
+  std::printf("%-10s %12.0f %12.0f %12.0f %10.2f\n", "raw DDS", a.median,
+              *std::min_element(rates[0].begin(), rates[0].end()), a.mean, fa.median);
+  std::printf("%-10s %12.0f %12.0f %12.0f %10.2f\n", "runtime", b.median,
+              *std::min_element(rates[1].begin(), rates[1].end()), b.mean, fb.median);
+  std::printf("%-10s %12.2f %12s %12.2f %10.2f\n", "ratio", ratio(b.median, a.median), "",
+              ratio(b.mean, a.mean), ratio(fb.median, fa.median));
 }
 
-void printRatios() {
-  std::printf("\n%-22s %12s %12s %8s\n", "figure", "runtime", "raw DDS", "ratio");
-  for (const char* figure :
-       {"latency_us 1proc", "latency_us 2proc", "msgs_per_s 1proc", "msgs_per_s 2proc"}) {
-    const auto runtime = g_results.find(std::string(figure) + " runtime");
-    const auto raw = g_results.find(std::string(figure) + " raw");
-    if (runtime == g_results.end() || raw == g_results.end()) continue;
-    std::printf("%-22s %12.1f %12.1f %8.2f\n", figure, runtime->second, raw->second,
-                raw->second > 0 ? runtime->second / raw->second : 0.0);
+// ---- the hand-off floor (Google Benchmark) ---------------------------------------------
+
+// Two threads bouncing a token through a mutex + condition variable: the price of any
+// thread hand-off that sleeps, which the runtime pays where raw DDS calls back in place.
+void BM_HandoffCondvar(benchmark::State& state) {
+  std::mutex mutex;
+  std::condition_variable cv;
+  long token = 0;  // odd: the echo's turn
+  bool stop = false;
+  std::thread echo([&] {
+    std::unique_lock<std::mutex> lock(mutex);
+    for (;;) {
+      cv.wait(lock, [&] { return stop || token % 2 == 1; });
+      if (stop) return;
+      ++token;
+      cv.notify_all();
+    }
+  });
+  std::vector<double> one_way;
+  for (auto _ : state) {
+    const auto start = Clock::now();
+    std::unique_lock<std::mutex> lock(mutex);
+    ++token;
+    cv.notify_all();
+    cv.wait(lock, [&] { return token % 2 == 0; });
+    const double s = std::chrono::duration<double>(Clock::now() - start).count() / 2;
+    state.SetIterationTime(s);
+    one_way.push_back(s * 1e6);
   }
-  std::printf("(QoS profile: %s; LaserScan with %d beams, %d bytes of ranges)\n",
-              Context::profileName(g_kind, true).c_str(), kBeams, kBeams * 4);
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    stop = true;
+  }
+  cv.notify_all();
+  echo.join();
+  const Summary s = summarize(one_way);
+  state.counters["median_us"] = s.median;
+  state.counters["p90_us"] = s.p90;
+  state.counters["p99_us"] = s.p99;
+}
+
+// The same with both threads polling an atomic (no sleep, no futex): the floor of a
+// hand-off whose receiver is already spinning.
+void BM_HandoffSpin(benchmark::State& state) {
+  std::atomic<long> token{0};
+  std::atomic<bool> stop{false};
+  std::thread echo([&] {
+    long seen = 0;
+    while (!stop.load(std::memory_order_relaxed)) {
+      const long t = token.load(std::memory_order_acquire);
+      if (t % 2 == 1 && t != seen) {
+        seen = t + 1;
+        token.store(t + 1, std::memory_order_release);
+      }
+    }
+  });
+  std::vector<double> one_way;
+  for (auto _ : state) {
+    const auto start = Clock::now();
+    const long t = token.load() + 1;
+    token.store(t, std::memory_order_release);
+    while (token.load(std::memory_order_acquire) == t) {
+    }
+    const double s = std::chrono::duration<double>(Clock::now() - start).count() / 2;
+    state.SetIterationTime(s);
+    one_way.push_back(s * 1e6);
+  }
+  stop = true;
+  echo.join();
+  const Summary s = summarize(one_way);
+  state.counters["median_us"] = s.median;
+  state.counters["p90_us"] = s.p90;
+  state.counters["p99_us"] = s.p99;
+}
+
+// The same polling hand-off carrying a LaserScan's worth of data (4320 bytes written by one
+// thread, copied out by the other, and back): the cost of moving a message between cores,
+// which a sample delivered on one thread and used on another always pays.
+void BM_HandoffSpinScan(benchmark::State& state) {
+  constexpr std::size_t kBytes = kBeams * 4;
+  std::vector<char> shared(kBytes), echo_copy(kBytes), ping_copy(kBytes);
+  std::atomic<long> token{0};
+  std::atomic<bool> stop{false};
+  std::thread echo([&] {
+    long seen = 0;
+    while (!stop.load(std::memory_order_relaxed)) {
+      const long t = token.load(std::memory_order_acquire);
+      if (t % 2 == 1 && t != seen) {
+        std::memcpy(echo_copy.data(), shared.data(), kBytes);  // take
+        echo_copy[t % kBytes] ^= 1;
+        std::memcpy(shared.data(), echo_copy.data(), kBytes);  // publish back
+        seen = t + 1;
+        token.store(t + 1, std::memory_order_release);
+      }
+    }
+  });
+  std::vector<double> one_way;
+  for (auto _ : state) {
+    const auto start = Clock::now();
+    std::memset(shared.data(), static_cast<int>(one_way.size() & 0x7f), kBytes);
+    const long t = token.load() + 1;
+    token.store(t, std::memory_order_release);
+    while (token.load(std::memory_order_acquire) == t) {
+    }
+    std::memcpy(ping_copy.data(), shared.data(), kBytes);
+    const double s = std::chrono::duration<double>(Clock::now() - start).count() / 2;
+    state.SetIterationTime(s);
+    one_way.push_back(s * 1e6);
+  }
+  stop = true;
+  echo.join();
+  const Summary s = summarize(one_way);
+  state.counters["median_us"] = s.median;
+  state.counters["p90_us"] = s.p90;
+  state.counters["p99_us"] = s.p99;
+}
+
+BENCHMARK(BM_HandoffCondvar)->UseManualTime()->Unit(benchmark::kMicrosecond)->Iterations(20000);
+BENCHMARK(BM_HandoffSpin)->UseManualTime()->Unit(benchmark::kMicrosecond)->Iterations(20000);
+BENCHMARK(BM_HandoffSpinScan)->UseManualTime()->Unit(benchmark::kMicrosecond)->Iterations(20000);
+
+bool parseInt(const char* text, int min, int* out) {
+  char* end = nullptr;
+  const long v = std::strtol(text, &end, 10);
+  if (*end != '\0' || v < min || v > 1000000) return false;
+  *out = static_cast<int>(v);
+  return true;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc >= 5 && std::strcmp(argv[1], "--echo") == 0) {
-    g_kind = std::strcmp(argv[4], "graph") == 0 ? TopicKind::kGraph : TopicKind::kSensor;
+    g_settings.kind = std::strcmp(argv[4], "graph") == 0 ? TopicKind::kGraph : TopicKind::kSensor;
     return runEcho(argv[2], std::atoi(argv[3]));
   }
   char path[4096];
@@ -378,21 +626,55 @@ int main(int argc, char** argv) {
     path[n] = '\0';
     g_self = path;
   }
-  // Our own option, removed before Google Benchmark sees the arguments.
+  // Our own options, removed before Google Benchmark sees the arguments.
   int out = 1;
   for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--qos") == 0 && i + 1 < argc) {
-      g_kind = std::strcmp(argv[++i], "graph") == 0 ? TopicKind::kGraph : TopicKind::kSensor;
+    const std::string arg = argv[i];
+    const bool has_value = i + 1 < argc;
+    bool ok = true;
+    if (arg == "--qos" && has_value) {
+      const std::string v = argv[++i];
+      ok = v == "sensor" || v == "graph";
+      g_settings.kind = v == "graph" ? TopicKind::kGraph : TopicKind::kSensor;
+    } else if (arg == "--rounds" && has_value) {
+      ok = parseInt(argv[++i], 2, &g_settings.rounds);
+    } else if (arg == "--per-round" && has_value) {
+      ok = parseInt(argv[++i], 1, &g_settings.per_round);
+    } else if (arg == "--processes" && has_value) {
+      ok = parseInt(argv[++i], 1, &g_settings.processes) && g_settings.processes <= 2;
+    } else if (arg == "--skip-throughput") {
+      g_settings.throughput = false;
     } else {
       argv[out++] = argv[i];
+      continue;
+    }
+    if (!ok) {
+      std::fprintf(stderr, "bench_runtime: bad value for %s: %s\n", arg.c_str(), argv[i]);
+      return 2;
     }
   }
   argc = out;
-  registerBenchmarks();
   benchmark::Initialize(&argc, argv);
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
-  g_context.reset();
-  printRatios();
+
+  fdds::DomainParticipantFactory::get_instance()->load_XML_profiles_file(STOREY_QOS_FILE);
+  double load[3] = {0, 0, 0};
+  getloadavg(load, 3);
+  std::printf(
+      "\nQoS profile %s; LaserScan with %d beams (%d bytes of ranges); load average %.2f %.2f "
+      "%.2f\n",
+      Context::profileName(g_settings.kind, true).c_str(), kBeams, kBeams * 4, load[0], load[1],
+      load[2]);
+  std::printf("latency: %d alternating rounds of %d ping-pongs per side, after %d warm-up\n",
+              g_settings.rounds, g_settings.per_round, g_settings.warmup);
+  if (g_settings.processes != 2) compareLatency(false);
+  if (g_settings.processes != 1) compareLatency(true);
+  if (g_settings.throughput) {
+    compareThroughput(false);
+    compareThroughput(true);
+  }
+  getloadavg(load, 3);
+  std::printf("\nload average at the end %.2f %.2f %.2f\n", load[0], load[1], load[2]);
   return 0;
 }
