@@ -15,7 +15,7 @@
 //   peak RSS  server process (VmHWM, reset before each run)
 //
 //   bench_fleet [--journal J] [--robots 10,30] [--speeds 8,32] [--domain 97] [--seed 1]
-//               [--no-matcher] [--timeout S]
+//               [--no-matcher] [--no-journal-sync] [--timeout S]
 #include <benchmark/benchmark.h>
 #include <signal.h>
 #include <sys/prctl.h>
@@ -246,6 +246,7 @@ struct Options {
   int domain = 97;
   unsigned seed = 1;
   bool matcher = true;
+  bool journal_sync = true;
   double timeout = 120;
 };
 
@@ -281,7 +282,8 @@ RunResult runFleet(const Options& o, int n, double speed, const std::string& dir
     options.participant_name = "fleet_server";
     rt::Context context(options);
     const auto gs_params = storey::common::ConfigNode::loadString(
-        withKey(readText(config + "graph_server.yaml"), "journal", journal_out), config + "graph_server.yaml");
+        withKey(withKey(readText(config + "graph_server.yaml"), "journal", journal_out), "journal_sync",
+                o.journal_sync ? "true" : "false"), config + "graph_server.yaml");
     storey::graph_server::GraphServer server(context, gs_params, "graph_server");
     const auto fm_params = storey::common::ConfigNode::loadFile(config + "floor_matcher.yaml");
     std::unique_ptr<storey::floor_matcher::FloorMatcherComponent> matcher;
@@ -429,6 +431,7 @@ int main(int argc, char** argv) {
     } else if (a == "--domain") o.domain = std::stoi(value());
     else if (a == "--seed") o.seed = static_cast<unsigned>(std::stoul(value()));
     else if (a == "--no-matcher") o.matcher = false;
+    else if (a == "--no-journal-sync") o.journal_sync = false;
     else if (a == "--timeout") o.timeout = std::stod(value());
     else if (a == "--robot") robot = std::stoi(value());
     else if (a == "--start") start = std::stoll(value());
@@ -437,7 +440,7 @@ int main(int argc, char** argv) {
     else {
       std::fprintf(stderr,
                    "usage: bench_fleet [--journal J] [--robots 10,30] [--speeds 8,32] [--domain D] "
-                   "[--seed S] [--no-matcher] [--timeout S]\n");
+                   "[--seed S] [--no-matcher] [--no-journal-sync] [--timeout S]\n");
       return a == "--help" ? 0 : 2;
     }
   }
@@ -454,8 +457,9 @@ int main(int argc, char** argv) {
     std::size_t nodes = 0;
     for (const auto& u : one) nodes += u.new_nodes.size();
     std::printf("fleet load: each robot publishes %zu floor-graph updates (%zu nodes) over %.1f s of "
-                "recording (%s); domain %d; matcher %s\n\n",
-                one.size(), nodes, one.back().offset_s, o.journal.c_str(), o.domain, o.matcher ? "on" : "off");
+                "recording (%s); domain %d; matcher %s; journal fdatasync %s\n\n",
+                one.size(), nodes, one.back().offset_s, o.journal.c_str(), o.domain, o.matcher ? "on" : "off",
+                o.journal_sync ? "on" : "off");
     std::printf("%6s %6s %9s %9s %6s %7s | %8s %8s %8s %8s | %8s %8s %8s | %7s %8s %7s | %5s %5s\n", "robots",
                 "speed", "offered/s", "received", "lost", "missing", "recv p50", "p90", "p99", "max",
                 "state p50", "p90", "p99", "srv CPU", "robots s", "RSS MB", "match", "cons");
