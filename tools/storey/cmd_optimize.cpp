@@ -15,8 +15,10 @@ int run_optimize(Args& args) {
   args.usage("IN.g2o OUT.g2o",
              "Reads a pose graph (g2o, or TORO for .graph/.toro), optimises it and writes it.\n"
              "Prints the initial and final chi2, the iterations and the time per phase.")
-      .option("init", "file|odometry",
-              "initial guess: the file's vertices, or chained odometry from the first node", "file")
+      .option("init", "file|odometry|orientation|auto",
+              "initial guess: the file's vertices, chained odometry from the first node, the "
+              "orientation-first estimate, or that estimate when the file's guess is poor",
+              "file")
       .option("solver", "gn|lm", "Gauss-Newton or Levenberg-Marquardt", "lm")
       .option("robust", "none|huber|cauchy|dcs",
               "robust kernel on every non-odometry edge (scan match, loop closure, inter-floor)",
@@ -53,11 +55,9 @@ int run_optimize(Args& args) {
   if (iterations < 1) throw UsageError("--iterations must be at least 1");
   options.max_iterations = static_cast<int>(iterations);
   options.linear_solver = args.get("linear-solver");
-  if (options.linear_solver != "cholmod" &&
-      options.linear_solver != "cholmod_supernodal" && options.linear_solver != "cholmod_nd" &&
-      options.linear_solver != "eigen") {
-    throw UsageError(
-        "--linear-solver must be cholmod, cholmod_supernodal, cholmod_nd or eigen");
+  if (options.linear_solver != "cholmod" && options.linear_solver != "cholmod_supernodal" &&
+      options.linear_solver != "cholmod_nd" && options.linear_solver != "eigen") {
+    throw UsageError("--linear-solver must be cholmod, cholmod_supernodal, cholmod_nd or eigen");
   }
   if (args.flagSet("per-component")) options.gauge = graph::GaugeMode::kPerComponent;
   options.verbose = args.flagSet("verbose");
@@ -65,7 +65,11 @@ int run_optimize(Args& args) {
     options = graph::readOptimizerOptions(common::ConfigNode::loadFile(args.get("config")));
   }
   const std::string init = args.get("init");
-  if (init != "file" && init != "odometry") throw UsageError("--init must be file or odometry");
+  if (init != "file" && init != "odometry" && init != "orientation" && init != "auto") {
+    throw UsageError("--init must be file, odometry, orientation or auto");
+  }
+  if (init == "orientation") options.initialization = graph::Initialization::kOrientationFirst;
+  if (init == "auto") options.initialization = graph::Initialization::kAuto;
 
   graph::GraphReadInfo info;
   graph::PoseGraph pose_graph = graph::readGraph(in, &info);
@@ -86,11 +90,13 @@ int run_optimize(Args& args) {
     std::cout << "robust cost  " << r.initial_cost << " -> " << r.final_cost << "\n";
   }
   std::cout << "iterations " << r.iterations << " (accepted " << r.accepted_steps
-            << ", factorisations " << r.factorizations << ", chord steps " << r.chord_steps
-            << "), "
+            << ", factorisations " << r.factorizations << ", chord steps " << r.chord_steps << "), "
             << (r.converged ? "converged: " : "not converged: ") << r.termination << "\n";
   std::cout << std::setprecision(3) << std::fixed;
-  std::cout << "time [ms]: assembly " << 1e3 * r.time.assembly << ", symbolic "
+  if (r.initialized) {
+    std::cout << "orientation-first initialisation: chi2 " << r.initialized_chi2 << "\n";
+  }
+  std::cout << "time [ms]: initialisation " << 1e3 * r.time.initialization << ", assembly " << 1e3 * r.time.assembly << ", symbolic "
             << 1e3 * r.time.symbolic << ", numeric " << 1e3 * r.time.numeric << ", solve "
             << 1e3 * r.time.solve << ", evaluate " << 1e3 * r.time.evaluate << ", total "
             << 1e3 * r.time.total << "\n";

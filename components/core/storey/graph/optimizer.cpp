@@ -107,6 +107,13 @@ OptimizerOptions readOptimizerOptions(const common::ConfigNode& config) {
   const std::string gauge =
       config.getChoice("gauge", "first_node", {"first_node", "per_component"});
   o.gauge = gauge == "first_node" ? GaugeMode::kFirstNode : GaugeMode::kPerComponent;
+  const std::string init =
+      config.getChoice("initialization", "none", {"none", "orientation_first", "auto"});
+  o.initialization = init == "none"                ? Initialization::kNone
+                     : init == "orientation_first" ? Initialization::kOrientationFirst
+                                                   : Initialization::kAuto;
+  o.auto_initialization_chi2 =
+      config.getDouble("auto_initialization_chi2", o.auto_initialization_chi2, 0.0, 1e300);
   o.downweight_threshold =
       config.getDouble("downweight_threshold", o.downweight_threshold, 0.0, 1.0);
   o.verbose = config.get<bool>("verbose", o.verbose);
@@ -222,6 +229,24 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
   chooseGauge(graph, options_.gauge, &fixed, &auto_fixed, &components);
   result.components = components;
   result.auto_fixed = auto_fixed;
+  if (options_.initialization != Initialization::kNone) {
+    result.initial_chi2 = graph.chi2();
+    bool robust = false;
+    for (const RobustKernel& k : options_.robust)
+      robust = robust || k.type != RobustKernelType::kNone;
+    std::size_t enabled = 0;
+    for (const Edge& edge : graph.edges()) enabled += edge.enabled ? 1 : 0;
+    result.initialized =
+        options_.initialization == Initialization::kOrientationFirst ||
+        (!robust &&
+         result.initial_chi2 > options_.auto_initialization_chi2 *
+                                   static_cast<double>(std::max<std::size_t>(enabled, 1)));
+    // Its anchors are the gauge's fixed nodes (same rule), so fixed poses stay put.
+    if (result.initialized) {
+      result.time.initialization = initializeOrientationFirst(graph).seconds;
+    }
+    phase = Clock::now();
+  }
   if (!structure_ || structure_->graph_version != graph.structureVersion() ||
       structure_->fixed != fixed) {
     auto s = std::make_unique<Structure>();
@@ -398,7 +423,8 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
   double chi2 = 0.0;
   double cost = n_vars > 0 ? assemble(&chi2) : evaluate(&chi2);
   result.time.assembly += secondsSince(phase);
-  result.initial_chi2 = chi2;
+  if (!result.initialized) result.initial_chi2 = chi2;
+  result.initialized_chi2 = chi2;
   result.initial_cost = cost;
 
   const bool lm = options_.algorithm == Algorithm::kLevenbergMarquardt;
@@ -576,6 +602,7 @@ std::map<NodeId, Eigen::Matrix3d> Optimizer::marginalCovariances(const PoseGraph
     // moving any pose.
     OptimizerOptions saved = options_;
     options_.max_iterations = 0;
+    options_.initialization = Initialization::kNone;
     PoseGraph& mutable_graph = const_cast<PoseGraph&>(graph);
     optimize(mutable_graph);
     options_ = saved;

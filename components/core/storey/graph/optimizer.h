@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "storey/common/config.h"
+#include "storey/graph/initialization.h"
 #include "storey/graph/linear_solver.h"
 #include "storey/graph/pose_graph.h"
 
@@ -28,6 +29,12 @@ namespace storey::graph {
 enum class Algorithm { kGaussNewton, kLevenbergMarquardt };
 enum class RobustKernelType { kNone, kHuber, kCauchy, kDcs };
 enum class GaugeMode { kFirstNode, kPerComponent };
+// kOrientationFirst replaces the free poses by initializeOrientationFirst() before iterating
+// (initialization.h): for a poor start (odometry, MIT's file guess); not for robust runs
+// (false closures corrupt it) nor for re-optimising from a previous estimate.
+// kAuto does so when no robust kernel is set and the given poses' χ² per enabled edge
+// exceeds auto_initialization_chi2 (an optimum has about 3 per edge).
+enum class Initialization { kNone, kOrientationFirst, kAuto };
 
 // A kernel ρ applied to an edge's squared error s = eᵀΩe. `delta` is the Huber/Cauchy
 // width (in units of √s) or the DCS Φ.
@@ -44,7 +51,7 @@ struct OptimizerOptions {
   Algorithm algorithm = Algorithm::kLevenbergMarquardt;
   // "cholmod", "cholmod_supernodal", "cholmod_nd" or "eigen" (linear_solver.h).
   std::string linear_solver = "cholmod";
-  int max_iterations = 100;               // accepted + rejected steps
+  int max_iterations = 100;  // accepted + rejected steps
   // Stop when |Δχ²| / χ² of an accepted step falls below this (Ceres's default function
   // tolerance; on intel, manhattan and city10000 it stops within 2e-7 of the optimum).
   double relative_chi2_tolerance = 1e-6;
@@ -70,6 +77,8 @@ struct OptimizerOptions {
   double chord_min_ratio = 0.5;
   double chord_max_change = 0.5;
   GaugeMode gauge = GaugeMode::kFirstNode;
+  Initialization initialization = Initialization::kNone;
+  double auto_initialization_chi2 = 10.0;
   std::array<RobustKernel, kEdgeKindCount> robust{};  // indexed by EdgeKind
   // Edges whose final robust weight is below this are reported as down-weighted.
   double downweight_threshold = 0.5;
@@ -89,6 +98,8 @@ struct OptimizerOptions {
 //   chord_min_ratio: 0.5
 //   chord_max_change: 0.5
 //   gauge: first_node        # first_node | per_component
+//   initialization: none     # none | orientation_first | auto
+//   auto_initialization_chi2: 10
 //   downweight_threshold: 0.5
 //   verbose: false
 //   robust:                  # per edge kind; absent kinds use none
@@ -97,25 +108,28 @@ struct OptimizerOptions {
 OptimizerOptions readOptimizerOptions(const common::ConfigNode& config);
 
 struct PhaseTimes {
-  double assembly = 0.0;  // residuals, Jacobians, H and b (seconds)
-  double symbolic = 0.0;  // structure, ordering, symbolic factorisation
-  double numeric = 0.0;   // numeric factorisations
-  double solve = 0.0;     // triangular solves
-  double evaluate = 0.0;  // χ² of trial steps (LM)
+  double initialization = 0.0;  // orientation-first initialisation, when chosen
+  double assembly = 0.0;        // residuals, Jacobians, H and b (seconds)
+  double symbolic = 0.0;        // structure, ordering, symbolic factorisation
+  double numeric = 0.0;         // numeric factorisations
+  double solve = 0.0;           // triangular solves
+  double evaluate = 0.0;        // χ² of trial steps (LM)
   double total = 0.0;
 };
 
 struct OptimizerResult {
   bool converged = false;
-  std::string termination;    // why it stopped
-  double initial_chi2 = 0.0;  // Σ eᵀΩe of enabled edges (no kernel)
+  std::string termination;        // why it stopped
+  double initial_chi2 = 0.0;      // Σ eᵀΩe of enabled edges (no kernel), at the given poses
+  double initialized_chi2 = 0.0;  // after the initialisation (= initial_chi2 without one)
+  bool initialized = false;       // the orientation-first initialisation ran
   double final_chi2 = 0.0;
   double initial_cost = 0.0;  // Σ ρ(eᵀΩe): the robust objective actually minimised
   double final_cost = 0.0;
   int iterations = 0;  // steps tried
   int accepted_steps = 0;
   int factorizations = 0;
-  int chord_steps = 0;  // accepted steps that reused the previous factorisation
+  int chord_steps = 0;      // accepted steps that reused the previous factorisation
   bool reanalysed = false;  // the structure was (re)analysed in this call
   double final_lambda = 0.0;
   PhaseTimes time;
