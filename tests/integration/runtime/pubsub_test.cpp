@@ -91,6 +91,77 @@ TEST(RuntimePubSub, ScanArrivesIntactOnTheExecutorThread) {
   EXPECT_TRUE(on_executor);
 }
 
+// Within one process delivery is synchronous, so a burst published while the worker is
+// held arrives in the subscription's hand-off queue before any callback runs.
+TEST(RuntimePubSub, SensorSubscriberThatFallsBehindKeepsTheLastDepthScans) {
+  Context context(optionsForDomain(188));
+  std::vector<int> stamps;  // only touched on the worker
+  ScanSub sub(context, "robot1/scan", TopicKind::kSensor,
+              [&](const auto& scan) { stamps.push_back(scan.header().stamp().sec()); });
+  ScanPub pub(context, "robot1/scan", TopicKind::kSensor);
+  ASSERT_TRUE(pub.waitForSubscribers(1, 5.0));
+  std::mutex gate;  // holds the worker; nothing between lock and unlock may return early
+  gate.lock();
+  context.executor().post([&] { std::lock_guard<std::mutex> wait(gate); });
+  for (int i = 0; i < 50; ++i) {
+    sensor_msgs::msg::LaserScan scan;
+    scan.header().stamp().sec(i);
+    // Sizes vary so that a reused sample must shrink and grow correctly.
+    scan.ranges().assign(i % 2 == 0 ? 1080 : 3, static_cast<float>(i));
+    EXPECT_TRUE(pub.publish(scan));
+  }
+  gate.unlock();
+  context.executor().drain();
+  // keep last 10 (config/dds/qos_profiles.xml): the 40 oldest gave way.
+  ASSERT_EQ(stamps.size(), 10u);
+  for (int i = 0; i < 10; ++i) EXPECT_EQ(stamps[i], 40 + i);
+  EXPECT_EQ(sub.receivedCount(), 10u);
+  EXPECT_EQ(sub.droppedCount(), 40u);
+
+  // Once caught up, every scan arrives, intact although its sample object is reused.
+  std::vector<std::size_t> sizes;
+  std::vector<float> lasts;
+  ScanSub sized(context, "robot1/scan", TopicKind::kSensor, [&](const auto& scan) {
+    sizes.push_back(scan.ranges().size());
+    lasts.push_back(scan.ranges().empty() ? -1.f : scan.ranges().back());
+  });
+  ASSERT_TRUE(pub.waitForSubscribers(2, 5.0));
+  for (int i = 0; i < 6; ++i) {
+    sensor_msgs::msg::LaserScan scan;
+    scan.ranges().assign(i % 2 == 0 ? 1080 : 3, static_cast<float>(i));
+    ASSERT_TRUE(pub.publish(scan));
+    context.executor().drain();
+  }
+  ASSERT_EQ(sizes.size(), 6u);
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_EQ(sizes[i], i % 2 == 0 ? 1080u : 3u);
+    EXPECT_EQ(lasts[i], static_cast<float>(i));
+  }
+  EXPECT_EQ(sized.droppedCount(), 0u);
+}
+
+TEST(RuntimePubSub, GraphSubscriberThatFallsBehindLosesNothing) {
+  Context context(optionsForDomain(189));
+  std::vector<int> floors;  // only touched on the worker
+  FloorEventSub sub(context, "floor_events", TopicKind::kGraph,
+                    [&](const auto& e) { floors.push_back(e.floor_id()); });
+  FloorEventPub pub(context, "floor_events", TopicKind::kGraph);
+  ASSERT_TRUE(pub.waitForSubscribers(1, 5.0));
+  std::mutex gate;  // holds the worker; nothing between lock and unlock may return early
+  gate.lock();
+  context.executor().post([&] { std::lock_guard<std::mutex> wait(gate); });
+  for (int i = 0; i < 500; ++i) {
+    storey_msgs::msg::FloorEvent event;
+    event.floor_id(i);
+    EXPECT_TRUE(pub.publish(event));
+  }
+  gate.unlock();
+  context.executor().drain();
+  ASSERT_EQ(floors.size(), 500u);
+  for (int i = 0; i < 500; ++i) ASSERT_EQ(floors[i], i);
+  EXPECT_EQ(sub.droppedCount(), 0u);
+}
+
 TEST(RuntimePubSub, InactivePublisherSendsNothing) {
   Context context(optionsForDomain(102));
   std::atomic<int> count{0};
