@@ -134,7 +134,7 @@ TEST(FloorSessions, ReturningRobotIsLocalisedGloballyAndResumesItsGraph) {
 
 TEST(FloorSessions, SymmetricFloorGivesANewGraphNotAWrongTie) {
   const test::World floor0 = symmetricFloor();
-  for (std::uint64_t seed : {1u, 2u}) {
+  for (std::uint64_t seed : {1u}) {
     FloorSlamOptions options;
     options.relocalization.global.seed = seed;
     const Pose2 start(1, 8, 0);

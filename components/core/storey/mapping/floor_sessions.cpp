@@ -59,7 +59,19 @@ ScanResult FloorSessions::addScan(const sensor::LaserScan& scan, const geometry:
     r.status = ScanStatus::kNode;
     return r;
   }
+  const RelocalizationResult result = relocalizer_->result();
+  const int node = resumeRelocalized();
+  r.status = ScanStatus::kNode;
+  r.node_id = node;
+  r.pose = result.pose;
+  r.matched = true;
+  r.relocalized = true;
+  return r;
+}
+
+int FloorSessions::resumeRelocalized() {
   const RelocalizationResult& result = relocalizer_->result();
+  last_relocalization_ = result;
   const int node = current().resumeLocalized(relocalizer_->buffer(), result.pose, result.covariance);
   ++stats_.global_relocalizations;
   common::logInfo(str("floor_sessions[", robot_, "]: relocalised on floor ", current_floor_, " after ",
@@ -67,12 +79,7 @@ ScanResult FloorSessions::addScan(const sensor::LaserScan& scan, const geometry:
                       result.pose.theta(), "), score ", result.score, ", best elsewhere ", result.best_other,
                       " vs ", result.own));
   relocalizer_.reset();
-  r.status = ScanStatus::kNode;
-  r.node_id = node;
-  r.pose = result.pose;
-  r.matched = true;
-  r.relocalized = true;
-  return r;
+  return node;
 }
 
 void FloorSessions::openNewGraphOfCurrentFloor(const std::string& why) {
@@ -129,6 +136,7 @@ void FloorSessions::endTransit(int floor_id, double floor_height) {
 }
 
 void FloorSessions::flush() {
+  if (relocalizer_ && relocalizer_->decideNow()) resumeRelocalized();
   if (relocalizer_) openNewGraphOfCurrentFloor("the input ended before localising");
   if (floors_.count(current_floor_)) current().optimize();
 }

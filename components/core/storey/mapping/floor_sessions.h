@@ -39,8 +39,9 @@ class FloorSessions {
   // It ended on `floor_id`. The same floor resumes as it was; another floor is opened or
   // resumed (after relocalisation).
   void endTransit(int floor_id, double floor_height);
-  // End of input: a relocalisation still undecided falls back to a new graph (so no scan
-  // is lost), and the current floor is optimised.
+  // End of input: a relocalisation still undecided gets one last check of the filter's
+  // estimate, else falls back to a new graph (so no scan is lost); the current floor is
+  // optimised.
   void flush();
 
   bool inTransit() const { return in_transit_; }
@@ -59,6 +60,7 @@ class FloorSessions {
 
  private:
   void openNewGraphOfCurrentFloor(const std::string& why);
+  int resumeRelocalized();  // the relocaliser succeeded: resume the floor's graph
 
   FloorSlamOptions options_;
   std::string robot_;

@@ -91,12 +91,11 @@ RelocalizationStatus GlobalRelocalizer::add(const sensor::LaserScan& scan, const
       return status_;
     }
   }
-  if (fed_.empty() || s.fed_since_start >= options_.max_sequence) {
+  if (fed_.empty() || s.fed_since_start >= options_.max_sequence || s.fed_since_start == 0) {
     // (Re)start from particles spread over the whole floor.
     s.filter.initializeUniform();
     s.fed_since_start = 0;
     ++result_.filter_runs;
-    fed_.clear();
   } else {
     s.filter.predict(buffer_[fed_.back()].odometry.between(odometry));
   }
@@ -154,11 +153,16 @@ bool GlobalRelocalizer::checkCandidate(const Pose2& estimate) {
     return false;
   }
 
-  // Uniqueness: the best fit of the same points anywhere else on the floor.
+  // Uniqueness: the best fit of the same points anywhere on the floor. When a pose
+  // elsewhere fits clearly better than the filter's estimate, that pose is the candidate
+  // (the filter said the data are distinctive; the search says where), and it must then be
+  // unique itself.
   const std::vector<Eigen::Vector2d> sparse = filterPoints(points, options_.search_point_distance);
-  const MatchResult own = s.searcher.correlativeSearch(s.target, sparse, refined.pose, 0.1, 0.05);
-  double own_score = own.correlative_score;
-  double best_other = 0.0;
+  struct Found {
+    Pose2 pose;
+    double score;
+  };
+  std::vector<Found> found;
   const grid::GridFrame& frame = s.target.field().frame();
   const double half = 0.5 * options_.search_tile;
   const double x_end = frame.origin_x + frame.width * frame.resolution;
@@ -169,25 +173,63 @@ bool GlobalRelocalizer::checkCandidate(const Pose2& estimate) {
       for (int k = 0; k < kSectors; ++k) {
         const Pose2 centre(cx, cy, -M_PI + sector + 2.0 * sector * k);
         const MatchResult r = s.searcher.correlativeSearch(s.target, sparse, centre, half, sector);
-        if (r.correlative_score <= 0.0) continue;
-        const bool near = (r.pose.translation() - refined.pose.translation()).norm() <= options_.ambiguity_distance &&
-                          std::abs(geometry::angleDiff(r.pose.theta(), refined.pose.theta())) <=
-                              options_.ambiguity_angle;
-        if (near) own_score = std::max(own_score, r.correlative_score);
-        else best_other = std::max(best_other, r.correlative_score);
+        if (r.correlative_score > 0.0) found.push_back({r.pose, r.correlative_score});
       }
     }
   }
+  auto near = [&](const Pose2& a, const Pose2& b) {
+    return (a.translation() - b.translation()).norm() <= options_.ambiguity_distance &&
+           std::abs(geometry::angleDiff(a.theta(), b.theta())) <= options_.ambiguity_angle;
+  };
+  auto ownScore = [&](const Pose2& pose) {
+    double own = s.searcher.correlativeSearch(s.target, sparse, pose, 0.1, 0.05).correlative_score;
+    for (const auto& f : found)
+      if (near(f.pose, pose)) own = std::max(own, f.score);
+    return own;
+  };
+  MatchResult chosen = refined;
+  double own_score = ownScore(refined.pose);
+  const Found* best = nullptr;
+  for (const auto& f : found)
+    if (!best || f.score > best->score) best = &f;
+  if (best && !near(best->pose, refined.pose) && best->score > own_score) {
+    const MatchResult alternative = s.refiner.match(s.target, dense, best->pose, 0.2, 0.1);
+    if (!alternative.success || alternative.score < options_.min_score) {
+      result_.last_problem = str("a pose elsewhere fits better (", best->score, " vs ", own_score,
+                                 ") but does not refine well");
+      return false;
+    }
+    common::logDebug(str("global_relocalizer: the whole-map search prefers (", alternative.pose.x(), ", ",
+                         alternative.pose.y(), ", ", alternative.pose.theta(), ") to the filter's estimate"));
+    chosen = alternative;
+    own_score = ownScore(alternative.pose);
+  }
+  double best_other = 0.0;
+  for (const auto& f : found)
+    if (!near(f.pose, chosen.pose)) best_other = std::max(best_other, f.score);
   result_.own = own_score;
   result_.best_other = best_other;
   if (best_other >= options_.ambiguity_ratio * own_score) {
     result_.last_problem = str("ambiguous: a pose elsewhere scores ", best_other, " against ", own_score);
     return false;
   }
-  result_.pose = refined.pose;
-  result_.covariance = refined.covariance;
-  result_.score = refined.score;
+  result_.pose = chosen.pose;
+  result_.covariance = chosen.covariance;
+  result_.score = chosen.score;
   return true;
 }
+
+bool GlobalRelocalizer::decideNow() {
+  if (status_ != RelocalizationStatus::kSearching) return status_ == RelocalizationStatus::kLocalized;
+  if (static_cast<int>(fed_.size()) < options_.min_sequence) return false;
+  ++result_.candidates;
+  if (checkCandidate(impl_->filter.state().mean)) {
+    status_ = RelocalizationStatus::kLocalized;
+    return true;
+  }
+  common::logDebug(str("global_relocalizer: last check refused: ", result_.last_problem));
+  return false;
+}
+
 
 }  // namespace storey::mapping

@@ -14,8 +14,10 @@
 //      against the floor's map; the refined score must reach `min_score` and the
 //      refinement must not move the estimate more than `max_refine_correction`;
 //   2. uniqueness: the same points are searched over the whole map (every position and
-//      heading); the best pose clearly elsewhere (farther than `ambiguity_distance` or
-//      `ambiguity_angle`) must score below `ambiguity_ratio` times the estimate's score.
+//      heading); when a pose elsewhere fits better than the estimate, it becomes the
+//      candidate (refined the same way); the best pose clearly elsewhere (farther than
+//      `ambiguity_distance` or `ambiguity_angle`) must score below `ambiguity_ratio` times
+//      the candidate's score.
 //      A symmetric floor, where the filter may collapse onto either of two modes, fails
 //      here instead of giving a confident wrong tie.
 // A candidate that fails restarts the filter; after `max_scans` buffered scans without an
@@ -59,8 +61,8 @@ struct GlobalRelocalizationOptions {
   double refine_linear_window = 0.5;   // m
   double refine_angular_window = 0.2;  // rad
   double max_refine_correction = 0.5;  // m
-  double min_score = 0.6;              // refined mean score
-  double ambiguity_ratio = 0.9;
+  double min_score = 0.8;              // refined mean score
+  double ambiguity_ratio = 0.85;
   double ambiguity_distance = 1.0;  // m
   double ambiguity_angle = 0.3;     // rad
   double search_tile = 8.0;         // m, side of one tile of the whole-map search
@@ -93,6 +95,9 @@ class GlobalRelocalizer {
 
   // Buffers the scan (with the odometry pose at its stamp) and advances the filter.
   RelocalizationStatus add(const sensor::LaserScan& scan, const geometry::Pose2& odometry);
+  // End of input: checks the filter's current estimate once more (when enough scans were
+  // fed) instead of waiting for convergence. True when that localised the robot.
+  bool decideNow();
   RelocalizationStatus status() const { return status_; }
   const RelocalizationResult& result() const { return result_; }
 
@@ -109,7 +114,7 @@ class GlobalRelocalizer {
   std::unique_ptr<Impl> impl_;
   GlobalRelocalizationOptions options_;
   std::vector<Buffered> buffer_;
-  std::vector<std::size_t> fed_;  // buffer indices fed to the current filter run
+  std::vector<std::size_t> fed_;  // buffer indices fed to the filter (all runs)
   RelocalizationStatus status_ = RelocalizationStatus::kSearching;
   RelocalizationResult result_;
 };
