@@ -392,6 +392,28 @@ std::vector<ExperimentTable> runExperiments(const ExperimentOptions& options) {
   std::exception_ptr failure;
   std::size_t done = 0;
   const auto t0 = std::chrono::steady_clock::now();
+  // The tables of the runs done so far, written after every run so that an interrupted
+  // experiment still leaves its figures (call with `mutex` held, or after the workers).
+  auto collect = [&]() {
+    std::vector<ExperimentTable> tables;
+    for (const auto* spec : chosen) {
+      std::vector<RunFigures> runs;
+      for (std::size_t i = 0; i < tasks.size(); ++i)
+        if (tasks[i].spec == spec && results[i]) runs.push_back(*results[i]);
+      ExperimentTable table = summariseExperiment(*spec, options.goals, std::move(runs));
+      table.seconds = wall[spec];
+      tables.push_back(std::move(table));
+    }
+    const auto write = [](const fs::path& path, const std::string& text) {
+      std::ofstream out(path);
+      out << text;
+      if (!out) throw std::runtime_error(path.string() + ": cannot write");
+    };
+    write(fs::path(options.output_dir) / "experiments.md", toMarkdown(tables));
+    write(fs::path(options.output_dir) / "experiments.csv", toCsv(tables));
+    write(fs::path(options.output_dir) / "constraints.csv", constraintsCsv(tables));
+    return tables;
+  };
   auto worker = [&](int domain) {
     for (;;) {
       const std::size_t i = next++;
@@ -419,6 +441,12 @@ std::vector<ExperimentTable> runExperiments(const ExperimentOptions& options) {
                            " m (" + fixed(std::chrono::duration<double>(now - t0).count(), 0) + " s elapsed)");
         }
         results[i] = std::move(figures);
+        try {
+          collect();
+        } catch (...) {
+          failure = std::current_exception();  // `mutex` is held here
+          return;
+        }
       } catch (...) {
         std::lock_guard<std::mutex> lock(mutex);
         if (!failure) failure = std::current_exception();
@@ -435,25 +463,7 @@ std::vector<ExperimentTable> runExperiments(const ExperimentOptions& options) {
     for (auto& t : threads) t.join();
   }
   if (failure) std::rethrow_exception(failure);
-
-  std::vector<ExperimentTable> tables;
-  for (const auto* spec : chosen) {
-    std::vector<RunFigures> runs;
-    for (std::size_t i = 0; i < tasks.size(); ++i)
-      if (tasks[i].spec == spec) runs.push_back(std::move(*results[i]));
-    ExperimentTable table = summariseExperiment(*spec, options.goals, std::move(runs));
-    table.seconds = wall[spec];
-    tables.push_back(std::move(table));
-  }
-  const auto write = [](const fs::path& path, const std::string& text) {
-    std::ofstream out(path);
-    out << text;
-    if (!out) throw std::runtime_error(path.string() + ": cannot write");
-  };
-  write(fs::path(options.output_dir) / "experiments.md", toMarkdown(tables));
-  write(fs::path(options.output_dir) / "experiments.csv", toCsv(tables));
-  write(fs::path(options.output_dir) / "constraints.csv", constraintsCsv(tables));
-  return tables;
+  return collect();
 }
 
 std::string toMarkdown(const std::vector<ExperimentTable>& tables) {
