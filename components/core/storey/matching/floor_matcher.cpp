@@ -514,11 +514,27 @@ FloorCheck checkSelfSimilarity(const PreparedFloor& floor_data, const FloorMatch
       elsewhere.push_back(i);
   }
   std::mt19937_64 rng(seed);
-  check.elsewhere = static_cast<int>(
-      largestConsistentSet(own.candidates, elsewhere, *floor_data.graph, o, &rng).size());
+  const std::vector<std::size_t> twin =
+      largestConsistentSet(own.candidates, elsewhere, *floor_data.graph, o, &rng);
+  check.elsewhere = static_cast<int>(twin.size());
   check.self_similar =
       check.elsewhere >= 2 &&
       check.elsewhere >= o.ambiguity_ratio * static_cast<double>(check.at_identity);
+  if (check.self_similar) {
+    // As for two rival sets in a pair: a floor is self-similar only if the other
+    // alignment fits *all* its scans about as well as the identity. A symmetric floor
+    // maps onto itself; a corridor whose ends differ fits only locally.
+    const int count = static_cast<int>(floor_data.graph->nodes.size());
+    std::vector<Pose2> alignments;
+    for (std::size_t i : twin) alignments.push_back(own.candidates[i].alignment);
+    Pose2 other = meanAlignment(alignments), identity;
+    const int beams = o.refine_beams / 3 + 1;
+    check.fit_elsewhere = refineAlignment(floor_data.map->field(), *floor_data.graph,
+                                          {{0, count - 1}}, beams, o.refine_iterations, &other);
+    check.fit_identity = refineAlignment(floor_data.map->field(), *floor_data.graph,
+                                         {{0, count - 1}}, beams, o.refine_iterations, &identity);
+    check.self_similar = check.fit_identity < check.fit_elsewhere + o.ambiguity_fit_margin;
+  }
   return check;
 }
 
@@ -688,6 +704,9 @@ void printMatchReport(std::ostream& out, const MatchResult& result) {
   for (const auto& f : result.floors)
     out << "graph " << f.graph_id << ": structure " << f.structure << " cells, l_min " << f.l_min
         << ", own sequences at identity " << f.at_identity << ", elsewhere " << f.elsewhere
+        << (f.fit_elsewhere >= 0.0 ? common::str(" (whole-floor fit ", f.fit_identity, " vs ",
+                                                 f.fit_elsewhere, ")")
+                                   : std::string())
         << (f.self_similar ? "  SELF-SIMILAR" : "") << "\n";
   out << "reference floor graph: " << result.reference_graph_id << "\n";
   for (const auto& p : result.pairs) {

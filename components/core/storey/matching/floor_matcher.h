@@ -87,7 +87,8 @@ struct FloorMatcherOptions {
   // Self-similarity check: every floor's own scans are matched against its own map. A
   // floor where a consistent set of them localises at another alignment, at least
   // max(2, ambiguity_ratio * the set at the identity), is symmetric or periodic: it is
-  // never a reference and never gets a constraint.
+  // never a reference and never gets a constraint, unless the identity fits all of the
+  // floor's scans better by ambiguity_fit_margin than that other alignment does.
   bool self_check = true;
   // When a pair is not accepted (too few consistent candidates, or two rival sets), g_ref's
   // scans are also localised in g_i's map and those candidates, inverted, join the same
@@ -173,6 +174,10 @@ struct FloorCheck {
   double l_min = 0.0;
   int at_identity = 0;  // own candidates consistent with the identity
   int elsewhere = 0;    // largest consistent set of own candidates at another alignment
+  // When that set is large enough: whole-floor fit at the identity and at its alignment
+  // (-1 when not computed). Self-similar only if the identity is not clearly better.
+  double fit_identity = -1.0;
+  double fit_elsewhere = -1.0;
   bool self_similar = false;
 };
 

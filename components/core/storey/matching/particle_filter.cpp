@@ -184,10 +184,13 @@ double ParticleFilter::update(const sensor::LaserScan& scan) {
   log_w_.resize(n);
   double sum_likelihood = 0.0, max_log = -std::numeric_limits<double>::infinity();
   for (std::size_t j = 0; j < n; ++j) {
-    const double c = std::cos(theta_[j]), s = std::sin(theta_[j]);
+    // Single precision is plenty here (the beam loop is in float) and sincosf costs about
+    // half of sincos.
+    const float th = static_cast<float>(theta_[j]);
+    const float c = std::cos(th), s = std::sin(th);
     const float px = static_cast<float>((x_[j] - ox) * inv_res);
     const float py = static_cast<float>((y_[j] - oy) * inv_res);
-    const float cr = static_cast<float>(c * inv_res), sr = static_cast<float>(s * inv_res);
+    const float cr = c * static_cast<float>(inv_res), sr = s * static_cast<float>(inv_res);
     float sum = 0.0f;
     for (std::size_t b = 0; b < nb; ++b) {
       const float u = std::min(std::max(px + cr * bx[b] - sr * by[b], 0.0f), max_u);
