@@ -1,5 +1,7 @@
 #include "storey/floor_mapper/floor_mapper_component.h"
 
+#include <algorithm>
+
 #include "storey/common/log.h"
 #include "storey/floor_mapper/conversions.h"
 #include "storey/runtime/sensor_bag.h"
@@ -91,7 +93,11 @@ void FloorMapperComponent::onOdometry(const nav_msgs::msg::Odometry& message) {
   if (!odometry_.empty() && sample.stamp < odometry_.back().stamp) return;  // out of order
   odometry_.push_back(sample);
   processPendingScans(false);
-  while (odometry_.size() > 2 && odometry_.front().stamp < sample.stamp - 10.0) odometry_.pop_front();
+  // Kept 10 s back, and as far back as the oldest scan still waiting needs.
+  double keep_from = sample.stamp - 10.0;
+  if (!pending_scans_.empty())
+    keep_from = std::min(keep_from, pending_scans_.front().stamp - options_.max_odometry_gap - 1.0);
+  while (odometry_.size() > 2 && odometry_.front().stamp < keep_from) odometry_.pop_front();
 }
 
 void FloorMapperComponent::onTfStatic(const tf2_msgs::msg::TFMessage& message) {
@@ -114,14 +120,23 @@ void FloorMapperComponent::onScan(const sensor_msgs::msg::LaserScan& message) {
 // Scan and odometry topics are delivered independently; a scan handled before the
 // odometry around its stamp has arrived would get another pose, or be dropped, depending
 // on thread timing. So a scan waits until odometry at or after its stamp is here (or
-// kMaxScanWait of later scans says none is coming), and the result does not depend on
-// how the topics interleave.
+// kMaxWaiting scans wait: then none is coming), and the result does not depend on how
+// the topics interleave or how late a reliable topic's resent sample comes.
+//
+// In transit, scans wait for the event that ends it (the detector tells an arrival some
+// seconds after it happened): the ones after the arrival then map the new floor, whenever
+// the event came. At most kMaxTransitHold seconds of them are held.
 void FloorMapperComponent::processPendingScans(bool all) {
-  constexpr double kMaxScanWait = 5.0;  // s of stamps
+  constexpr std::size_t kMaxWaiting = 600;   // scans waiting for odometry (none is coming?)
+  constexpr double kMaxTransitHold = 120.0;  // s of stamps
   while (!pending_scans_.empty()) {
+    if (!all && sessions_->inTransit()) {
+      while (pending_scans_.back().stamp - pending_scans_.front().stamp > kMaxTransitHold) pending_scans_.pop_front();
+      return;
+    }
     const sensor::LaserScan& scan = pending_scans_.front();
     const bool odometry_after = !odometry_.empty() && odometry_.back().stamp >= scan.stamp;
-    if (!all && !odometry_after && pending_scans_.back().stamp - scan.stamp <= kMaxScanWait) return;
+    if (!all && !odometry_after && pending_scans_.size() <= kMaxWaiting) return;
     addScan(scan);
     pending_scans_.pop_front();
   }
@@ -172,6 +187,7 @@ void FloorMapperComponent::onFloorEvent(const storey_msgs::msg::FloorEvent& mess
     sessions_->beginTransit();
   } else {
     sessions_->endTransit(event.floor_id, event.floor_height);
+    processPendingScans(false);  // the scans held since the arrival
     publishUpdates();  // the floor just left was optimised once more
   }
 }
