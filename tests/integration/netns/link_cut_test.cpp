@@ -133,17 +133,11 @@ class Child {
   // Exit code, or 128 + signal, or -1 when it did not end within the timeout.
   int wait(double timeout_s) {
     const auto end = Clock::now() + std::chrono::duration<double>(timeout_s);
-    while (pid_ > 0) {
-      int status = 0;
-      const pid_t done = waitpid(pid_, &status, WNOHANG);
-      if (done == pid_) {
-        pid_ = -1;
-        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-      }
+    while (running()) {
       if (Clock::now() > end) return -1;
       sleepFor(0.02);
     }
-    return -1;
+    return exit_code_;
   }
 
   bool running() {
@@ -151,12 +145,13 @@ class Child {
     int status = 0;
     if (waitpid(pid_, &status, WNOHANG) != pid_) return true;
     pid_ = -1;
+    exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     return false;
   }
 
   // SIGTERM (the launcher forwards it to its children), then SIGKILL to the whole group.
   int stop(double timeout_s) {
-    if (pid_ <= 0) return -1;
+    if (pid_ <= 0) return exit_code_;
     kill(pid_, SIGTERM);
     const int code = wait(timeout_s);
     if (code != -1) return code;
@@ -169,6 +164,7 @@ class Child {
 
  private:
   pid_t pid_ = -1;
+  int exit_code_ = -1;
 };
 
 int run(const std::vector<std::string>& argv, const std::string& log) {
@@ -333,13 +329,19 @@ TEST(LinkCut, ServerBuildingAfterRecoveryEqualsTheUndisturbedOne) {
   EXPECT_EQ(server_before_restore, server_at_cut) << "the server got data over a cut link";
   EXPECT_GT(witness_before_restore, witness_at_cut) << "the robot produced nothing during the cut";
 
-  EXPECT_EQ(replay.wait(60.0), 0) << tail(dir + "/replay.log");
+  double recovery_s = -1.0;  // until the server has what the witness had at the restore
+  const auto replay_deadline = Clock::now() + std::chrono::seconds(60);
+  while (replay.running() && Clock::now() < replay_deadline) {
+    if (recovery_s < 0 && sizeOf(server_journal) >= witness_before_restore)
+      recovery_s = std::chrono::duration<double>(Clock::now() - restored).count();
+    sleepFor(0.05);
+  }
+  EXPECT_EQ(replay.wait(1.0), 0) << tail(dir + "/replay.log");
   // Converged: both journals the same length and unchanged for 4 s (the matcher's last run
   // takes ~2 s after the last floor-graph update).
   const auto deadline = Clock::now() + std::chrono::seconds(40);
   auto stable_since = Clock::now();
   std::uintmax_t last_server = 0, last_witness = 0;
-  double recovery_s = -1.0;  // until the server has what the witness had at the restore
   while (Clock::now() < deadline) {
     const auto s = sizeOf(server_journal), w = sizeOf(witness_journal);
     if (s != last_server || w != last_witness) {
