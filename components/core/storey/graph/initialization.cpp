@@ -19,9 +19,12 @@ namespace {
 using Triplets = std::vector<Eigen::Triplet<double>>;
 
 // Solves the SPD system given by the upper-triangle triplets (duplicates summed) with the
-// CHOLMOD backend; `block_size` > 1 lets it order by blocks of that size.
+// CHOLMOD backend. `blocks` (optional) is the same pattern over blocks of `block_size`
+// variables, so the ordering runs on the smaller block graph; the pattern of `m` is
+// returned in *pattern for reuse as a block pattern.
 Eigen::VectorXd solveUpper(int n, const Triplets& upper, const Eigen::VectorXd& rhs,
-                           const char* what) {
+                           const char* what, const SparseUpper* blocks, int block_size,
+                           SparseUpper* pattern) {
   Eigen::SparseMatrix<double, Eigen::ColMajor, int> a(n, n);
   a.setFromTriplets(upper.begin(), upper.end());
   a.makeCompressed();
@@ -30,6 +33,11 @@ Eigen::VectorXd solveUpper(int n, const Triplets& upper, const Eigen::VectorXd& 
   m.col_ptr.assign(a.outerIndexPtr(), a.outerIndexPtr() + n + 1);
   m.row_idx.assign(a.innerIndexPtr(), a.innerIndexPtr() + a.nonZeros());
   m.values.assign(a.valuePtr(), a.valuePtr() + a.nonZeros());
+  if (blocks) {
+    m.block_size = block_size;
+    m.block_col_ptr = blocks->col_ptr;
+    m.block_row_idx = blocks->row_idx;
+  }
   std::unique_ptr<LinearSolver> solver = makeLinearSolver("cholmod");
   solver->analyze(m);
   if (!solver->factorize(m)) {
@@ -38,6 +46,11 @@ Eigen::VectorXd solveUpper(int n, const Triplets& upper, const Eigen::VectorXd& 
   }
   Eigen::MatrixXd x;
   solver->solve(rhs, &x);
+  if (pattern) {
+    pattern->n = n;
+    pattern->col_ptr = std::move(m.col_ptr);
+    pattern->row_idx = std::move(m.row_idx);
+  }
   return x.col(0);
 }
 
@@ -134,7 +147,9 @@ OrientationFirstInfo initializeOrientationFirst(PoseGraph& graph) {
       rhs[vj] += w * tree[i];
     }
   }
-  const Eigen::VectorXd th = solveUpper(vars, upper, rhs, "orientation");
+  // The orientation system has the pose graph's pattern: the position system's blocks.
+  SparseUpper node_pattern;
+  const Eigen::VectorXd th = solveUpper(vars, upper, rhs, "orientation", nullptr, 1, &node_pattern);
   for (std::size_t i = 0; i < n; ++i) {
     if (var[i] >= 0) theta[i] = th[var[i]];
   }
@@ -181,7 +196,7 @@ OrientationFirstInfo initializeOrientationFirst(PoseGraph& graph) {
       rhs.segment<2>(2 * vj) += w * nodes[i].pose.translation();
     }
   }
-  const Eigen::VectorXd t = solveUpper(2 * vars, upper, rhs, "position");
+  const Eigen::VectorXd t = solveUpper(2 * vars, upper, rhs, "position", &node_pattern, 2, nullptr);
   for (std::size_t i = 0; i < n; ++i) {
     const int v = var[i];
     if (v < 0) continue;
