@@ -26,6 +26,7 @@ double translationError(const Pose2& a, const Pose2& b) {
 FloorMatcherOptions fastOptions() {
   FloorMatcherOptions o;
   o.seed = 7;
+  o.filter.coarse_beams = 20;  // as config/floor_matcher.yaml
   return o;
 }
 
