@@ -40,7 +40,7 @@ constexpr const char* kRobotIf = "storey_lc_r";
 constexpr const char* kServerIf = "storey_lc_s";
 constexpr double kReplayRate = 8.0;
 constexpr double kCutAfter = 8.0;  // s of replay (64 s of recording) before the cut
-constexpr double kCutFor = 6.0;    // s: twice the lease below, so peers are dropped
+constexpr double kCutFor = 6.0;    // s: twice the lease below
 // UDP only (no shared memory), and a short lease so the cut outlives it.
 constexpr const char* kUdpOnlyProfile = R"(<?xml version="1.0" encoding="UTF-8"?>
 <dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
