@@ -122,18 +122,9 @@ void FloorMapperComponent::onScan(const sensor_msgs::msg::LaserScan& message) {
 // on thread timing. So a scan waits until odometry at or after its stamp is here (or
 // kMaxWaiting scans wait: then none is coming), and the result does not depend on how
 // the topics interleave or how late a reliable topic's resent sample comes.
-//
-// In transit, scans wait for the event that ends it (the detector tells an arrival some
-// seconds after it happened): the ones after the arrival then map the new floor, whenever
-// the event came. At most kMaxTransitHold seconds of them are held.
 void FloorMapperComponent::processPendingScans(bool all) {
   constexpr std::size_t kMaxWaiting = 600;   // scans waiting for odometry (none is coming?)
-  constexpr double kMaxTransitHold = 120.0;  // s of stamps
   while (!pending_scans_.empty()) {
-    if (!all && sessions_->inTransit()) {
-      while (pending_scans_.back().stamp - pending_scans_.front().stamp > kMaxTransitHold) pending_scans_.pop_front();
-      return;
-    }
     const sensor::LaserScan& scan = pending_scans_.front();
     const bool odometry_after = !odometry_.empty() && odometry_.back().stamp >= scan.stamp;
     if (!all && !odometry_after && pending_scans_.size() <= kMaxWaiting) return;
@@ -187,7 +178,6 @@ void FloorMapperComponent::onFloorEvent(const storey_msgs::msg::FloorEvent& mess
     sessions_->beginTransit();
   } else {
     sessions_->endTransit(event.floor_id, event.floor_height);
-    processPendingScans(false);  // the scans held since the arrival
     publishUpdates();  // the floor just left was optimised once more
   }
 }
