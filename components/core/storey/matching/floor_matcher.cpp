@@ -469,8 +469,8 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
     // independent evidence about the same alignment (shared structure that g_i's robot
     // passed only briefly may be where g_ref's robot spent longer).
     PairResult reverse;
-    const std::vector<Candidate> back = localiseSequences(
-        floor_data, reference, result.l_min, o, seed ^ 0xBAC4ULL, &reverse, &evaluations);
+    const std::vector<Candidate> back = localiseSequences(floor_data, reference, result.l_min, o,
+                                                          seed ^ 0xBAC4ULL, &reverse, &evaluations);
     result.sequences += reverse.sequences;
     result.not_converged += reverse.not_converged;
     result.reversed_candidates = static_cast<int>(back.size());
@@ -618,8 +618,9 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
   // A floor that failed for lack of evidence tries the other floors, those of the same
   // floor id (another robot's graph of the same floor) first, then by structure. One
   // that failed as ambiguous tries only graphs already aligned to the reference (its own
-  // floor id first), and a retry is then accepted only if, composed with that graph's accepted alignment to the reference,
-  // it agrees with one of the two ambiguous sets: two independent paths must agree.
+  // floor id first), and a retry is then accepted only if, composed with that graph's accepted
+  // alignment to the reference, it agrees with one of the two ambiguous sets: two independent paths
+  // must agree.
   std::map<int, Pose2> to_reference;  // accepted alignments into the reference's frame
   to_reference[ref] = Pose2();
   std::vector<int> failed;
@@ -704,9 +705,9 @@ void printMatchReport(std::ostream& out, const MatchResult& result) {
   for (const auto& f : result.floors)
     out << "graph " << f.graph_id << ": structure " << f.structure << " cells, l_min " << f.l_min
         << ", own sequences at identity " << f.at_identity << ", elsewhere " << f.elsewhere
-        << (f.fit_elsewhere >= 0.0 ? common::str(" (whole-floor fit ", f.fit_identity, " vs ",
-                                                 f.fit_elsewhere, ")")
-                                   : std::string())
+        << (f.fit_elsewhere >= 0.0
+                ? common::str(" (whole-floor fit ", f.fit_identity, " vs ", f.fit_elsewhere, ")")
+                : std::string())
         << (f.self_similar ? "  SELF-SIMILAR" : "") << "\n";
   out << "reference floor graph: " << result.reference_graph_id << "\n";
   for (const auto& p : result.pairs) {
@@ -715,12 +716,11 @@ void printMatchReport(std::ostream& out, const MatchResult& result) {
         << std::setprecision(4) << p.l_min << ", " << std::setprecision(3) << p.seconds << " s)\n";
     if (p.accepted) out << "  alignment (graph frame in reference frame): " << p.alignment << "\n";
     for (const auto& c : p.candidates) {
-      out << "  " << (c.reversed ? "ref scans " : "scans ") << c.first_index << ".."
-          << c.last_index << " node " << c.node_id
-          << " -> ref node " << c.reference_node_id << "  l_t " << std::setprecision(4)
-          << c.likelihood << "  fit " << std::setprecision(3) << c.fit << "  particles "
-          << c.particles << "  alignment " << c.alignment << "  c " << c.measurement << " dz "
-          << c.dz << "  " << candidateStatusName(c.status);
+      out << "  " << (c.reversed ? "ref scans " : "scans ") << c.first_index << ".." << c.last_index
+          << " node " << c.node_id << " -> ref node " << c.reference_node_id << "  l_t "
+          << std::setprecision(4) << c.likelihood << "  fit " << std::setprecision(3) << c.fit
+          << "  particles " << c.particles << "  alignment " << c.alignment << "  c "
+          << c.measurement << " dz " << c.dz << "  " << candidateStatusName(c.status);
       if (!c.reason.empty()) out << " (" << c.reason << ")";
       out << "\n";
     }

@@ -159,8 +159,8 @@ struct PairResult {
   std::string reason;                           // why not accepted (or "accepted")
   geometry::Pose2 alignment;                    // T_i from all inliers jointly (when accepted)
   double l_min = 0.0;
-  int sequences = 0;      // filters started
-  int not_converged = 0;  // filters dropped without converging
+  int sequences = 0;            // filters started
+  int not_converged = 0;        // filters dropped without converging
   int reversed_candidates = 0;  // candidates from g_ref's scans in g_i's map (both directions)
   std::vector<Candidate> candidates;
   std::uint64_t beam_evaluations = 0;

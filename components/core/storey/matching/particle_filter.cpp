@@ -161,8 +161,8 @@ void ParticleFilter::predict(const Pose2& delta) {
 }
 
 double ParticleFilter::update(const sensor::LaserScan& scan) {
-  const bool coarse = options_.coarse_beams > 0 &&
-                      x_.size() > static_cast<std::size_t>(options_.coarse_particles);
+  const bool coarse =
+      options_.coarse_beams > 0 && x_.size() > static_cast<std::size_t>(options_.coarse_particles);
   const std::vector<Eigen::Vector2d> beams =
       selectBeams(scan, coarse ? options_.coarse_beams : options_.beams);
   const std::size_t nb = beams.size(), n = x_.size();
