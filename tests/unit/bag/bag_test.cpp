@@ -42,7 +42,7 @@ std::vector<Written> writeSample(const std::string& folder, int count, std::size
   for (int i = 0; i < count; ++i) {
     Written w;
     w.topic = names[i % 3];
-    w.stamp = t0 + i * 10'000'000 + static_cast<std::int64_t>(rng() % 30'000'000);
+    w.stamp = t0 + std::int64_t{i} * 10'000'000 + static_cast<std::int64_t>(rng() % 30'000'000);
     w.data = randomBytes(rng, rng() % (max_size + 1));
     writer.write(w.topic, w.stamp, w.data);
     written.push_back(std::move(w));
