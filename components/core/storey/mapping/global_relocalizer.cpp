@@ -137,21 +137,20 @@ bool GlobalRelocalizer::checkCandidate(const Pose2& estimate) {
   }
   const std::vector<Eigen::Vector2d> dense =
       filterPoints(points, s.refiner.options().point_filter_distance);
+  // The filter's estimate, refined; when it does not refine well, the whole-map search
+  // below may still find a candidate.
   const MatchResult refined =
       s.refiner.match(s.target, dense, estimate, options_.refine_linear_window, options_.refine_angular_window);
+  std::string refine_problem;
   if (!refined.success) {
-    result_.last_problem = str("refinement failed: ", refined.problem);
-    return false;
+    refine_problem = str("refinement failed: ", refined.problem);
+  } else if (const double correction = (refined.pose.translation() - estimate.translation()).norm();
+             correction > options_.max_refine_correction) {
+    refine_problem = str("refinement moved the estimate by ", correction, " m");
+  } else if (refined.score < options_.min_score) {
+    refine_problem = str("refined score ", refined.score, " < ", options_.min_score);
   }
-  const double correction = (refined.pose.translation() - estimate.translation()).norm();
-  if (correction > options_.max_refine_correction) {
-    result_.last_problem = str("refinement moved the estimate by ", correction, " m");
-    return false;
-  }
-  if (refined.score < options_.min_score) {
-    result_.last_problem = str("refined score ", refined.score, " < ", options_.min_score);
-    return false;
-  }
+  const bool refined_ok = refine_problem.empty();
 
   // Uniqueness: the best fit of the same points anywhere on the floor. When a pose
   // elsewhere fits clearly better than the filter's estimate, that pose is the candidate
@@ -188,21 +187,26 @@ bool GlobalRelocalizer::checkCandidate(const Pose2& estimate) {
     return own;
   };
   MatchResult chosen = refined;
-  double own_score = ownScore(refined.pose);
+  double own_score = refined_ok ? ownScore(refined.pose) : 0.0;
   const Found* best = nullptr;
   for (const auto& f : found)
     if (!best || f.score > best->score) best = &f;
-  if (best && !near(best->pose, refined.pose) && best->score > own_score) {
+  if (best && (!refined_ok || (!near(best->pose, refined.pose) && best->score > own_score))) {
     const MatchResult alternative = s.refiner.match(s.target, dense, best->pose, 0.2, 0.1);
     if (!alternative.success || alternative.score < options_.min_score) {
-      result_.last_problem = str("a pose elsewhere fits better (", best->score, " vs ", own_score,
-                                 ") but does not refine well");
+      result_.last_problem = refined_ok ? str("a pose elsewhere fits better (", best->score, " vs ", own_score,
+                                              ") but does not refine well")
+                                        : refine_problem;
       return false;
     }
     common::logDebug(str("global_relocalizer: the whole-map search prefers (", alternative.pose.x(), ", ",
-                         alternative.pose.y(), ", ", alternative.pose.theta(), ") to the filter's estimate"));
+                         alternative.pose.y(), ", ", alternative.pose.theta(), ") to the filter's estimate (",
+                         refined_ok ? "which fits worse" : refine_problem, ")"));
     chosen = alternative;
     own_score = ownScore(alternative.pose);
+  } else if (!refined_ok) {
+    result_.last_problem = refine_problem;
+    return false;
   }
   double best_other = 0.0;
   for (const auto& f : found)

@@ -62,7 +62,7 @@ struct GlobalRelocalizationOptions {
   double refine_angular_window = 0.2;  // rad
   double max_refine_correction = 0.5;  // m
   double min_score = 0.8;              // refined mean score
-  double ambiguity_ratio = 0.85;
+  double ambiguity_ratio = 0.9;
   double ambiguity_distance = 1.0;  // m
   double ambiguity_angle = 0.3;     // rad
   double search_tile = 8.0;         // m, side of one tile of the whole-map search
