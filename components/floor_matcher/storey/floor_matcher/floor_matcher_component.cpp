@@ -139,9 +139,13 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   std::vector<floor::FloorGraph> graphs;
   for (const auto& [id, g] : graphs_)
     if (g.nodes.size() >= static_cast<std::size_t>(options_.min_nodes)) graphs.push_back(g);
-  if (graphs.size() < 2) return;
-  busy_ = true;
   for (const auto& g : graphs) matched_size_[g.graph_id] = g.nodes.size();
+  if (graphs.size() < 2) {
+    logInfo(str(name(), ": matched ", graphs.size(), " floor graphs: fewer than two have ", options_.min_nodes,
+                " nodes"));
+    return;
+  }
+  busy_ = true;
   const matching::FloorMatcherOptions matcher = options_.matcher;
   lock.unlock();
   matching::MatchResult result;
