@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets (tests/fuzz) with clang, ASan and UBSan into build-fuzz and
+# Builds the libFuzzer targets (tests/fuzz) with clang, ASan and UBSan into build-asan (the
+# sanitizer build scripts/sanitize.sh uses too; scripts/configure-asan.sh) and
 # runs each for SECONDS (default 60), printing executions and coverage per target.
 # Usage: scripts/fuzz.sh [SECONDS] [target...]   (targets: carmen graph scenario config bag
-# journal cdr). New crashing inputs are left in build-fuzz/findings/<target>/; keep each as
+# journal cdr). New crashing inputs are left in build-asan/fuzz/findings/<target>/; keep each as
 # a regression input under tests/fuzz/regressions/<target>/ (docs/fuzzing.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -10,20 +11,14 @@ seconds=${1:-60}
 shift || true
 targets=("$@")
 [ ${#targets[@]} -eq 0 ] && targets=(carmen graph scenario config bag journal cdr)
-command -v clang++ >/dev/null || { echo "fuzz.sh: clang++ is needed (apt-get install clang)" >&2; exit 2; }
+scripts/configure-asan.sh
 
 # One build at a time on the shared machine (the lock scripts/dev-build.sh takes).
 exec 9>/tmp/storey-build.lock
 flock 9
-if [ ! -f build-fuzz/build.ninja ]; then
-  cmake -S . -B build-fuzz -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
-    -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER_LAUNCHER=ccache \
-    -DSTOREY_BUILD_TESTS=OFF -DSTOREY_BUILD_BENCHMARKS=OFF -DSTOREY_BUILD_FUZZERS=ON \
-    "-DSTOREY_SANITIZE=address;undefined" -DCMAKE_CXX_FLAGS=-fsanitize=fuzzer-no-link >/dev/null
-fi
 build_targets=()
 for t in "${targets[@]}"; do build_targets+=(--target "fuzz_$t"); done
-cmake --build build-fuzz --parallel 2 "${build_targets[@]}"
+cmake --build build-asan --parallel "$(nproc)" "${build_targets[@]}"
 flock -u 9
 
 # Huge length fields must come back as bad_alloc (a clean error), not an ASan abort.
@@ -32,15 +27,15 @@ export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 status=0
 printf '%-10s %12s %10s %8s %8s  %s\n' target executions exec/s cov ft result
 for t in "${targets[@]}"; do
-  corpus=build-fuzz/corpus/$t
-  findings=build-fuzz/findings/$t
+  corpus=build-asan/fuzz/corpus/$t
+  findings=build-asan/fuzz/findings/$t
   mkdir -p "$corpus" "$findings"
   seeds=()
   [ -d tests/fuzz/corpus/$t ] && seeds+=(tests/fuzz/corpus/$t)
   [ -d tests/fuzz/regressions/$t ] && seeds+=(tests/fuzz/regressions/$t)
-  log=build-fuzz/fuzz_$t.log
+  log=build-asan/fuzz/fuzz_$t.log
   # One process; -seed fixed so a run is repeatable for the same corpus.
-  if build-fuzz/tests/fuzz/fuzz_$t -max_total_time="$seconds" -seed=1 -rss_limit_mb=2048 \
+  if build-asan/tests/fuzz/fuzz_$t -max_total_time="$seconds" -seed=1 -rss_limit_mb=2048 \
       -max_len=65536 -timeout=10 -artifact_prefix="$findings/" -print_final_stats=1 \
       "$corpus" "${seeds[@]}" >"$log" 2>&1; then
     result=ok

@@ -1,36 +1,33 @@
 #!/usr/bin/env bash
-# Builds and runs the tests under sanitizers (STOREY_SANITIZE, see CMakeLists.txt):
-#   asan: build-asan (ASan + UBSan, errors abort): every unit test (ctest -L unit).
-#   tsan: build-tsan (TSan): the runtime's and security's integration tests.
-#   tsan-security: build-tsan, only the security integration tests (no storey binary).
-# Usage: scripts/sanitize.sh [asan] [tsan] [tsan-security]   (default: asan tsan). Prints the time of each
-# phase. Builds take the shared build lock, so they never overlap another build.
+# Builds and runs the tests under sanitizers (STOREY_SANITIZE, build type Sanitize):
+#   asan: build-asan, clang with ASan + UBSan (errors abort) and libFuzzer's coverage
+#         instrumentation, so the same build holds the fuzz targets (scripts/fuzz.sh):
+#         every unit test executable, run with ctest -L unit.
+#   tsan: build-tsan, gcc with TSan: the runtime's and security's integration tests.
+# Usage: scripts/sanitize.sh [asan] [tsan]   (default: both). Installs clang when missing,
+# prints the time of each phase. Builds take the shared build lock (scripts/dev-build.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/packages.sh
 modes=("$@")
 [ ${#modes[@]} -eq 0 ] && modes=(asan tsan)
 status=0
 
-# Targets: every storey_test(NAME x LABEL unit ...) of tests/unit and tests/fuzz.
+# Every storey_test(NAME x LABEL unit ...) of tests/unit and tests/fuzz.
 unit_targets() {
   grep -ho 'storey_test(NAME [A-Za-z0-9_]* LABEL unit' tests/unit/*/CMakeLists.txt \
     tests/fuzz/CMakeLists.txt | awk '{print $2}'
 }
 
-build() {  # folder sanitizers targets...
-  local dir=$1 sanitizers=$2
-  shift 2
+build() {  # folder targets...
+  local dir=$1
+  shift
   local args=()
   for t in "$@"; do args+=(--target "$t"); done
   (
     exec 9>/tmp/storey-build.lock
     flock 9
-    if [ ! -f "$dir/build.ninja" ]; then
-      cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-        -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DSTOREY_BUILD_BENCHMARKS=OFF \
-        "-DSTOREY_SANITIZE=$sanitizers" >/dev/null
-    fi
-    cmake --build "$dir" --parallel 2 "${args[@]}"
+    cmake --build "$dir" --parallel "$(nproc)" "${args[@]}"
   )
 }
 
@@ -49,31 +46,32 @@ phase() {  # name command...
 for mode in "${modes[@]}"; do
   case $mode in
     asan)
+      scripts/configure-asan.sh
       export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
       export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
       mapfile -t targets < <(unit_targets)
-      phase "asan build (${#targets[@]} unit test executables)" build build-asan "address;undefined" "${targets[@]}"
-      phase "asan unit tests" ctest --test-dir build-asan -L unit --output-on-failure -j 2
+      phase "asan build (${#targets[@]} unit test executables)" build build-asan "${targets[@]}"
+      phase "asan unit tests" ctest --test-dir build-asan -L '^unit$' --output-on-failure \
+        --parallel "$(nproc)"
       ;;
-    tsan | tsan-security)
+    tsan)
+      ensure_packages g++ cmake ninja-build
+      if [ ! -f build-tsan/build.ninja ]; then
+        cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=Sanitize \
+          -DSTOREY_BUILD_BENCHMARKS=OFF -DSTOREY_SANITIZE=thread >/dev/null
+      fi
       # Fast DDS and Fast CDR are not built with TSan, and libstdc++'s timed mutexes lock
       # through pthread_mutex_clocklock, which gcc 12's TSan does not intercept: reports
       # inside those libraries are noise (unlock of an unlocked mutex, races between DDS
       # threads). Reports with a storey frame on top still stop the run.
-      mkdir -p build-tsan
       printf '%s\n' 'called_from_lib:libfastrtps.so.2.9' 'mutex:libstdc++.so.6' \
         'mutex:libfastrtps.so.2.9' 'race:libfastrtps.so.2.9' 'race:libfastcdr.so.1' \
         'race:libfoonathan_memory' 'deadlock:libfastrtps.so.2.9' >build-tsan/tsan.supp
       export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$PWD/build-tsan/tsan.supp"
-      if [ "$mode" = tsan-security ]; then
-        phase "tsan build (security tests only)" build build-tsan thread integration_security_tests
-      else
-        # The runtime's launch tests run the storey binary: everything is built.
-        phase "tsan build" build build-tsan thread integration_runtime_tests runtime_test_node \
-          storey integration_security_tests
-        phase "tsan runtime integration tests" \
-          build-tsan/tests/integration/runtime/integration_runtime_tests
-      fi
+      phase "tsan build" build build-tsan integration_runtime_tests runtime_test_node \
+        integration_security_tests
+      phase "tsan runtime integration tests" \
+        build-tsan/tests/integration/runtime/integration_runtime_tests
       phase "tsan security integration tests" \
         build-tsan/tests/integration/security/integration_security_tests
       ;;

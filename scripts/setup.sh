@@ -13,17 +13,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev libceres-dev
   iproute2 openssl
 )
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if ((${#missing[@]})); then
-  echo "setup: installing ${missing[*]}"
-  sudo_cmd=()
-  [ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo)
-  "${sudo_cmd[@]}" apt-get update -q
-  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
-fi
+source scripts/packages.sh
+ensure_packages "${packages[@]}"
 
 build_dir=${STOREY_BUILD_DIR:-build}
 if [ ! -f "$build_dir/build.ninja" ]; then
