@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <iterator>
 
 #include "storey/sim/simulator.h"
 #include "test_support.h"
@@ -40,8 +42,27 @@ TEST(Fleet, ARobotsDataDoesNotDependOnTheOtherRobots) {
   EXPECT_THROW(simulate(scenario, unknown), std::invalid_argument);
 }
 
-TEST(Tower10, FloorsAreTurnedAboutTheElevatorAndTheScansSeeIt) {
+TEST(Tower10, FloorsStayStackedUnderTheirShaftsAndRidesTurnTheOdometry) {
+  // As in the paper, the rotational error is in the robot's estimate (a heading error per
+  // elevator ride), not in the building.
   const Scenario scenario = loadScenario(scenarioPath("tower10"));
+  const Building& b = scenario.building;
+  ASSERT_EQ(b.floors.size(), 10u);
+  for (const Floor& floor : b.floors) EXPECT_EQ(floor.frame.theta(), 0.0) << floor.id;
+  ASSERT_EQ(scenario.robots.size(), 1u);
+  EXPECT_GT(scenario.robots[0].model.odometry.elevator_heading_sigma, 0.0);
+}
+
+TEST(FloorRotation, TurnsFloorsAboutTheElevatorAndTheScansSeeIt) {
+  // tower10 with its floors turned (the option no bundled scenario uses).
+  std::ifstream in(scenarioPath("tower10"));
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string anchor = "building:\n  name: tower10\n";
+  ASSERT_NE(text.find(anchor), std::string::npos);
+  text.insert(text.find(anchor) + anchor.size(),
+              "  floor_rotation: {sigma_deg: 1.0, seed: 2010}\n");
+  const std::string robots_dir = std::string(STOREY_SOURCE_DIR) + "/config/robots";
+  const Scenario scenario = loadScenarioString(text, "tower10-turned", robots_dir);
   const Building& b = scenario.building;
   ASSERT_EQ(b.floors.size(), 10u);
   EXPECT_EQ(b.floors[0].frame.theta(), 0.0);
