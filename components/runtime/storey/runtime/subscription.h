@@ -84,6 +84,9 @@ class Subscription : public SubscriptionBase {
     Executor* executor = nullptr;
     std::size_t depth = 0;  // keep-last depth of `ready`; 0: keep all
 
+    // Held by a delivering DDS thread from take to queue: two receive threads (e.g. shared
+    // memory and UDP) delivering to one reader must not queue its samples out of order.
+    std::mutex take_mutex;
     std::mutex queue_mutex;  // guards ready, spare, depth, drain_queued; held briefly
     std::deque<std::unique_ptr<MsgT>> ready;
     std::vector<std::unique_ptr<MsgT>> spare;  // reused samples: no allocation per message
@@ -129,6 +132,7 @@ class Subscription : public SubscriptionBase {
       if (!state) return;
       eprosima::fastdds::dds::SampleInfo info;
       bool post = false;
+      std::lock_guard<std::mutex> take_lock(state->take_mutex);
       for (;;) {
         std::unique_ptr<MsgT> sample;
         {
