@@ -48,6 +48,7 @@
 #include "storey/floor_matcher/floor_matcher_component.h"
 #include "storey/graph_server/graph_server.h"
 #include "storey/runtime/context.h"
+#include "storey/runtime/graph_conversions.h"
 #include "storey/runtime/publisher.h"
 #include "storey/runtime/sensor_conversions.h"
 #include "storey/runtime/subscription.h"
@@ -102,40 +103,12 @@ std::vector<Update> robotUpdates(const std::string& journal_path, int k) {
     m.floor_height(d->floor_height);
     m.sequence_number(static_cast<std::uint32_t>(updates.size()));
     for (const auto& n : d->new_nodes) {
-      storey_msgs::msg::FloorGraphNode node;
-      node.node_id(static_cast<std::uint32_t>(n.id));
-      node.floor_graph_id(gid);
-      node.stamp(storey::runtime::toTimeMessage(n.stamp));
-      node.x(n.pose.x());
-      node.y(n.pose.y());
-      node.theta(n.pose.theta());
-      node.angle_min(static_cast<float>(n.scan.angle_min));
-      node.angle_increment(static_cast<float>(n.scan.angle_increment));
-      node.range_min(static_cast<float>(n.scan.range_min));
-      node.range_max(static_cast<float>(n.scan.range_max));
-      node.ranges(n.scan.ranges);
-      node.sensor_x(n.scan.sensor_offset.x());
-      node.sensor_y(n.scan.sensor_offset.y());
-      node.sensor_theta(n.scan.sensor_offset.theta());
-      m.new_nodes().push_back(std::move(node));
+      m.new_nodes().push_back(storey::runtime::toMessage(n, gid));
       u.new_nodes.emplace_back(gid, static_cast<std::uint32_t>(n.id));
       last = std::max(last, n.stamp);
       if (first < 0) first = n.stamp;
     }
-    for (const auto& e : d->new_edges) {
-      storey_msgs::msg::FloorGraphEdge edge;
-      edge.from_node(static_cast<std::uint32_t>(e.from));
-      edge.to_node(static_cast<std::uint32_t>(e.to));
-      edge.dx(e.measurement.x());
-      edge.dy(e.measurement.y());
-      edge.dtheta(e.measurement.theta());
-      std::array<double, 9> info{};
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) info[r * 3 + c] = e.information(r, c);
-      edge.information(info);
-      edge.kind(static_cast<std::uint8_t>(e.kind));  // same order as FloorGraphEdge_Constants
-      m.new_edges().push_back(std::move(edge));
-    }
+    for (const auto& e : d->new_edges) m.new_edges().push_back(storey::runtime::toMessage(e));
     for (const auto& [id, pose] : d->poses) {
       storey_msgs::msg::NodePose p;
       p.floor_graph_id(gid);

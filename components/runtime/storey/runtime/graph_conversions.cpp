@@ -1,11 +1,57 @@
 #include "storey/runtime/graph_conversions.h"
 
+#include <array>
 #include <cmath>
 #include <stdexcept>
 
 #include "storey/runtime/sensor_conversions.h"
 
 namespace storey::runtime {
+
+namespace {
+std::uint8_t edgeKind(floor::EdgeKind kind) {
+  switch (kind) {
+    case floor::EdgeKind::kOdometry: return storey_msgs::msg::FloorGraphEdge_Constants::KIND_ODOMETRY;
+    case floor::EdgeKind::kScanMatch: return storey_msgs::msg::FloorGraphEdge_Constants::KIND_SCAN_MATCH;
+    case floor::EdgeKind::kLoopClosure: return storey_msgs::msg::FloorGraphEdge_Constants::KIND_LOOP_CLOSURE;
+  }
+  return storey_msgs::msg::FloorGraphEdge_Constants::KIND_ODOMETRY;
+}
+}  // namespace
+
+storey_msgs::msg::FloorGraphNode toMessage(const floor::FloorNode& n, std::uint32_t graph_id) {
+  storey_msgs::msg::FloorGraphNode node;
+  node.node_id(static_cast<std::uint32_t>(n.id));
+  node.floor_graph_id(graph_id);
+  node.stamp(toTimeMessage(n.stamp));
+  node.x(n.pose.x());
+  node.y(n.pose.y());
+  node.theta(n.pose.theta());
+  node.angle_min(static_cast<float>(n.scan.angle_min));
+  node.angle_increment(static_cast<float>(n.scan.angle_increment));
+  node.range_min(static_cast<float>(n.scan.range_min));
+  node.range_max(static_cast<float>(n.scan.range_max));
+  node.ranges(n.scan.ranges);
+  node.sensor_x(n.scan.sensor_offset.x());
+  node.sensor_y(n.scan.sensor_offset.y());
+  node.sensor_theta(n.scan.sensor_offset.theta());
+  return node;
+}
+
+storey_msgs::msg::FloorGraphEdge toMessage(const floor::FloorEdge& e) {
+  storey_msgs::msg::FloorGraphEdge edge;
+  edge.from_node(static_cast<std::uint32_t>(e.from));
+  edge.to_node(static_cast<std::uint32_t>(e.to));
+  edge.dx(e.measurement.x());
+  edge.dy(e.measurement.y());
+  edge.dtheta(e.measurement.theta());
+  std::array<double, 9> info{};
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) info[r * 3 + c] = e.information(r, c);
+  edge.information(info);
+  edge.kind(edgeKind(e.kind));
+  return edge;
+}
 
 void requireFinite(double value, const std::string& field) {
   if (!std::isfinite(value)) throw std::invalid_argument(field + " is not finite");

@@ -1,10 +1,13 @@
-// storey_msgs floor-graph messages -> core floor graph types, shared by every component
-// that receives floor graphs (floor_matcher, graph_server).
+// storey_msgs floor-graph messages <-> core floor graph types, shared by every component
+// that sends floor graphs (floor_mapper, the fleet benchmark) or receives them
+// (floor_matcher, graph_server).
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 #include "storey/floor/floor_graph.h"
+#include "storey_msgs/msg/FloorGraphEdge.h"
 #include "storey_msgs/msg/FloorGraphNode.h"
 
 namespace storey::runtime {
@@ -14,5 +17,10 @@ namespace storey::runtime {
 // message. The message carries no raw odometry: the node's odometry is its pose.
 floor::FloorNode fromMessage(const storey_msgs::msg::FloorGraphNode& message, const std::string& where);
 void requireFinite(double value, const std::string& field);
+
+// A node (pose, stamp, scan and its mounting) of floor graph `graph_id` as a message.
+storey_msgs::msg::FloorGraphNode toMessage(const floor::FloorNode& node, std::uint32_t graph_id);
+// An edge (measurement, information, kind) as a message.
+storey_msgs::msg::FloorGraphEdge toMessage(const floor::FloorEdge& edge);
 
 }  // namespace storey::runtime
