@@ -60,13 +60,15 @@ for mode in "${modes[@]}"; do
         cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=Sanitize \
           -DSTOREY_BUILD_BENCHMARKS=OFF -DSTOREY_SANITIZE=thread >/dev/null
       fi
-      # Fast DDS and Fast CDR are not built with TSan, and libstdc++'s timed mutexes lock
+      # Fast DDS, Fast CDR and OpenSSL's libcrypto (DDS Security) are not built with TSan
+      # (libcrypto's own locks and atomics then read as races), and libstdc++'s timed mutexes lock
       # through pthread_mutex_clocklock, which gcc 12's TSan does not intercept: reports
       # inside those libraries are noise (unlock of an unlocked mutex, races between DDS
       # threads). Reports with a storey frame on top still stop the run.
       printf '%s\n' 'called_from_lib:libfastrtps.so.2.9' 'mutex:libstdc++.so.6' \
         'mutex:libfastrtps.so.2.9' 'race:libfastrtps.so.2.9' 'race:libfastcdr.so.1' \
-        'race:libfoonathan_memory' 'deadlock:libfastrtps.so.2.9' >build-tsan/tsan.supp
+        'race:libfoonathan_memory' 'deadlock:libfastrtps.so.2.9' \
+        'called_from_lib:libcrypto.so.3' 'race:libcrypto.so.3' >build-tsan/tsan.supp
       export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$PWD/build-tsan/tsan.supp"
       phase "tsan build" build build-tsan integration_runtime_tests runtime_test_node \
         integration_security_tests

@@ -21,8 +21,13 @@ std::vector<Pose2> simulateOdometry(const std::vector<Pose2>& reference, const O
     const double d = step.translation().norm();
     const double st = noise.translation_fraction * d;
     const double sr = noise.rotation_per_meter * d + noise.rotation_fraction * std::abs(step.theta());
-    const Pose2 noisy(step.x() + st * normal(rng), step.y() + st * normal(rng),
-                      step.theta() + sr * normal(rng));
+    // One draw per statement: the order of evaluation of a call's arguments is unspecified
+    // (gcc went right to left, clang left to right), and the same seed must give the same
+    // noise with any compiler. Heading, then y, then x: gcc's order, so figures stand.
+    const double noise_theta = normal(rng);
+    const double noise_y = normal(rng);
+    const double noise_x = normal(rng);
+    const Pose2 noisy(step.x() + st * noise_x, step.y() + st * noise_y, step.theta() + sr * noise_theta);
     out.push_back(out.back() * noisy);
   }
   return out;
