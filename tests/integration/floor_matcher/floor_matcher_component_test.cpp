@@ -9,8 +9,8 @@
 
 #include "storey/matching/simulated_floors.h"
 #include "storey/runtime/context.h"
+#include "storey/runtime/graph_conversions.h"
 #include "storey/runtime/publisher.h"
-#include "storey/runtime/sensor_conversions.h"
 #include "storey/runtime/subscription.h"
 #include "storey/sim/scenario.h"
 #include "storey/sim/simulator.h"
@@ -37,22 +37,8 @@ storey_msgs::msg::FloorGraphUpdate toUpdate(const floor::FloorGraph& g, std::siz
   u.floor_id(g.floor_id);
   u.floor_height(g.floor_height);
   u.sequence_number(sequence);
-  for (std::size_t i = first; i < last && i < g.nodes.size(); ++i) {
-    const auto& node = g.nodes[i];
-    storey_msgs::msg::FloorGraphNode n;
-    n.node_id(static_cast<std::uint32_t>(node.id));
-    n.floor_graph_id(static_cast<std::uint32_t>(g.graph_id));
-    n.stamp(runtime::toTimeMessage(node.stamp));
-    n.x(node.pose.x());
-    n.y(node.pose.y());
-    n.theta(node.pose.theta());
-    n.angle_min(static_cast<float>(node.scan.angle_min));
-    n.angle_increment(static_cast<float>(node.scan.angle_increment));
-    n.range_min(static_cast<float>(node.scan.range_min));
-    n.range_max(static_cast<float>(node.scan.range_max));
-    n.ranges(node.scan.ranges);
-    u.new_nodes().push_back(n);
-  }
+  for (std::size_t i = first; i < last && i < g.nodes.size(); ++i)
+    u.new_nodes().push_back(runtime::toMessage(g.nodes[i], static_cast<std::uint32_t>(g.graph_id)));
   return u;
 }
 
