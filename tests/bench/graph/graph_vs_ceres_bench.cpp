@@ -1,14 +1,17 @@
 // storey's pose-graph optimiser against Ceres 2.1 (LM + SPARSE_NORMAL_CHOLESKY on
 // SuiteSparse, analytic Jacobians of the same residual, one thread) on the shared pose
 // graphs, from the file's guess and from chained odometry. Prints per run: χ² of both,
-// iterations, wall time (best of --repeats) and the time ratio; then runs the registered
-// Google Benchmark cases (storey only) if --benchmark_filter is given.
+// iterations, factorisations, wall time (best of --repeats, the two solvers alternating),
+// the ratio of the best times and the median of the per-pair ratios, and storey's time per
+// phase; then runs the registered Google Benchmark cases (storey only) if
+// --benchmark_filter is given.
 //
-//   build/tests/bench/graph/bench_graph_vs_ceres [--repeats N] [--data DIR]
+//   build/tests/bench/graph/bench_graph_vs_ceres [--repeats N] [--only city] [--data DIR]
 #include <benchmark/benchmark.h>
 #include <ceres/ceres.h>
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -59,6 +62,8 @@ struct Run {
   int iterations = 0;
   double seconds = 0.0;
   bool converged = false;
+  int factorizations = 0;
+  PhaseTimes phases;  // storey only
 };
 
 PoseGraph loadGraph(const std::string& path, bool odometry) {
@@ -73,7 +78,7 @@ Run runStorey(PoseGraph graph, Initialization init = Initialization::kNone) {
   options.initialization = init;
   Optimizer optimizer(options);
   const OptimizerResult r = optimizer.optimize(graph);
-  return {graph.chi2(), r.iterations, r.time.total, r.converged};
+  return {graph.chi2(), r.iterations, r.time.total, r.converged, r.factorizations, r.time};
 }
 
 Run runCeres(PoseGraph graph) {
@@ -101,17 +106,36 @@ Run runCeres(PoseGraph graph) {
   for (std::size_t i = 0; i < graph.numNodes(); ++i) {
     graph.setPoseAt(i, Pose2(x[i][0], x[i][1], x[i][2]));
   }
-  return {graph.chi2(), static_cast<int>(summary.iterations.size()) - 1,
-          summary.total_time_in_seconds, summary.termination_type == ceres::CONVERGENCE};
+  Run run;
+  run.chi2 = graph.chi2();
+  run.iterations = static_cast<int>(summary.iterations.size()) - 1;
+  run.seconds = summary.total_time_in_seconds;
+  run.converged = summary.termination_type == ceres::CONVERGENCE;
+  run.factorizations = summary.num_linear_solves;
+  return run;
 }
 
-template <typename F>
-Run best(const F& f, int repeats) {
-  Run out = f();
-  for (int k = 1; k < repeats; ++k) {
-    const Run r = f();
-    if (r.seconds < out.seconds) out = r;
+// Both solvers run alternately (storey, Ceres, storey, ...) so that a change of machine load
+// hits both; reported: the best time of each and the median of the per-pair time ratios.
+struct Comparison {
+  Run storey, ceres;  // the fastest run of each
+  double median_ratio = 0.0;
+};
+
+template <typename S, typename C>
+Comparison compare(const S& storey, const C& ceres, int repeats) {
+  Comparison out;
+  std::vector<double> ratios;
+  for (int k = 0; k < repeats; ++k) {
+    const Run s = storey();
+    const Run c = ceres();
+    if (k == 0 || s.seconds < out.storey.seconds) out.storey = s;
+    if (k == 0 || c.seconds < out.ceres.seconds) out.ceres = c;
+    ratios.push_back(c.seconds / s.seconds);
   }
+  std::sort(ratios.begin(), ratios.end());
+  const std::size_t m = ratios.size();
+  out.median_ratio = m % 2 ? ratios[m / 2] : 0.5 * (ratios[m / 2 - 1] + ratios[m / 2]);
   return out;
 }
 
@@ -140,9 +164,12 @@ int main(int argc, char** argv) {
   std::string data = std::string(STOREY_SHARED_DATA_DIR) + "/posegraph";
   std::vector<char*> rest{argv[0]};
   bool filter = false;
+  std::string only;  // run only the files whose name contains this
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--repeats") && i + 1 < argc) {
       repeats = std::max(1, std::atoi(argv[++i]));
+    } else if (!std::strcmp(argv[i], "--only") && i + 1 < argc) {
+      only = argv[++i];
     } else if (!std::strcmp(argv[i], "--data") && i + 1 < argc) {
       data = argv[++i];
     } else {
@@ -154,20 +181,36 @@ int main(int argc, char** argv) {
       "storey: default options ('given'), initialization auto ('auto'), or\n"
       "orientation_first ('+orient.'); initialisation time included. Ceres: from the\n"
       "given guess, or ('orient.') from the same orientation-first poses (that\n"
-      "initialisation's time excluded).\n");
-  std::printf("%-15s %-9s %-9s | %14s %4s %9s | %-8s %14s %4s %9s | %8s %10s\n", "file", "init",
-              "storey", "storey chi2", "it", "time[s]", "ceres", "ceres chi2", "it", "time[s]",
-              "speedup", "rel.diff");
-  auto row = [](const Case& c, const char* storey_mode, const Run& s, const char* ceres_mode,
-                const Run& r) {
+      "initialisation's time excluded). Runs alternate storey/Ceres %d times; times are\n"
+      "the best of each, 'median' is the median of the per-pair ratios Ceres/storey.\n"
+      "f: numeric factorisations (Ceres: linear solves).\n",
+      repeats);
+  std::printf("%-15s %-9s %-9s | %14s %3s %3s %8s | %-8s %14s %3s %3s %8s | %7s %7s %9s\n",
+              "file", "init", "storey", "storey chi2", "it", "f", "time[s]", "ceres", "ceres chi2",
+              "it", "f", "time[s]", "best", "median", "rel.diff");
+  auto row = [](const Case& c, const char* storey_mode, const char* ceres_mode,
+                const Comparison& cmp) {
+    const Run& s = cmp.storey;
+    const Run& r = cmp.ceres;
     std::printf(
-        "%-15s %-9s %-9s | %14.6f %4d %9.4f | %-8s %14.6f %4d %9.4f | %7.2fx %10.2e%s\n", c.file,
-        c.odometry ? "odometry" : "file", storey_mode, s.chi2, s.iterations, s.seconds, ceres_mode,
-        r.chi2, r.iterations, r.seconds, r.seconds / s.seconds, (s.chi2 - r.chi2) / r.chi2,
+        "%-15s %-9s %-9s | %14.6f %3d %3d %8.4f | %-8s %14.6f %3d %3d %8.4f | %6.2fx %6.2fx "
+        "%9.2e%s\n",
+        c.file, c.odometry ? "odometry" : "file", storey_mode, s.chi2, s.iterations,
+        s.factorizations, s.seconds, ceres_mode, r.chi2, r.iterations, r.factorizations, r.seconds,
+        r.seconds / s.seconds, cmp.median_ratio, (s.chi2 - r.chi2) / r.chi2,
         r.converged ? "" : (s.converged ? " (ceres not converged)" : " (neither converged)"));
+    const PhaseTimes& t = s.phases;
+    std::printf(
+        "%-15s   storey phases [ms]: init %.1f symbolic %.1f assembly %.1f numeric %.1f "
+        "solve %.1f evaluate %.1f other %.1f\n",
+        "", 1e3 * t.initialization, 1e3 * t.symbolic, 1e3 * t.assembly, 1e3 * t.numeric,
+        1e3 * t.solve, 1e3 * t.evaluate,
+        1e3 * (t.total - t.initialization - t.symbolic - t.assembly - t.numeric - t.solve -
+               t.evaluate));
     std::fflush(stdout);
   };
   for (const Case& c : kCases) {
+    if (!only.empty() && std::string(c.file).find(only) == std::string::npos) continue;
     const std::string path = data + "/" + c.file;
     if (!std::fopen(path.c_str(), "r")) {
       std::printf("%-15s skipped: %s is absent\n", c.file, path.c_str());
@@ -180,17 +223,15 @@ int main(int argc, char** argv) {
       return info.vertices > 0;
     }();
     if (!c.odometry && !has_vertices) continue;
-    const Run s = best([&] { return runStorey(graph); }, repeats);
-    const Run r = best([&] { return runCeres(graph); }, repeats);
-    row(c, "given", s, "given", r);
-    const Run sa = best([&] { return runStorey(graph, Initialization::kAuto); }, repeats);
-    row(c, "auto", sa, "given", r);
-    const Run so =
-        best([&] { return runStorey(graph, Initialization::kOrientationFirst); }, repeats);
+    auto ceres_given = [&] { return runCeres(graph); };
+    row(c, "given", "given", compare([&] { return runStorey(graph); }, ceres_given, repeats));
+    row(c, "auto", "given",
+        compare([&] { return runStorey(graph, Initialization::kAuto); }, ceres_given, repeats));
     PoseGraph oriented = graph;
     initializeOrientationFirst(oriented);
-    const Run ro = best([&] { return runCeres(oriented); }, repeats);
-    row(c, "+orient.", so, "orient.", ro);
+    row(c, "+orient.", "orient.",
+        compare([&] { return runStorey(graph, Initialization::kOrientationFirst); },
+                [&] { return runCeres(oriented); }, repeats));
     benchmark::RegisterBenchmark(
         (std::string("storey/") + c.file + (c.odometry ? "/odometry" : "/file")).c_str(),
         BM_StoreyOptimize, path, c.odometry)
