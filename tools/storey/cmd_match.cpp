@@ -70,6 +70,53 @@ void printErrors(const matching::MatchResult& result, const matching::SimulatedF
   std::cout << wrong << " wrong constraints (more than 0.3 m or 2 deg off)\n";
 }
 
+// Every candidate that passed the gate, against the truth, with where its scans were (the
+// true positions of its first and last scans, building frame): shows which sequences
+// found the shared structure and which converged elsewhere.
+void printCandidateTruth(const matching::MatchResult& result,
+                         const matching::SimulatedFloors& floors) {
+  auto indexOf = [&](int id) {
+    for (std::size_t i = 0; i < floors.graphs.size(); ++i)
+      if (floors.graphs[i].graph_id == id) return i;
+    return floors.graphs.size();
+  };
+  std::cout << "gated candidates against the truth (building-frame positions of scans k..m):\n";
+  for (const auto& p : result.pairs) {
+    const std::size_t ri = indexOf(p.reference_graph_id), gi = indexOf(p.graph_id);
+    if (ri >= floors.graphs.size() || gi >= floors.graphs.size() || ri == gi) continue;
+    for (const auto& c : p.candidates) {
+      if (c.status == matching::CandidateStatus::kLowLikelihood ||
+          c.status == matching::CandidateStatus::kPoorFit)
+        continue;
+      const auto e = matching::alignmentError(c.alignment, p.reference_graph_id, p.graph_id, floors);
+      const std::size_t si = c.reversed ? ri : gi;
+      const auto& nodes = floors.graphs[si].nodes;
+      const Pose2 a = floors.frames[si] * nodes[c.first_index].pose;
+      const Pose2 b = floors.frames[si] * nodes[c.last_index].pose;
+      const bool bad = e.translation > 0.3 || e.rotation > 2.0 * M_PI / 180.0;
+      // Where the candidate puts the sequence's last scan (building frame, via the
+      // reference's true frame): for a false one, the place that looked alike.
+      const Pose2 placed =
+          c.reversed ? floors.frames[gi] * c.alignment.inverse() * nodes[c.last_index].pose
+                     : floors.frames[ri] * c.alignment * nodes[c.last_index].pose;
+      std::cout << "  graph " << p.graph_id << " in " << p.reference_graph_id << " "
+                << (c.reversed ? "ref scans " : "scans ") << c.first_index << ".." << c.last_index
+                << std::fixed << std::setprecision(1) << " (" << a.x() << "," << a.y() << ")->("
+                << b.x() << "," << b.y() << ") " << matching::candidateStatusName(c.status)
+                << std::setprecision(3) << "  l_t " << c.likelihood << "  through " << c.see_through
+                << "  " << e.translation
+                << " m " << e.rotation * 180.0 / M_PI << " deg";
+      if (bad)
+        std::cout << std::setprecision(1) << "  FALSE: scan " << c.last_index << " at ("
+                  << b.x() << "," << b.y() << "," << b.theta() * 180.0 / M_PI << " deg) placed at ("
+                  << placed.x() << "," << placed.y() << "," << placed.theta() * 180.0 / M_PI
+                  << " deg)";
+      std::cout << "\n";
+      std::cout.unsetf(std::ios::fixed);
+    }
+  }
+}
+
 }  // namespace
 
 int run_match(Args& args) {
@@ -146,6 +193,7 @@ int run_match(Args& args) {
   } else {
     matching::printMatchReport(std::cout, result);
   }
+  if (!args.flagSet("quiet")) printCandidateTruth(result, floors);
   printErrors(result, floors);
   return 0;
 }

@@ -218,6 +218,42 @@ double refineAlignment(const grid::LikelihoodField& field, const floor::FloorGra
   return current;
 }
 
+double seeThroughFraction(const grid::LikelihoodField& field, const floor::FloorGraph& graph,
+                          const std::vector<std::pair<int, int>>& ranges, int beams,
+                          const Pose2& alignment, double margin) {
+  const grid::GridFrame& f = field.frame();
+  const auto& distance = field.distance();
+  // A wall is at least one cell thick: half-cell steps cannot jump over it, and a sample
+  // within 0.75 cells of an occupied cell's centre lies in it.
+  const double step = 0.5 * f.resolution;
+  const float wall = static_cast<float>(0.75 * f.resolution);
+  std::size_t total = 0, through = 0;
+  for (const auto& [first, last] : ranges) {
+    for (int n = first; n <= last; ++n) {
+      const auto& node = graph.nodes[n];
+      const Pose2 robot = alignment * node.pose;
+      const Eigen::Vector2d origin = (robot * node.scan.sensor_offset).translation();
+      for (const auto& p : selectBeams(node.scan, beams)) {
+        const Eigen::Vector2d end = robot.transformPoint(p);
+        const Eigen::Vector2d d = end - origin;
+        const double length = d.norm() - margin;
+        ++total;
+        if (length <= 0.0) continue;
+        const Eigen::Vector2d u = d / d.norm();
+        for (double t = step; t < length; t += step) {
+          const Eigen::Vector2i c = f.cellOf(origin + t * u);
+          if (!f.contains(c.x(), c.y())) continue;
+          if (distance.at(c.x(), c.y()) <= wall) {
+            ++through;
+            break;
+          }
+        }
+      }
+    }
+  }
+  return total ? static_cast<double>(through) / static_cast<double>(total) : 0.0;
+}
+
 PreparedFloor prepareFloor(const floor::FloorGraph& graph, const FloorMatcherOptions& options) {
   PreparedFloor p;
   p.graph = &graph;
@@ -310,6 +346,8 @@ std::vector<Candidate> localiseSequences(const PreparedFloor& map_floor,
     c.fit = refineAlignment(map_floor.map->field(), g, {{k, m}}, o.refine_beams,
                             o.refine_iterations, &alignment);
     c.alignment = alignment;
+    c.see_through = seeThroughFraction(map_floor.map->field(), g, {{k, m}}, o.refine_beams,
+                                       alignment, 0.3);
     const Pose2 refined_m = alignment * g.nodes[m].pose;
     c.refine_correction = (refined_m.translation() - st.mean.translation()).norm();
     const Pose2 x_k = alignment * g.nodes[k].pose;
@@ -469,15 +507,15 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
     // independent evidence about the same alignment (shared structure that g_i's robot
     // passed only briefly may be where g_ref's robot spent longer).
     PairResult reverse;
-    const std::vector<Candidate> back = localiseSequences(floor_data, reference, result.l_min, o,
-                                                          seed ^ 0xBAC4ULL, &reverse, &evaluations);
+    std::vector<Candidate> back = localiseSequences(floor_data, reference, result.l_min, o,
+                                                    seed ^ 0xBAC4ULL, &reverse, &evaluations);
     result.sequences += reverse.sequences;
     result.not_converged += reverse.not_converged;
     result.reversed_candidates = static_cast<int>(back.size());
-    for (const Candidate& r : back) result.candidates.push_back(reverseCandidate(r, ref, g));
     for (Candidate& c : result.candidates)
       if (c.status != CandidateStatus::kLowLikelihood && c.status != CandidateStatus::kPoorFit)
         c.status = CandidateStatus::kOutlier;
+    for (const Candidate& r : back) result.candidates.push_back(reverseCandidate(r, ref, g));
     result.ambiguous = false;
     result.set_alignments.clear();
     decideConsistentSet(reference, floor_data, o, count, &rng, &result);

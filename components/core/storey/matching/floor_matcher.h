@@ -131,6 +131,9 @@ struct Candidate {
   double l_min = 0.0;
   double fit = 0.0;                // mean likelihood-field score of the sequence after refinement
   double refine_correction = 0.0;  // metres the refinement moved node m
+  // Fraction of the sequence's beams that, placed by `alignment`, cross an occupied cell of
+  // the map they were localised in before their endpoint: a laser cannot see through walls.
+  double see_through = 0.0;
   std::size_t particles = 0;       // filter size at convergence
   double mass_within = 0.0;
   CandidateStatus status = CandidateStatus::kOutlier;
@@ -228,6 +231,13 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
 double refineAlignment(const grid::LikelihoodField& field, const floor::FloorGraph& graph,
                        const std::vector<std::pair<int, int>>& ranges, int beams, int iterations,
                        geometry::Pose2* alignment);
+
+// Fraction of the beams of the scans in `ranges` (up to `beams` per scan, placed at
+// alignment * pose) whose ray crosses an occupied cell of `field` more than `margin`
+// metres before its endpoint.
+double seeThroughFraction(const grid::LikelihoodField& field, const floor::FloorGraph& graph,
+                          const std::vector<std::pair<int, int>>& ranges, int beams,
+                          const geometry::Pose2& alignment, double margin);
 
 // The candidate-by-candidate provenance table.
 void printMatchReport(std::ostream& out, const MatchResult& result);
