@@ -113,6 +113,51 @@ TEST(Optimizer, ChordStepsReachTheSameOptimumWithFewerFactorizations) {
   EXPECT_LT(angle, 1e-4);
 }
 
+// Chord steps refined by conjugate gradients (the old factorisation as preconditioner)
+// reach the optimum of plain factorised steps, with no more factorisations than plain
+// chord steps.
+TEST(Optimizer, PcgChordStepsReachTheSameOptimum) {
+  const testing::Synthetic s = testing::makeLaps(5, 10, 0.05, 0.02, 33);
+  OptimizerOptions none, plain, pcg;
+  none.chord_min_ratio = 0.0;
+  plain.chord_pcg_iterations = 0;
+  pcg.chord_pcg_iterations = 20;
+  pcg.chord_pcg_tolerance = 1e-6;
+  PoseGraph a = s.graph, b = s.graph, c = s.graph;
+  const OptimizerResult ra = Optimizer(none).optimize(a);
+  const OptimizerResult rb = Optimizer(plain).optimize(b);
+  const OptimizerResult rc = Optimizer(pcg).optimize(c);
+  for (const OptimizerResult* r : {&ra, &rb, &rc}) ASSERT_TRUE(r->converged) << r->termination;
+  EXPECT_EQ(rb.pcg_iterations, 0);
+  EXPECT_GT(rc.chord_steps, 0);
+  EXPECT_GT(rc.pcg_iterations, 0);
+  EXPECT_LE(rc.factorizations, rb.factorizations);
+  EXPECT_LT(rc.factorizations, ra.factorizations);
+  EXPECT_NEAR(rc.final_chi2, ra.final_chi2, 1e-6 * ra.final_chi2);
+  EXPECT_NEAR(rb.final_chi2, ra.final_chi2, 1e-6 * ra.final_chi2);
+  double angle = 0.0;
+  EXPECT_LT(maxPoseDistance(a, c, &angle), 1e-3);
+  EXPECT_LT(angle, 1e-4);
+}
+
+// A PCG that cannot reach its tolerance within the cap falls back to a factorisation and
+// still converges to the same optimum.
+TEST(Optimizer, PcgChordFallsBackToAFactorization) {
+  const testing::Synthetic s = testing::makeLaps(5, 10, 0.05, 0.02, 33);
+  OptimizerOptions strict;
+  strict.chord_pcg_iterations = 1;
+  strict.chord_pcg_tolerance = 1e-12;
+  OptimizerOptions none;
+  none.chord_min_ratio = 0.0;
+  PoseGraph a = s.graph, b = s.graph;
+  const OptimizerResult ra = Optimizer(strict).optimize(a);
+  const OptimizerResult rb = Optimizer(none).optimize(b);
+  ASSERT_TRUE(ra.converged) << ra.termination;
+  EXPECT_GT(ra.chord_fallbacks, 0);
+  EXPECT_EQ(ra.chord_steps, 0);
+  EXPECT_NEAR(ra.final_chi2, rb.final_chi2, 1e-9 * rb.final_chi2);
+}
+
 TEST(Optimizer, DisablingAnEdgeKeepsTheStructure) {
   testing::Synthetic s = testing::makeLaps(2, 5, 0.05, 0.02, 8);
   Optimizer optimizer;
@@ -279,6 +324,8 @@ TEST(OptimizerOptions, ReadStrictlyFromYaml) {
       "max_iterations: 7\n"
       "relative_chi2_tolerance: 1e-6\n"
       "gauge: per_component\n"
+      "chord_pcg_iterations: 3\n"
+      "chord_pcg_tolerance: 1e-4\n"
       "robust:\n"
       "  loop_closure: {kernel: cauchy, delta: 2.5}\n"
       "  inter_floor: {kernel: dcs}\n",
@@ -289,12 +336,15 @@ TEST(OptimizerOptions, ReadStrictlyFromYaml) {
   EXPECT_EQ(o.max_iterations, 7);
   EXPECT_EQ(o.relative_chi2_tolerance, 1e-6);
   EXPECT_EQ(o.gauge, GaugeMode::kPerComponent);
+  EXPECT_EQ(o.chord_pcg_iterations, 3);
+  EXPECT_EQ(o.chord_pcg_tolerance, 1e-4);
   EXPECT_EQ(o.robust[static_cast<int>(EdgeKind::kLoopClosure)].type, RobustKernelType::kCauchy);
   EXPECT_EQ(o.robust[static_cast<int>(EdgeKind::kLoopClosure)].delta, 2.5);
   EXPECT_EQ(o.robust[static_cast<int>(EdgeKind::kInterFloor)].type, RobustKernelType::kDcs);
   EXPECT_EQ(o.robust[static_cast<int>(EdgeKind::kOdometry)].type, RobustKernelType::kNone);
   for (const char* bad :
        {"algorithm: newton\n", "max_iterations: 0\n", "tolerance: 1\n",
+        "chord_pcg_iterations: -1\n", "chord_pcg_tolerance: 0\n",
         "robust:\n  loops: {kernel: dcs}\n", "robust:\n  odometry: {kernel: tukey}\n",
         "robust:\n  odometry: {kernel: dcs, width: 2}\n"}) {
     EXPECT_THROW(readOptimizerOptions(common::ConfigNode::loadString(bad, "opt.yaml")),

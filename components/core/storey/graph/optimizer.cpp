@@ -104,6 +104,10 @@ OptimizerOptions readOptimizerOptions(const common::ConfigNode& config) {
       config.getDouble("lambda_decrease_limit", o.lambda_decrease_limit, 1e-6, 1.0);
   o.chord_min_ratio = config.getDouble("chord_min_ratio", o.chord_min_ratio, 0.0, 1.0);
   o.chord_max_change = config.getDouble("chord_max_change", o.chord_max_change, 0.0, 1.0);
+  o.chord_pcg_iterations =
+      config.getInt("chord_pcg_iterations", o.chord_pcg_iterations, 0, 1000);
+  o.chord_pcg_tolerance =
+      config.getDouble("chord_pcg_tolerance", o.chord_pcg_tolerance, 1e-12, 1.0);
   const std::string gauge =
       config.getChoice("gauge", "first_node", {"first_node", "per_component"});
   o.gauge = gauge == "first_node" ? GaugeMode::kFirstNode : GaugeMode::kPerComponent;
@@ -436,12 +440,64 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
     result.converged = true;
     result.termination = "no free nodes";
   }
-  // Chord steps: the factor of (H + λD) from the last full step, with its λ and D, is
-  // reused with the gradient at the new poses while H changes little (near the optimum the
-  // last Gauss-Newton step is then one solve instead of one factorisation).
+  // Chord steps: the factor of (H + λD) from the last full step is reused at the new poses
+  // while H changes little (near the optimum), as the preconditioner of conjugate gradients
+  // on the current system: a few solves instead of one factorisation.
   bool try_chord = false;
   double factor_lambda = 0.0;
   std::vector<double> factor_diag;
+  // y = (H + λ·diag(max(H_ii, ε))) x from H's upper triangle (the diagonal entry is the last
+  // of each column).
+  auto multiply = [&](const Eigen::VectorXd& x, double damping, Eigen::VectorXd* y) {
+    y->setZero(x.size());
+    const SparseUpper& h = s.h;
+    for (int j = 0; j < h.n; ++j) {
+      const double xj = x[j];
+      double yj = 0.0;
+      const int last = h.col_ptr[j + 1] - 1;
+      for (int q = h.col_ptr[j]; q < last; ++q) {
+        const int i = h.row_idx[q];
+        (*y)[i] += h.values[q] * xj;
+        yj += h.values[q] * x[i];
+      }
+      const double d = h.values[last];
+      (*y)[j] += yj + (d + damping * std::max(d, 1e-6)) * xj;
+    }
+  };
+  // Preconditioned CG on (H + λD)Δ = −b with the last factorisation as the preconditioner;
+  // false when the residual does not fall below the tolerance within the iteration cap (or
+  // a direction of non-positive curvature appears): H has moved too far from the factor.
+  Eigen::MatrixXd z_mat;
+  auto pcg = [&](double damping, Eigen::VectorXd* x) {
+    const int n = 3 * n_vars;
+    Eigen::VectorXd r = -b;
+    solver_->solve(r, &z_mat);
+    Eigen::VectorXd p = z_mat.col(0);
+    if (options_.chord_pcg_iterations == 0) {
+      *x = p;  // the plain chord step
+      return true;
+    }
+    x->setZero(n);
+    Eigen::VectorXd ap(n);
+    const double target = options_.chord_pcg_tolerance * b.norm();
+    double rz = r.dot(p);
+    for (int k = 0; k < options_.chord_pcg_iterations; ++k) {
+      ++result.pcg_iterations;
+      multiply(p, damping, &ap);
+      const double pap = p.dot(ap);
+      if (!(pap > 0.0) || !std::isfinite(pap)) return false;
+      const double alpha = rz / pap;
+      *x += alpha * p;
+      r -= alpha * ap;
+      if (r.norm() <= target) return true;
+      solver_->solve(r, &z_mat);
+      const double rz_next = r.dot(z_mat.col(0));
+      p = z_mat.col(0) + (rz_next / rz) * p;
+      rz = rz_next;
+    }
+    return false;
+  };
+  Eigen::VectorXd dx, hdx;
   while (n_vars > 0 && result.iterations < options_.max_iterations) {
     ++result.iterations;
     if (cost <= std::numeric_limits<double>::min()) {
@@ -449,9 +505,14 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
       result.termination = "zero cost";
       break;
     }
-    const bool chord = try_chord;
-    try_chord = false;
-    bool ok = true;
+    bool chord = false;
+    if (try_chord) {
+      try_chord = false;
+      phase = Clock::now();
+      chord = pcg(lambda, &dx);
+      result.time.solve += secondsSince(phase);
+      if (!chord) ++result.chord_fallbacks;
+    }
     if (!chord) {
       // Damped diagonal: H_ii + λ·max(H_ii, ε); the undamped values are restored after.
       s.diag_saved.resize(s.diag_entry.size());
@@ -461,7 +522,7 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
         if (lm) d += lambda * std::max(d, 1e-6);
       }
       phase = Clock::now();
-      ok = solver_->factorize(s.h);
+      const bool ok = solver_->factorize(s.h);
       ++result.factorizations;
       result.time.numeric += secondsSince(phase);
       for (std::size_t i = 0; i < s.diag_entry.size(); ++i) {
@@ -469,25 +530,26 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
       }
       factor_lambda = lambda;
       factor_diag = s.diag_saved;
-    }
-    if (!ok) {
-      if (!lm) {
-        result.termination = "H is not positive definite (an under-constrained node?); try lm";
-        break;
+      if (!ok) {
+        if (!lm) {
+          result.termination =
+              "H is not positive definite (an under-constrained node?); try lm";
+          break;
+        }
+        lambda = lambda > 0.0 ? lambda * nu : options_.restart_lambda;
+        nu *= 2.0;
+        if (lambda > options_.max_lambda) {
+          result.termination = "damping limit reached (H not positive definite)";
+          break;
+        }
+        continue;
       }
-      lambda = lambda > 0.0 ? lambda * nu : options_.restart_lambda;
-      nu *= 2.0;
-      if (lambda > options_.max_lambda) {
-        result.termination = "damping limit reached (H not positive definite)";
-        break;
-      }
-      continue;
+      phase = Clock::now();
+      rhs = -b;
+      solver_->solve(rhs, &dx_mat);
+      result.time.solve += secondsSince(phase);
+      dx = dx_mat.col(0);
     }
-    phase = Clock::now();
-    rhs = -b;
-    solver_->solve(rhs, &dx_mat);
-    result.time.solve += secondsSince(phase);
-    const Eigen::VectorXd dx = dx_mat.col(0);
     if (!dx.allFinite()) {
       result.termination = "the linear solve produced a non-finite step";
       break;
@@ -518,11 +580,18 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
       }
       continue;
     }
-    // Gain ratio against the damped quadratic model: L(0) − L(Δ) = −bᵀΔ + λ Δᵀ D Δ.
-    // (For a chord step the model is the one of the reused factor.)
-    double predicted = -b.dot(dx);
-    for (std::size_t i = 0; i < factor_diag.size(); ++i) {
-      predicted += factor_lambda * std::max(factor_diag[i], 1e-6) * dx[i] * dx[i];
+    // Gain ratio against the quadratic model, L(0) − L(Δ) = −2bᵀΔ − ΔᵀHΔ; for a step that
+    // solves (H + λD)Δ = −b exactly this is −bᵀΔ + λ ΔᵀDΔ. (A chord step solved the current
+    // system only approximately: its model decrease is evaluated with H.)
+    double predicted = 0.0;
+    if (chord) {
+      multiply(dx, 0.0, &hdx);
+      predicted = -2.0 * b.dot(dx) - dx.dot(hdx);
+    } else {
+      predicted = -b.dot(dx);
+      for (std::size_t i = 0; i < factor_diag.size(); ++i) {
+        predicted += factor_lambda * std::max(factor_diag[i], 1e-6) * dx[i] * dx[i];
+      }
     }
     // When the model promises less than the tolerance we are at the optimum (this also
     // catches steps whose effect drowns in rounding): keep the step if it helped, then stop.
@@ -533,7 +602,8 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
     result.time.evaluate += secondsSince(phase);
     const double rho = (cost - trial_cost) / std::max(predicted, 1e-300);
     if (options_.verbose) {
-      common::logInfo(str("lm ", result.iterations, chord ? " (chord)" : "", ": cost ",
+      common::logInfo(str("lm ", result.iterations, chord ? " (chord)" : "", " pcg ",
+                          result.pcg_iterations, ": cost ",
                           std::setprecision(12), cost, " -> ", trial_cost, " lambda ",
                           factor_lambda, " rho ", rho));
     }
