@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <sstream>
 
 #include "args.h"
@@ -74,7 +75,9 @@ void printErrors(const matching::MatchResult& result, const matching::SimulatedF
 // true positions of its first and last scans, building frame): shows which sequences
 // found the shared structure and which converged elsewhere.
 void printCandidateTruth(const matching::MatchResult& result,
-                         const matching::SimulatedFloors& floors) {
+                         const matching::SimulatedFloors& floors,
+                         const matching::FloorMatcherOptions& options) {
+  std::map<std::size_t, matching::PreparedFloor> prepared;  // maps, for the false ones
   auto indexOf = [&](int id) {
     for (std::size_t i = 0; i < floors.graphs.size(); ++i)
       if (floors.graphs[i].graph_id == id) return i;
@@ -100,12 +103,32 @@ void printCandidateTruth(const matching::MatchResult& result,
           c.reversed ? floors.frames[gi] * c.alignment.inverse() * nodes[c.last_index].pose
                      : floors.frames[ri] * c.alignment * nodes[c.last_index].pose;
       std::cout << "  graph " << p.graph_id << " in " << p.reference_graph_id << " "
-                << (c.reversed ? "ref scans " : "scans ") << c.first_index << ".." << c.last_index
+                << (c.reversed ? "ref scans " : "scans ") << (c.backwards ? "<" : "") << c.first_index << ".." << c.last_index
                 << std::fixed << std::setprecision(1) << " (" << a.x() << "," << a.y() << ")->("
                 << b.x() << "," << b.y() << ") " << matching::candidateStatusName(c.status)
                 << std::setprecision(3) << "  l_t " << c.likelihood << "  through " << c.see_through
                 << "  " << e.translation
                 << " m " << e.rotation * 180.0 / M_PI << " deg";
+      if (bad) {
+        // The same scans at the true alignment: the fit and the see-through fraction the
+        // true place would have had, against those of the place the filter chose.
+        const std::size_t mi = c.reversed ? gi : ri;
+        auto it = prepared.find(mi);
+        if (it == prepared.end())
+          it = prepared.emplace(mi, matching::prepareFloor(floors.graphs[mi], options)).first;
+        const matching::PreparedFloor& map = it->second;
+        Pose2 truth = floors.frames[mi].inverse() * floors.frames[si];
+        Pose2 chosen = c.reversed ? c.alignment.inverse() : c.alignment;
+        const std::vector<std::pair<int, int>> range{{c.first_index, c.last_index}};
+        const double through_truth = matching::seeThroughFraction(
+            map.map->frame(), map.walls, floors.graphs[si], range, options.refine_beams, truth, 0.3);
+        const double fit_truth = matching::refineAlignment(map.map->field(), floors.graphs[si],
+                                                           range, options.refine_beams, 0, &truth);
+        const double fit_chosen = matching::refineAlignment(
+            map.map->field(), floors.graphs[si], range, options.refine_beams, 0, &chosen);
+        std::cout << std::setprecision(3) << "  [truth: fit " << fit_truth << " vs " << fit_chosen
+                  << ", through " << through_truth << "]";
+      }
       if (bad)
         std::cout << std::setprecision(1) << "  FALSE: scan " << c.last_index << " at ("
                   << b.x() << "," << b.y() << "," << b.theta() * 180.0 / M_PI << " deg) placed at ("
@@ -193,7 +216,7 @@ int run_match(Args& args) {
   } else {
     matching::printMatchReport(std::cout, result);
   }
-  if (!args.flagSet("quiet")) printCandidateTruth(result, floors);
+  if (!args.flagSet("quiet")) printCandidateTruth(result, floors, options);
   printErrors(result, floors);
   return 0;
 }

@@ -52,6 +52,7 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
       node.getDouble("constraint_sigma_theta", o.constraint_sigma_theta, 1e-6, M_PI);
   o.self_check = node.get<bool>("self_check", o.self_check);
   o.match_both_directions = node.get<bool>("match_both_directions", o.match_both_directions);
+  o.backwards_sequences = node.get<bool>("backwards_sequences", o.backwards_sequences);
   o.threads = node.getInt("threads", o.threads, 1, 256);
   o.seed = static_cast<std::uint64_t>(node.get<std::int64_t>("seed", 1));
   node.finish();
@@ -105,10 +106,6 @@ double quantile(std::vector<double> values, double q) {
   return values[lo] + (values[hi] - values[lo]) * (pos - static_cast<double>(lo));
 }
 
-Pose2 odometryIncrement(const floor::FloorGraph& g, int to) {
-  return g.nodes[to - 1].odometry.between(g.nodes[to].odometry);
-}
-
 // Does alignment `a` place node `node_pose` where alignment `b` does?
 bool agrees(const Pose2& a, const Pose2& b, const Pose2& node_pose, double tol_t, double tol_r) {
   const Pose2 pa = a * node_pose, pb = b * node_pose;
@@ -129,34 +126,61 @@ Pose2 meanAlignment(const std::vector<Pose2>& poses) {
   return Pose2(x / n, y / n, std::atan2(s, c));
 }
 
-// Largest set of candidates (among `pool`) agreeing with one candidate's alignment.
+// The candidates of `set` whose scans are pairwise disjoint, as many as possible (per
+// source graph, earliest-ending first): a time-reversed sequence and a forward one over
+// the same scans are one piece of evidence, not two.
+std::vector<std::size_t> disjointSubset(const std::vector<Candidate>& cands,
+                                        std::vector<std::size_t> set) {
+  std::sort(set.begin(), set.end(), [&](std::size_t a, std::size_t b) {
+    if (cands[a].last_index != cands[b].last_index)
+      return cands[a].last_index < cands[b].last_index;
+    return a < b;
+  });
+  std::vector<std::size_t> out;
+  int last_end[2] = {-1, -1};  // by source: g_i's scans, g_ref's scans (reversed)
+  for (std::size_t i : set) {
+    int& end = last_end[cands[i].reversed ? 1 : 0];
+    if (cands[i].first_index <= end) continue;
+    end = cands[i].last_index;
+    out.push_back(i);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// Largest set of candidates (among `pool`) agreeing with one candidate's alignment,
+// counting candidates with overlapping scans once (the set returned is disjoint; `all`,
+// when given, receives every candidate agreeing with the winning hypothesis).
 std::vector<std::size_t> largestConsistentSet(const std::vector<Candidate>& cands,
                                               const std::vector<std::size_t>& pool,
                                               const floor::FloorGraph& graph,
-                                              const FloorMatcherOptions& o, std::mt19937_64* rng) {
+                                              const FloorMatcherOptions& o, std::mt19937_64* rng,
+                                              std::vector<std::size_t>* all = nullptr) {
   std::vector<std::size_t> hypotheses = pool;
   if (hypotheses.size() > static_cast<std::size_t>(o.ransac_iterations)) {
     std::shuffle(hypotheses.begin(), hypotheses.end(), *rng);
     hypotheses.resize(static_cast<std::size_t>(o.ransac_iterations));
   }
-  std::vector<std::size_t> best;
+  std::vector<std::size_t> best, best_all;
   double best_score = -1.0;
   for (std::size_t h : hypotheses) {
-    std::vector<std::size_t> set;
-    double score = 0.0;
+    std::vector<std::size_t> consistent;
     for (std::size_t i : pool) {
       const Pose2& pk = graph.nodes[cands[i].node_index].pose;
       if (agrees(cands[h].alignment, cands[i].alignment, pk, o.ransac_translation_tolerance,
-                 o.ransac_rotation_tolerance)) {
-        set.push_back(i);
-        score += cands[i].likelihood;
-      }
+                 o.ransac_rotation_tolerance))
+        consistent.push_back(i);
     }
+    std::vector<std::size_t> set = disjointSubset(cands, consistent);
+    double score = 0.0;
+    for (std::size_t i : set) score += cands[i].likelihood;
     if (set.size() > best.size() || (set.size() == best.size() && score > best_score)) {
       best = std::move(set);
+      best_all = std::move(consistent);
       best_score = score;
     }
   }
+  if (all) *all = std::move(best_all);
   return best;
 }
 
@@ -218,15 +242,37 @@ double refineAlignment(const grid::LikelihoodField& field, const floor::FloorGra
   return current;
 }
 
-double seeThroughFraction(const grid::LikelihoodField& field, const floor::FloorGraph& graph,
+std::vector<std::uint8_t> solidWalls(const grid::LikelihoodField& field,
+                                     const floor::FloorGraph& graph, int beams) {
+  const grid::GridFrame& f = field.frame();
+  std::vector<std::uint8_t> solid(f.cellCount(), 0);
+  for (std::size_t i = 0; i < solid.size(); ++i) solid[i] = field.distance().data[i] <= 0.0f;
+  // A cell the floor's own beams passed through is not a wall that is always there (a
+  // landing door that opened, a person): clear it. The last cells before each endpoint
+  // are spared, so the wall a beam ends on stays.
+  const double step = 0.5 * f.resolution, spare = 2.0 * f.resolution;
+  for (const auto& node : graph.nodes) {
+    const Eigen::Vector2d origin = (node.pose * node.scan.sensor_offset).translation();
+    for (const auto& p : selectBeams(node.scan, beams)) {
+      const Eigen::Vector2d d = node.pose.transformPoint(p) - origin;
+      const double length = d.norm();
+      if (length <= spare) continue;
+      const Eigen::Vector2d u = d / length;
+      for (double t = step; t < length - spare; t += step) {
+        const Eigen::Vector2i c = f.cellOf(origin + t * u);
+        if (f.contains(c.x(), c.y())) solid[f.index(c.x(), c.y())] = 0;
+      }
+    }
+  }
+  return solid;
+}
+
+double seeThroughFraction(const grid::GridFrame& f, const std::vector<std::uint8_t>& walls,
+                          const floor::FloorGraph& graph,
                           const std::vector<std::pair<int, int>>& ranges, int beams,
                           const Pose2& alignment, double margin) {
-  const grid::GridFrame& f = field.frame();
-  const auto& distance = field.distance();
-  // A wall is at least one cell thick: half-cell steps cannot jump over it, and a sample
-  // within 0.75 cells of an occupied cell's centre lies in it.
+  // Half-cell steps cannot jump over a wall one cell thick.
   const double step = 0.5 * f.resolution;
-  const float wall = static_cast<float>(0.75 * f.resolution);
   std::size_t total = 0, through = 0;
   for (const auto& [first, last] : ranges) {
     for (int n = first; n <= last; ++n) {
@@ -242,8 +288,7 @@ double seeThroughFraction(const grid::LikelihoodField& field, const floor::Floor
         const Eigen::Vector2d u = d / d.norm();
         for (double t = step; t < length; t += step) {
           const Eigen::Vector2i c = f.cellOf(origin + t * u);
-          if (!f.contains(c.x(), c.y())) continue;
-          if (distance.at(c.x(), c.y()) <= wall) {
+          if (f.contains(c.x(), c.y()) && walls[f.index(c.x(), c.y())]) {
             ++through;
             break;
           }
@@ -260,6 +305,7 @@ PreparedFloor prepareFloor(const floor::FloorGraph& graph, const FloorMatcherOpt
   const grid::OccupancyGrid grid = floor::renderFloorMap(graph, options.map);
   p.map = std::make_unique<LocalizationMap>(grid, options.likelihood_field);
   p.structure = p.map->occupiedCells();
+  p.walls = solidWalls(p.map->field(), graph, options.refine_beams);
   p.l_min = learnLikelihoodThreshold(
       graph, options, mixSeed(options.seed, 0x1EA2, static_cast<std::uint64_t>(graph.graph_id)));
   return p;
@@ -295,30 +341,36 @@ namespace {
 // Algorithm 1's loop: replays `scans`' node scans in `map`'s map from uniform particles,
 // one sequence after another, and turns each converged filter into a candidate whose
 // alignment is `scans`' frame in `map`'s frame (the caller re-expresses it when the
-// direction is reversed). Gated against `l_min`.
+// direction is reversed). Gated against `l_min`. With `backwards`, the scans are replayed
+// last to first (the odometry increments inverted): a sequence then starts where the
+// robot ended, so a pass through shared structure at the end of a visit is seen from
+// its far end first, as the pass at the start of a visit is forwards.
 std::vector<Candidate> localiseSequences(const PreparedFloor& map_floor,
                                          const PreparedFloor& scans_floor, double l_min,
                                          const FloorMatcherOptions& o, std::uint64_t seed,
-                                         PairResult* counters, std::uint64_t* evaluations) {
+                                         bool backwards, PairResult* counters,
+                                         std::uint64_t* evaluations) {
   const floor::FloorGraph& ref = *map_floor.graph;
   const floor::FloorGraph& g = *scans_floor.graph;
   const int count = static_cast<int>(g.nodes.size());
+  auto at = [&](int position) { return backwards ? count - 1 - position : position; };
   std::vector<Candidate> out;
-  ParticleFilter filter(*map_floor.map, o.filter, seed ^ 0x5EEDULL);
-  int k = 0;
-  while (k + o.min_sequence <= count && !ref.nodes.empty()) {
+  ParticleFilter filter(*map_floor.map, o.filter, seed ^ (backwards ? 0xBAC5EEDULL : 0x5EEDULL));
+  int kp = 0;  // positions in replay order; at() gives the node index
+  while (kp + o.min_sequence <= count && !ref.nodes.empty()) {
     ++counters->sequences;
     filter.initializeUniform();
-    const int end = std::min(count, k + o.max_sequence);
-    int m = k;
+    const int end = std::min(count, kp + o.max_sequence);
+    int mp = kp;
     bool converged = false;
     double lt = 0.0;
     FilterState st;
-    for (m = k; m < end; ++m) {
-      if (m > k) filter.predict(odometryIncrement(g, m));
-      lt = filter.update(g.nodes[m].scan);
+    for (mp = kp; mp < end; ++mp) {
+      if (mp > kp)
+        filter.predict(g.nodes[at(mp - 1)].odometry.between(g.nodes[at(mp)].odometry));
+      lt = filter.update(g.nodes[at(mp)].scan);
       st = filter.state();
-      if (m - k + 1 >= o.min_sequence && st.converged) {
+      if (mp - kp + 1 >= o.min_sequence && st.converged) {
         converged = true;
         break;
       }
@@ -326,14 +378,17 @@ std::vector<Candidate> localiseSequences(const PreparedFloor& map_floor,
     }
     if (!converged) {
       ++counters->not_converged;
-      k += o.restart_stride;
+      kp += o.restart_stride;
       continue;
     }
+    const int k = at(kp), m = at(mp);
+    const int first = std::min(k, m), last = std::max(k, m);
     Candidate c;
     c.reference_graph_id = ref.graph_id;
     c.graph_id = g.graph_id;
-    c.first_index = k;
-    c.last_index = m;
+    c.first_index = first;
+    c.last_index = last;
+    c.backwards = backwards;
     c.node_index = k;
     c.node_id = g.nodes[k].id;
     c.estimate = st.mean;
@@ -343,11 +398,11 @@ std::vector<Candidate> localiseSequences(const PreparedFloor& map_floor,
     c.mass_within = st.mass_within;
     c.dz = g.floor_height - ref.floor_height;
     Pose2 alignment = st.mean * g.nodes[m].pose.inverse();
-    c.fit = refineAlignment(map_floor.map->field(), g, {{k, m}}, o.refine_beams,
+    c.fit = refineAlignment(map_floor.map->field(), g, {{first, last}}, o.refine_beams,
                             o.refine_iterations, &alignment);
     c.alignment = alignment;
-    c.see_through = seeThroughFraction(map_floor.map->field(), g, {{k, m}}, o.refine_beams,
-                                       alignment, 0.3);
+    c.see_through = seeThroughFraction(map_floor.map->frame(), map_floor.walls, g,
+                                       {{first, last}}, o.refine_beams, alignment, 0.3);
     const Pose2 refined_m = alignment * g.nodes[m].pose;
     c.refine_correction = (refined_m.translation() - st.mean.translation()).norm();
     const Pose2 x_k = alignment * g.nodes[k].pose;
@@ -364,7 +419,7 @@ std::vector<Candidate> localiseSequences(const PreparedFloor& map_floor,
       c.status = CandidateStatus::kOutlier;  // decided by RANSAC
     }
     out.push_back(std::move(c));
-    k = m + 1;
+    kp = mp + 1;
   }
   *evaluations += filter.beamEvaluations();
   return out;
@@ -402,10 +457,16 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
   std::vector<std::size_t> pool;
   for (std::size_t i = 0; i < result.candidates.size(); ++i)
     if (result.candidates[i].status == CandidateStatus::kOutlier) pool.push_back(i);
-  const std::vector<std::size_t> best = largestConsistentSet(result.candidates, pool, g, o, &rng);
-  std::vector<std::size_t> rest;
-  for (std::size_t i : pool)
-    if (std::find(best.begin(), best.end(), i) == best.end()) rest.push_back(i);
+  std::vector<std::size_t> best_all;
+  const std::vector<std::size_t> best =
+      largestConsistentSet(result.candidates, pool, g, o, &rng, &best_all);
+  std::vector<std::size_t> rest, overlapping;
+  for (std::size_t i : pool) {
+    if (std::find(best_all.begin(), best_all.end(), i) == best_all.end())
+      rest.push_back(i);
+    else if (std::find(best.begin(), best.end(), i) == best.end())
+      overlapping.push_back(i);
+  }
   const std::vector<std::size_t> second = largestConsistentSet(result.candidates, rest, g, o, &rng);
   auto markAll = [&](const std::vector<std::size_t>& which, CandidateStatus s,
                      const std::string& why) {
@@ -453,6 +514,8 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
       result.reason += common::str(" (a second set of ", second.size(),
                                    " loses on whole-floor fit ", fit_best, " vs ", fit_second, ")");
     markAll(rest, CandidateStatus::kOutlier, "disagrees with the largest consistent set");
+    markAll(overlapping, CandidateStatus::kOutlier,
+            "agrees, but its scans overlap an inlier's (counted once)");
     markAll(best, CandidateStatus::kAccepted, "inlier of the largest consistent set");
     std::vector<Pose2> alignments;
     std::vector<std::pair<int, int>> ranges, reversed_ranges;
@@ -500,7 +563,7 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
   std::mt19937_64 rng(seed);
   std::uint64_t evaluations = 0;
   result.candidates =
-      localiseSequences(reference, floor_data, result.l_min, o, seed, &result, &evaluations);
+      localiseSequences(reference, floor_data, result.l_min, o, seed, false, &result, &evaluations);
   decideConsistentSet(reference, floor_data, o, count, &rng, &result);
   if (!result.accepted && both_directions && ref.graph_id != g.graph_id) {
     // Too few or two rival consistent sets: g_ref's scans localised in g_i's map are
@@ -508,7 +571,16 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
     // passed only briefly may be where g_ref's robot spent longer).
     PairResult reverse;
     std::vector<Candidate> back = localiseSequences(floor_data, reference, result.l_min, o,
-                                                    seed ^ 0xBAC4ULL, &reverse, &evaluations);
+                                                    seed ^ 0xBAC4ULL, false, &reverse, &evaluations);
+    if (o.backwards_sequences) {
+      // Both floors' scans replayed last to first as well (see localiseSequences).
+      std::vector<Candidate> more = localiseSequences(reference, floor_data, result.l_min, o,
+                                                      seed, true, &result, &evaluations);
+      result.candidates.insert(result.candidates.end(), more.begin(), more.end());
+      more = localiseSequences(floor_data, reference, result.l_min, o, seed ^ 0xBAC4ULL, true,
+                               &reverse, &evaluations);
+      back.insert(back.end(), more.begin(), more.end());
+    }
     result.sequences += reverse.sequences;
     result.not_converged += reverse.not_converged;
     result.reversed_candidates = static_cast<int>(back.size());
@@ -754,7 +826,8 @@ void printMatchReport(std::ostream& out, const MatchResult& result) {
         << std::setprecision(4) << p.l_min << ", " << std::setprecision(3) << p.seconds << " s)\n";
     if (p.accepted) out << "  alignment (graph frame in reference frame): " << p.alignment << "\n";
     for (const auto& c : p.candidates) {
-      out << "  " << (c.reversed ? "ref scans " : "scans ") << c.first_index << ".." << c.last_index
+      out << "  " << (c.reversed ? "ref scans " : "scans ") << (c.backwards ? "<" : "")
+          << c.first_index << ".." << c.last_index
           << " node " << c.node_id << " -> ref node " << c.reference_node_id << "  l_t "
           << std::setprecision(4) << c.likelihood << "  fit " << std::setprecision(3) << c.fit
           << "  particles " << c.particles << "  alignment " << c.alignment << "  c "

@@ -94,6 +94,9 @@ struct FloorMatcherOptions {
   // scans are also localised in g_i's map and those candidates, inverted, join the same
   // RANSAC: structure g_i's robot passed only briefly may be where g_ref's robot stayed.
   bool match_both_directions = true;
+  // ...and both floors' scans are also replayed last to first (time-reversed sequences).
+  // Candidates whose scans overlap count once in RANSAC (see largestConsistentSet).
+  bool backwards_sequences = true;
   int threads = 2;
   std::uint64_t seed = 1;
 };
@@ -119,6 +122,7 @@ struct Candidate {
   int first_index = 0;
   int last_index = 0;
   bool reversed = false;
+  bool backwards = false;       // the scans were replayed last to first (k is then the later)
   int node_index = 0;           // index into g_i's nodes of node_id
   int node_id = 0;              // id of node k in g_i (reversed: g_i's node nearest g_ref's k)
   int reference_node_id = 0;    // id of node q in g_ref (reversed: g_ref's node k)
@@ -131,8 +135,8 @@ struct Candidate {
   double l_min = 0.0;
   double fit = 0.0;                // mean likelihood-field score of the sequence after refinement
   double refine_correction = 0.0;  // metres the refinement moved node m
-  // Fraction of the sequence's beams that, placed by `alignment`, cross an occupied cell of
-  // the map they were localised in before their endpoint: a laser cannot see through walls.
+  // Fraction of the sequence's beams that, placed by `alignment`, cross a solid wall of the
+  // map they were localised in (solidWalls) before their endpoint.
   double see_through = 0.0;
   std::size_t particles = 0;       // filter size at convergence
   double mass_within = 0.0;
@@ -200,6 +204,7 @@ struct PreparedFloor {
   std::unique_ptr<LocalizationMap> map;
   double l_min = 0.0;         // learned quantile (before likelihood_scale)
   std::size_t structure = 0;  // occupied cells: how much there is to localise against
+  std::vector<std::uint8_t> walls;  // solidWalls() of the map
 };
 PreparedFloor prepareFloor(const floor::FloorGraph& graph, const FloorMatcherOptions& options);
 
@@ -232,10 +237,17 @@ double refineAlignment(const grid::LikelihoodField& field, const floor::FloorGra
                        const std::vector<std::pair<int, int>>& ranges, int beams, int iterations,
                        geometry::Pose2* alignment);
 
+// The cells of `field`'s map that are walls its own floor's scans never passed through
+// (1) over the field's frame: occupied cells, less those a beam of `graph` crossed (a
+// landing door seen open, a passer-by). Up to `beams` beams per scan are traced.
+std::vector<std::uint8_t> solidWalls(const grid::LikelihoodField& field,
+                                     const floor::FloorGraph& graph, int beams);
+
 // Fraction of the beams of the scans in `ranges` (up to `beams` per scan, placed at
-// alignment * pose) whose ray crosses an occupied cell of `field` more than `margin`
-// metres before its endpoint.
-double seeThroughFraction(const grid::LikelihoodField& field, const floor::FloorGraph& graph,
+// alignment * pose) whose ray crosses a cell of `walls` (over frame `f`) more than
+// `margin` metres before its endpoint: a laser does not see through walls.
+double seeThroughFraction(const grid::GridFrame& f, const std::vector<std::uint8_t>& walls,
+                          const floor::FloorGraph& graph,
                           const std::vector<std::pair<int, int>>& ranges, int beams,
                           const geometry::Pose2& alignment, double margin);
 
