@@ -158,6 +158,57 @@ TEST(Optimizer, PcgChordFallsBackToAFactorization) {
   EXPECT_NEAR(ra.final_chi2, rb.final_chi2, 1e-9 * rb.final_chi2);
 }
 
+// One Gauss-Newton step of the optimiser (its own residual code) equals a dense step built
+// from edgeResidual() and its Jacobians (checked numerically in residual_test.cpp), and its
+// initial χ² equals PoseGraph::chi2().
+TEST(Optimizer, StepMatchesADenseStepFromEdgeResidual) {
+  const testing::Synthetic s = testing::makeLaps(2, 4, 0.05, 0.02, 8);
+  std::mt19937 rng(4);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  for (int trial = 0; trial < 20; ++trial) {
+    PoseGraph g = s.graph;
+    for (std::size_t i = 1; i < g.numNodes(); ++i) {
+      const Pose2& p = g.nodes()[i].pose;
+      g.setPoseAt(i, Pose2(p.x() + noise(rng), p.y() + noise(rng), p.theta() + 3 * noise(rng)));
+    }
+    const int vars = static_cast<int>(g.numNodes()) - 1;  // node 0 is the gauge
+    Eigen::MatrixXd h = Eigen::MatrixXd::Zero(3 * vars, 3 * vars);
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(3 * vars);
+    for (std::size_t e = 0; e < g.numEdges(); ++e) {
+      Eigen::Matrix3d ji, jj;
+      const Eigen::Vector3d r =
+          edgeResidual(g.nodes()[g.edgeFromIndex(e)].pose, g.nodes()[g.edgeToIndex(e)].pose,
+                       g.edges()[e].measurement, &ji, &jj);
+      const Eigen::Matrix3d& omega = g.edges()[e].information;
+      const int index[2] = {static_cast<int>(g.edgeFromIndex(e)) - 1,
+                            static_cast<int>(g.edgeToIndex(e)) - 1};
+      const Eigen::Matrix3d* jac[2] = {&ji, &jj};
+      for (int p = 0; p < 2; ++p) {
+        if (index[p] < 0) continue;
+        b.segment<3>(3 * index[p]) += jac[p]->transpose() * omega * r;
+        for (int q = 0; q < 2; ++q) {
+          if (index[q] < 0) continue;
+          h.block<3, 3>(3 * index[p], 3 * index[q]) += jac[p]->transpose() * omega * *jac[q];
+        }
+      }
+    }
+    const Eigen::VectorXd dx = h.ldlt().solve(-b);
+    OptimizerOptions options;
+    options.algorithm = Algorithm::kGaussNewton;
+    options.max_iterations = 1;
+    PoseGraph stepped = g;
+    const OptimizerResult r = Optimizer(options).optimize(stepped);
+    EXPECT_NEAR(r.initial_chi2, g.chi2(), 1e-12 * g.chi2());
+    for (int k = 0; k < vars; ++k) {
+      const Pose2& before = g.nodes()[k + 1].pose;
+      const Pose2& after = stepped.nodes()[k + 1].pose;
+      EXPECT_NEAR(after.x(), before.x() + dx[3 * k], 1e-8);
+      EXPECT_NEAR(after.y(), before.y() + dx[3 * k + 1], 1e-8);
+      EXPECT_NEAR(geometry::angleDiff(after.theta(), before.theta() + dx[3 * k + 2]), 0.0, 1e-8);
+    }
+  }
+}
+
 TEST(Optimizer, DisablingAnEdgeKeepsTheStructure) {
   testing::Synthetic s = testing::makeLaps(2, 5, 0.05, 0.02, 8);
   Optimizer optimizer;

@@ -331,15 +331,55 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
   std::array<RobustKernel, kEdgeKindCount> kernels = options_.robust;
   const auto& edges = graph.edges();
 
+  // edgeResidual() without its two sin/cos per edge: the measurements' terms are computed
+  // once per call, each node's cos/sin once per evaluation (cos(θi + θz) from both).
+  struct MeasurementTerms {
+    double cz, sz, ex, ey;  // cos θz, sin θz, R(θz)ᵀ tz
+  };
+  std::vector<MeasurementTerms> terms(edges.size());
+  for (std::size_t e = 0; e < edges.size(); ++e) {
+    const Pose2& z = edges[e].measurement;
+    const double cz = std::cos(z.theta()), sz = std::sin(z.theta());
+    terms[e] = {cz, sz, cz * z.x() + sz * z.y(), -sz * z.x() + cz * z.y()};
+  }
+  std::vector<std::array<double, 2>> node_cs(graph.numNodes());
+  auto updateNodeTrig = [&]() {
+    for (std::size_t i = 0; i < node_cs.size(); ++i) {
+      const double theta = graph.nodes()[i].pose.theta();
+      node_cs[i] = {std::cos(theta), std::sin(theta)};
+    }
+  };
+  // Same residual and Jacobians as edgeResidual() (checked against it in the unit tests).
+  auto residual = [&](std::size_t e, Eigen::Matrix3d* d_xi, Eigen::Matrix3d* d_xj) {
+    const std::size_t i = graph.edgeFromIndex(e), j = graph.edgeToIndex(e);
+    const Pose2& xi = graph.nodes()[i].pose;
+    const Pose2& xj = graph.nodes()[j].pose;
+    const MeasurementTerms& t = terms[e];
+    const double c = node_cs[i][0] * t.cz - node_cs[i][1] * t.sz;
+    const double sn = node_cs[i][1] * t.cz + node_cs[i][0] * t.sz;
+    const double dx = xj.x() - xi.x(), dy = xj.y() - xi.y();
+    const Eigen::Vector3d r(
+        c * dx + sn * dy - t.ex, -sn * dx + c * dy - t.ey,
+        geometry::normalizeAngle(xj.theta() - xi.theta() - edges[e].measurement.theta()));
+    if (d_xi) {
+      *d_xi << -c, -sn, -sn * dx + c * dy,  //
+          sn, -c, -c * dx - sn * dy,        //
+          0, 0, -1;
+      *d_xj << c, sn, 0,  //
+          -sn, c, 0,      //
+          0, 0, 1;
+    }
+    return r;
+  };
+
   // Σ ρ(s) and Σ s at the current poses.
   auto evaluate = [&](double* chi2) {
+    updateNodeTrig();
     double cost = 0.0, sum = 0.0;
     for (std::size_t e = 0; e < edges.size(); ++e) {
       const Edge& edge = edges[e];
       if (!edge.enabled) continue;
-      const Eigen::Vector3d r =
-          edgeResidual(graph.nodes()[graph.edgeFromIndex(e)].pose,
-                       graph.nodes()[graph.edgeToIndex(e)].pose, edge.measurement);
+      const Eigen::Vector3d r = residual(e, nullptr, nullptr);
       const double sq = r.dot(edge.information * r);
       double rho, w;
       robustKernel(kernels[static_cast<int>(edge.kind)], sq, &rho, &w);
@@ -353,6 +393,7 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
   Eigen::VectorXd b(3 * n_vars);
   // Fills H (upper triangle, in s.h.values) and b at the current poses; returns Σ ρ.
   auto assemble = [&](double* chi2) {
+    updateNodeTrig();
     std::fill(s.h.values.begin(), s.h.values.end(), 0.0);
     b.setZero();
     double cost = 0.0, sum = 0.0;
@@ -363,9 +404,7 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
       if (!edge.enabled) continue;
       const int vi = s.var_of_node[graph.edgeFromIndex(e)];
       const int vj = s.var_of_node[graph.edgeToIndex(e)];
-      const Eigen::Vector3d r =
-          edgeResidual(graph.nodes()[graph.edgeFromIndex(e)].pose,
-                       graph.nodes()[graph.edgeToIndex(e)].pose, edge.measurement, &ji, &jj);
+      const Eigen::Vector3d r = residual(e, &ji, &jj);
       const Eigen::Vector3d omega_r = edge.information * r;
       const double sq = r.dot(omega_r);
       double rho, w;
