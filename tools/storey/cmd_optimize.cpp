@@ -16,9 +16,16 @@ int run_optimize(Args& args) {
              "Reads a pose graph (g2o, or TORO for .graph/.toro), optimises it and writes it.\n"
              "Prints the initial and final chi2, the iterations and the time per phase.")
       .option("init", "file|odometry|orientation|auto",
-              "initial guess: the file's vertices, chained odometry from the first node, the "
-              "orientation-first estimate, or that estimate when the file's guess is poor",
+              "start: the file's vertices or chained odometry from the first node ('orientation' "
+              "and 'auto' are the file's vertices with --initialization orientation_first or "
+              "auto)",
               "file")
+      .option("initialization", "auto|orientation_first|none",
+              "orientation-first estimate before iterating: when the start is poor (chi2 per "
+              "edge > 10) and no robust kernel is set, always, or never (the library's default "
+              "for incremental use is none; a --config file's value applies unless this is "
+              "given)",
+              "auto")
       .option("solver", "gn|lm", "Gauss-Newton or Levenberg-Marquardt", "lm")
       .option("robust", "none|huber|cauchy|dcs",
               "robust kernel on every non-odometry edge (scan match, loop closure, inter-floor)",
@@ -68,6 +75,16 @@ int run_optimize(Args& args) {
   if (init != "file" && init != "odometry" && init != "orientation" && init != "auto") {
     throw UsageError("--init must be file, odometry, orientation or auto");
   }
+  const std::string initialization = args.get("initialization");
+  if (initialization != "auto" && initialization != "orientation_first" &&
+      initialization != "none") {
+    throw UsageError("--initialization must be auto, orientation_first or none");
+  }
+  if (!args.has("config") || args.has("initialization")) {
+    options.initialization = initialization == "auto"   ? graph::Initialization::kAuto
+                             : initialization == "none" ? graph::Initialization::kNone
+                                                        : graph::Initialization::kOrientationFirst;
+  }
   if (init == "orientation") options.initialization = graph::Initialization::kOrientationFirst;
   if (init == "auto") options.initialization = graph::Initialization::kAuto;
 
@@ -90,7 +107,8 @@ int run_optimize(Args& args) {
     std::cout << "robust cost  " << r.initial_cost << " -> " << r.final_cost << "\n";
   }
   std::cout << "iterations " << r.iterations << " (accepted " << r.accepted_steps
-            << ", factorisations " << r.factorizations << ", chord steps " << r.chord_steps << "), "
+            << ", factorisations " << r.factorizations << ", chord steps " << r.chord_steps
+            << " with " << r.pcg_iterations << " PCG iterations), "
             << (r.converged ? "converged: " : "not converged: ") << r.termination << "\n";
   std::cout << std::setprecision(3) << std::fixed;
   if (r.initialized) {
