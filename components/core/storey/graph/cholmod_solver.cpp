@@ -1,10 +1,10 @@
 // CHOLMOD backend: simplicial LDLᵀ with AMD ("cholmod"), supernodal LLᵀ with AMD
 // ("cholmod_supernodal") or supernodal LLᵀ with METIS nested dissection ("cholmod_nd").
-// Simplicial AMD is fastest on small graphs (intel, manhattan); on city10000 nested
-// dissection has 13 % fewer flops and the supernodal kernels run them ~1.7× faster than
-// simplicial AMD (docs/optimizer.md). Orderings are computed on the block (pose) pattern,
-// 9× smaller than the scalar one, and expanded to the scalar variables; the symbolic factor
-// is kept until the next analyze().
+// Simplicial AMD measured fastest here on every shared graph (docs/optimizer.md); METIS
+// has 13 % fewer flops on city10000 but its ordering time and the supernodal kernels ate
+// that. Orderings are computed on the block (pose) pattern, 9× smaller than the scalar
+// one, and expanded to the scalar variables; the symbolic factor is kept until the next
+// analyze().
 #include <cholmod.h>
 
 #include <algorithm>
