@@ -46,7 +46,8 @@ class CholmodSolver : public LinearSolver {
     permuted_ = false;
     cholmod_sparse a = view(matrix);
     std::vector<int> perm;
-    if (!matrix.block_col_ptr.empty() && matrix.block_size > 1) {
+    block_perm_.clear();
+    if (!matrix.block_col_ptr.empty() && matrix.block_size >= 1) {
       perm = blockOrdering(matrix);
     }
     common_.nmethods = 1;
@@ -199,19 +200,27 @@ class CholmodSolver : public LinearSolver {
     }
   }
 
+  std::vector<int> blockOrdering() const override { return block_perm_; }
+
   std::vector<int> blockOrdering(const SparseUpper& m) {
     const int blocks = static_cast<int>(m.block_col_ptr.size()) - 1;
     if (blocks <= 0 || blocks * m.block_size != m.n) return {};
-    SparseUpper pattern;
-    pattern.n = blocks;
-    pattern.col_ptr = m.block_col_ptr;
-    pattern.row_idx = m.block_row_idx;
-    cholmod_sparse b = view(pattern);
-    std::vector<int> block_perm(blocks);
-    const bool ok = nested_dissection_
-                        ? cholmod_metis(&b, nullptr, 0, 1, block_perm.data(), &common_)
-                        : cholmod_amd(&b, nullptr, 0, block_perm.data(), &common_);
-    if (!ok) return {};
+    std::vector<int> block_perm;
+    if (static_cast<int>(m.block_ordering.size()) == blocks) {
+      block_perm = m.block_ordering;  // given by the caller
+    } else {
+      SparseUpper pattern;
+      pattern.n = blocks;
+      pattern.col_ptr = m.block_col_ptr;
+      pattern.row_idx = m.block_row_idx;
+      cholmod_sparse b = view(pattern);
+      block_perm.resize(blocks);
+      const bool ok = nested_dissection_
+                          ? cholmod_metis(&b, nullptr, 0, 1, block_perm.data(), &common_)
+                          : cholmod_amd(&b, nullptr, 0, block_perm.data(), &common_);
+      if (!ok) return {};
+    }
+    block_perm_ = block_perm;
     std::vector<int> perm(m.n);
     for (int k = 0; k < blocks; ++k) {
       for (int d = 0; d < m.block_size; ++d) {
@@ -230,6 +239,7 @@ class CholmodSolver : public LinearSolver {
   // Simplicial: the matrix is factorised as S = A(p,p) in natural order (see analyze()).
   bool permuted_ = false;
   std::vector<int> perm_;
+  std::vector<int> block_perm_;
   std::vector<int> gather_;
   SparseUpper permuted_matrix_;
   Eigen::MatrixXd rhs_;

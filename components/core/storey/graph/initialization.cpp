@@ -20,8 +20,10 @@ using Triplets = std::vector<Eigen::Triplet<double>>;
 
 // Solves the SPD system given by the upper-triangle triplets (duplicates summed) with the
 // CHOLMOD backend. `blocks` (optional) is the same pattern over blocks of `block_size`
-// variables, so the ordering runs on the smaller block graph; the pattern of `m` is
-// returned in *pattern for reuse as a block pattern.
+// variables, so the ordering runs on the smaller block graph (blocks->block_ordering, when
+// set, is used as that ordering); without it the system is its own block pattern. The
+// pattern of `m` and the block ordering used are returned in *pattern for reuse as a block
+// pattern.
 Eigen::VectorXd solveUpper(int n, const Triplets& upper, const Eigen::VectorXd& rhs,
                            const char* what, const SparseUpper* blocks, int block_size,
                            SparseUpper* pattern) {
@@ -37,6 +39,11 @@ Eigen::VectorXd solveUpper(int n, const Triplets& upper, const Eigen::VectorXd& 
     m.block_size = block_size;
     m.block_col_ptr = blocks->col_ptr;
     m.block_row_idx = blocks->row_idx;
+    m.block_ordering = blocks->block_ordering;
+  } else {
+    m.block_size = 1;
+    m.block_col_ptr = m.col_ptr;
+    m.block_row_idx = m.row_idx;
   }
   std::unique_ptr<LinearSolver> solver = makeLinearSolver("cholmod");
   solver->analyze(m);
@@ -50,6 +57,7 @@ Eigen::VectorXd solveUpper(int n, const Triplets& upper, const Eigen::VectorXd& 
     pattern->n = n;
     pattern->col_ptr = std::move(m.col_ptr);
     pattern->row_idx = std::move(m.row_idx);
+    pattern->block_ordering = solver->blockOrdering();  // AMD once for both systems
   }
   return x.col(0);
 }

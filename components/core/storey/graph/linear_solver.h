@@ -25,6 +25,9 @@ struct SparseUpper {
   int block_size = 1;
   std::vector<int> block_col_ptr;  // empty when no block pattern is given
   std::vector<int> block_row_idx;
+  // Optional fill-reducing order of the blocks (new → old) to use instead of computing one,
+  // e.g. LinearSolver::blockOrdering() of another system on the same block pattern.
+  std::vector<int> block_ordering;
 };
 
 class LinearSolver {
@@ -37,6 +40,8 @@ class LinearSolver {
   virtual bool factorize(const SparseUpper& matrix) = 0;
   // Solves A X = B with the last factorisation (B is n × k, column-major).
   virtual void solve(const Eigen::MatrixXd& b, Eigen::MatrixXd* x) = 0;
+  // The block ordering used by the last analyze() (empty when the backend orders itself).
+  virtual std::vector<int> blockOrdering() const { return {}; }
 };
 
 // "cholmod", "cholmod_supernodal", "cholmod_nd" or "eigen"; throws std::invalid_argument
