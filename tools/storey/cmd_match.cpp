@@ -85,13 +85,15 @@ void printCandidateTruth(const matching::MatchResult& result,
   };
   std::cout << "gated candidates against the truth (building-frame positions of scans k..m):\n";
   for (const auto& p : result.pairs) {
-    const std::size_t ri = indexOf(p.reference_graph_id), gi = indexOf(p.graph_id);
-    if (ri >= floors.graphs.size() || gi >= floors.graphs.size() || ri == gi) continue;
     for (const auto& c : p.candidates) {
+      // A pair combined through an aligned graph holds candidates of two pairs: each
+      // names its own.
+      const std::size_t ri = indexOf(c.reference_graph_id), gi = indexOf(c.graph_id);
+      if (ri >= floors.graphs.size() || gi >= floors.graphs.size() || ri == gi) continue;
       if (c.status == matching::CandidateStatus::kLowLikelihood ||
           c.status == matching::CandidateStatus::kPoorFit)
         continue;
-      const auto e = matching::alignmentError(c.alignment, p.reference_graph_id, p.graph_id, floors);
+      const auto e = matching::alignmentError(c.alignment, c.reference_graph_id, c.graph_id, floors);
       const std::size_t si = c.reversed ? ri : gi;
       const auto& nodes = floors.graphs[si].nodes;
       const Pose2 a = floors.frames[si] * nodes[c.first_index].pose;
@@ -102,7 +104,7 @@ void printCandidateTruth(const matching::MatchResult& result,
       const Pose2 placed =
           c.reversed ? floors.frames[gi] * c.alignment.inverse() * nodes[c.last_index].pose
                      : floors.frames[ri] * c.alignment * nodes[c.last_index].pose;
-      std::cout << "  graph " << p.graph_id << " in " << p.reference_graph_id << " "
+      std::cout << "  graph " << c.graph_id << " in " << c.reference_graph_id << " "
                 << (c.reversed ? "ref scans " : "scans ") << (c.backwards ? "<" : "") << c.first_index << ".." << c.last_index
                 << std::fixed << std::setprecision(1) << " (" << a.x() << "," << a.y() << ")->("
                 << b.x() << "," << b.y() << ") " << matching::candidateStatusName(c.status)
@@ -121,7 +123,8 @@ void printCandidateTruth(const matching::MatchResult& result,
         Pose2 chosen = c.reversed ? c.alignment.inverse() : c.alignment;
         const std::vector<std::pair<int, int>> range{{c.first_index, c.last_index}};
         const double through_truth = matching::seeThroughFraction(
-            map.map->frame(), map.walls, floors.graphs[si], range, options.refine_beams, truth, 0.3);
+            map.map->frame(), map.walls(options), floors.graphs[si], range, options.refine_beams,
+            truth, 0.3);
         const double fit_truth = matching::refineAlignment(map.map->field(), floors.graphs[si],
                                                            range, options.refine_beams, 0, &truth);
         const double fit_chosen = matching::refineAlignment(

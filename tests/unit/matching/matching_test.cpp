@@ -273,6 +273,118 @@ TEST(FloorMatcher, UnrelatedFloorsGiveNoConstraint) {
   EXPECT_TRUE(r.constraints.empty()) << report.str();
 }
 
+// A 10 m x 5 m frame with one wall one cell thick at x = 5 m, from y = 1 to 4 m.
+grid::GridFrame wallFrame(std::vector<std::uint8_t>* walls) {
+  grid::GridFrame f;
+  f.resolution = 0.05;
+  f.width = 200;
+  f.height = 100;
+  walls->assign(f.cellCount(), 0);
+  for (int cy = 20; cy < 80; ++cy) (*walls)[f.index(100, cy)] = 1;
+  return f;
+}
+
+TEST(WallModel, FindsTheWallsASegmentCrossesAndNoOthers) {
+  std::vector<std::uint8_t> walls;
+  const grid::GridFrame f = wallFrame(&walls);
+  const WallModel model = makeWallModel(f, walls);
+  EXPECT_FLOAT_EQ(model.distance[f.index(100, 50)], 0.0f);
+  EXPECT_NEAR(model.distance[f.index(90, 50)], 0.5, 0.05);  // chamfer, within 8 %
+  EXPECT_TRUE(model.crosses({1.0, 2.5}, {8.0, 2.5}));
+  EXPECT_FALSE(model.crosses({1.0, 2.5}, {4.9, 2.5}));   // stops short of it
+  EXPECT_FALSE(model.crosses({1.0, 0.5}, {8.0, 0.5}));   // passes below its end
+  EXPECT_FALSE(model.crosses({5.5, 2.5}, {9.5, 4.5}));   // starts beyond it
+  EXPECT_TRUE(model.crosses({9.0, 3.9}, {1.0, 1.1}));    // diagonal, right to left
+  // Every segment through the wall's middle at up to 60 degrees from its normal, with
+  // random ends in open space on both sides, is caught (sphere tracing must not step over
+  // a wall one cell thick).
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> y(1.8, 3.2), angle(-1.05, 1.05), length(0.3, 4.5);
+  for (int i = 0; i < 2000; ++i) {
+    const Eigen::Vector2d at(5.025, y(rng));
+    const double a = angle(rng);
+    const Eigen::Vector2d u(std::cos(a), std::sin(a));
+    const Eigen::Vector2d from = at - std::min(length(rng), 4.9 / u.x()) * u;
+    const Eigen::Vector2d to = at + std::min(length(rng), 4.9 / u.x()) * u;
+    ASSERT_TRUE(model.crosses(from, to)) << "from " << from.transpose() << " to " << to.transpose();
+  }
+}
+
+// One node's scan: beams over +-0.2 rad ending on the vertical line x = `wall_x` (robot at
+// the origin, heading 0).
+floor::FloorNode nodeSeeingWallAt(int id, double wall_x) {
+  floor::FloorNode n;
+  n.id = id;
+  n.scan.angle_min = -0.2;
+  n.scan.angle_increment = 0.002;  // dense enough that the mapped walls have no gaps
+  n.scan.range_min = 0.05;
+  n.scan.range_max = 30.0;
+  for (int b = 0; b <= 200; ++b)
+    n.scan.ranges.push_back(static_cast<float>(wall_x / std::cos(n.scan.angle(b))));
+  return n;
+}
+
+TEST(SolidWalls, AWallTheFloorsOwnBeamsPassedIsNotSolid) {
+  // A door at x = 2 m, shut for three scans and open for one (which sees the wall at 4 m).
+  floor::FloorGraph g;
+  for (int i = 0; i < 3; ++i) g.nodes.push_back(nodeSeeingWallAt(i, 2.0));
+  g.nodes.push_back(nodeSeeingWallAt(3, 4.0));
+  const LocalizationMap map(floor::renderFloorMap(g, {}), {});
+  const grid::GridFrame& f = map.frame();
+  const Eigen::Vector2i door = f.cellOf({2.02, 0.0}), far = f.cellOf({4.02, 0.0});
+  ASSERT_FLOAT_EQ(map.field().distance().at(door.x(), door.y()), 0.0f) << "the door is mapped";
+  const std::vector<std::uint8_t> walls = solidWalls(map.field(), g, 90);
+  EXPECT_EQ(walls[f.index(door.x(), door.y())], 0);
+  EXPECT_EQ(walls[f.index(far.x(), far.y())], 1);
+  // Seen from 1 m further on, the open-door scan sees through no solid wall; put 3 m
+  // back, it would (its beams end 1 m beyond the far wall).
+  EXPECT_DOUBLE_EQ(seeThroughFraction(f, walls, g, {{3, 3}}, 90, Pose2(), 0.3), 0.0);
+  EXPECT_GT(seeThroughFraction(f, walls, g, {{3, 3}}, 90, Pose2(1.0, 0.0, 0.0), 0.3), 0.9);
+}
+
+TEST(ParticleFilter, WallModelLowersExactlyTheParticlesWhoseBeamsCrossWalls) {
+  const auto g = driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 3);
+  const LocalizationMap map(floor::renderFloorMap(g, {}), {});
+  const WallModel walls = makeWallModel(map.frame(), solidWalls(map.field(), g, 90));
+  ParticleFilterOptions o;
+  o.initial_particles_per_m2 = 5.0;
+  ParticleFilter plain(map, o, 21), with_walls(map, o, 21);
+  const int traced = 12;
+  const double log_p = -10.0, margin = 0.3;
+  with_walls.setWallModel(&walls, traced, log_p, margin);
+  plain.initializeUniform();
+  with_walls.initializeUniform();
+  const sensor::LaserScan& scan = g.nodes[7].scan;
+  plain.update(scan);
+  with_walls.update(scan);
+  ASSERT_EQ(plain.size(), with_walls.size());
+  // Per particle: log(w_walls / w_plain) = constant + effective_beams * log_p * (fraction
+  // of the traced beams crossing a wall).
+  const std::vector<Eigen::Vector2d> beams = selectBeams(scan, traced);
+  double offset = std::numeric_limits<double>::quiet_NaN();
+  int crossing_particles = 0, checked = 0;
+  for (std::size_t j = 0; j < plain.size(); ++j) {
+    const double wp = plain.weights()[j], ww = with_walls.weights()[j];
+    const Pose2 pose(plain.xs()[j], plain.ys()[j], plain.thetas()[j]);
+    const Eigen::Vector2d origin = pose.transformPoint(scan.sensor_offset.translation());
+    int crossed = 0;
+    for (const auto& b : beams) {
+      const Eigen::Vector2d d = b - scan.sensor_offset.translation();
+      const Eigen::Vector2d stop = scan.sensor_offset.translation() + d * ((d.norm() - margin) / d.norm());
+      crossed += walls.crosses(origin, pose.transformPoint(stop));
+    }
+    crossing_particles += crossed > 0;
+    if (wp < 1e-250 || ww < 1e-250) continue;
+    const double expected = o.effective_beams * log_p * crossed / static_cast<double>(beams.size());
+    const double ratio = std::log(ww / wp) - expected;
+    if (std::isnan(offset)) offset = ratio;
+    EXPECT_NEAR(ratio, offset, 1e-6) << "particle " << j << " crossed " << crossed;
+    ++checked;
+  }
+  EXPECT_GT(crossing_particles, 0);
+  EXPECT_GT(checked, 10);
+}
+
 TEST(FloorMatcherOptions, ReadsValuesAndRejectsUnknownKeys) {
   const auto node = common::ConfigNode::loadString(
       "min_sequence: 4\nseed: 9\nfilter:\n  beams: 30\n  motion:\n    rot_rot: 0.2\n");

@@ -53,6 +53,9 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
   o.self_check = node.get<bool>("self_check", o.self_check);
   o.match_both_directions = node.get<bool>("match_both_directions", o.match_both_directions);
   o.backwards_sequences = node.get<bool>("backwards_sequences", o.backwards_sequences);
+  o.wall_recheck = node.getDouble("wall_recheck", o.wall_recheck, 0.0, 1.0);
+  o.wall_beams = node.getInt("wall_beams", o.wall_beams, 1, 10000);
+  o.wall_log_p = node.getDouble("wall_log_p", o.wall_log_p, -100.0, 0.0);
   o.threads = node.getInt("threads", o.threads, 1, 256);
   o.seed = static_cast<std::uint64_t>(node.get<std::int64_t>("seed", 1));
   node.finish();
@@ -137,9 +140,10 @@ std::vector<std::size_t> disjointSubset(const std::vector<Candidate>& cands,
     return a < b;
   });
   std::vector<std::size_t> out;
-  int last_end[2] = {-1, -1};  // by source: g_i's scans, g_ref's scans (reversed)
+  std::map<int, int> last_end;  // by the graph whose scans were localised
   for (std::size_t i : set) {
-    int& end = last_end[cands[i].reversed ? 1 : 0];
+    const int source = cands[i].reversed ? cands[i].reference_graph_id : cands[i].graph_id;
+    int& end = last_end.emplace(source, -1).first->second;
     if (cands[i].first_index <= end) continue;
     end = cands[i].last_index;
     out.push_back(i);
@@ -299,13 +303,29 @@ double seeThroughFraction(const grid::GridFrame& f, const std::vector<std::uint8
   return total ? static_cast<double>(through) / static_cast<double>(total) : 0.0;
 }
 
+void PreparedFloor::computeWalls(const FloorMatcherOptions& options) const {
+  std::call_once(walls_->once, [&] {
+    walls_->cells = solidWalls(map->field(), *graph, options.refine_beams);
+    walls_->model = makeWallModel(map->frame(), walls_->cells);
+  });
+}
+
+const std::vector<std::uint8_t>& PreparedFloor::walls(const FloorMatcherOptions& options) const {
+  computeWalls(options);
+  return walls_->cells;
+}
+
+const WallModel& PreparedFloor::wallModel(const FloorMatcherOptions& options) const {
+  computeWalls(options);
+  return walls_->model;
+}
+
 PreparedFloor prepareFloor(const floor::FloorGraph& graph, const FloorMatcherOptions& options) {
   PreparedFloor p;
   p.graph = &graph;
   const grid::OccupancyGrid grid = floor::renderFloorMap(graph, options.map);
   p.map = std::make_unique<LocalizationMap>(grid, options.likelihood_field);
   p.structure = p.map->occupiedCells();
-  p.walls = solidWalls(p.map->field(), graph, options.refine_beams);
   p.l_min = learnLikelihoodThreshold(
       graph, options, mixSeed(options.seed, 0x1EA2, static_cast<std::uint64_t>(graph.graph_id)));
   return p;
@@ -338,17 +358,137 @@ double learnLikelihoodThreshold(const floor::FloorGraph& graph, const FloorMatch
 
 namespace {
 
+// One sequence: `filter` (already initialised) replays the scans at replay positions
+// kp, kp+1, ... (node indices `at`) until it converges after at least min_sequence scans
+// or max_sequence scans have been used.
+struct SequenceRun {
+  bool converged = false;
+  int mp = 0;  // replay position of the last scan used
+  double lt = 0.0;
+  FilterState state;
+};
+
+template <typename At>
+SequenceRun runSequence(ParticleFilter* filter, const floor::FloorGraph& g, At at, int kp,
+                        const FloorMatcherOptions& o) {
+  const int count = static_cast<int>(g.nodes.size());
+  const int end = std::min(count, kp + o.max_sequence);
+  SequenceRun run;
+  for (run.mp = kp; run.mp < end; ++run.mp) {
+    const int n = at(run.mp);
+    if (run.mp > kp) filter->predict(g.nodes[at(run.mp - 1)].odometry.between(g.nodes[n].odometry));
+    run.lt = filter->update(g.nodes[n].scan);
+    run.state = filter->state();
+    if (run.mp - kp + 1 >= o.min_sequence && run.state.converged) {
+      run.converged = true;
+      return run;
+    }
+    filter->resampleIfNeeded();
+  }
+  run.mp = std::max(kp, end - 1);
+  return run;
+}
+
+// The candidate of a converged sequence from node k = at(kp) to m = at(mp): refined,
+// back-propagated to k, gated.
+template <typename At>
+Candidate makeCandidate(const PreparedFloor& map_floor, const PreparedFloor& scans_floor,
+                        double l_min, const FloorMatcherOptions& o, bool backwards, At at,
+                        int kp, const SequenceRun& run) {
+  const floor::FloorGraph& ref = *map_floor.graph;
+  const floor::FloorGraph& g = *scans_floor.graph;
+  const int k = at(kp), m = at(run.mp);
+  const int first = std::min(k, m), last = std::max(k, m);
+  Candidate c;
+  c.reference_graph_id = ref.graph_id;
+  c.graph_id = g.graph_id;
+  c.first_index = first;
+  c.last_index = last;
+  c.backwards = backwards;
+  c.node_index = k;
+  c.node_id = g.nodes[k].id;
+  c.estimate = run.state.mean;
+  c.likelihood = run.lt;
+  c.l_min = l_min;
+  c.particles = run.state.particles;
+  c.mass_within = run.state.mass_within;
+  c.dz = g.floor_height - ref.floor_height;
+  Pose2 alignment = run.state.mean * g.nodes[m].pose.inverse();
+  c.fit = refineAlignment(map_floor.map->field(), g, {{first, last}}, o.refine_beams,
+                          o.refine_iterations, &alignment);
+  c.alignment = alignment;
+  const Pose2 refined_m = alignment * g.nodes[m].pose;
+  c.refine_correction = (refined_m.translation() - run.state.mean.translation()).norm();
+  const Pose2 x_k = alignment * g.nodes[k].pose;
+  const int q = ref.nearestNodeIndex(x_k.translation());
+  c.reference_node_id = ref.nodes[q].id;
+  c.measurement = ref.nodes[q].pose.between(x_k);
+  if (run.lt < l_min) {
+    c.status = CandidateStatus::kLowLikelihood;
+    c.reason = common::str("l_t ", run.lt, " < l_min ", l_min);
+  } else if (c.refine_correction > o.max_refine_correction || c.fit < o.min_fit) {
+    c.status = CandidateStatus::kPoorFit;
+    c.reason = common::str("refinement moved ", c.refine_correction, " m, fit ", c.fit);
+  } else {
+    c.status = CandidateStatus::kOutlier;  // decided by RANSAC
+  }
+  return c;
+}
+
+// A gated candidate whose beams cross solid walls of the map it was localised in more than
+// o.wall_recheck: the likelihood field scores only where beams end, so it may have
+// preferred a wrong place (a corridor seen from inside fits both ways round when its open
+// end shows rooms the reference lacks). The same scans again from z_k, with the wall model
+// in the filter; the candidate is replaced by what that filter finds, or rejected when it
+// does not converge. Returns the last replay position used.
+int recheckWalls(const PreparedFloor& map_floor, const PreparedFloor& scans_floor, double l_min,
+                 const FloorMatcherOptions& o, std::uint64_t seed, Candidate* c,
+                 std::uint64_t* evaluations) {
+  const floor::FloorGraph& g = *scans_floor.graph;
+  const int count = static_cast<int>(g.nodes.size());
+  const bool backwards = c->backwards;
+  auto at = [&](int position) { return backwards ? count - 1 - position : position; };
+  const int kp = backwards ? count - 1 - c->node_index : c->node_index;
+  const int mp_before = backwards ? count - 1 - c->first_index : c->last_index;
+  if (c->status != CandidateStatus::kOutlier) return mp_before;
+  c->see_through = seeThroughFraction(map_floor.map->frame(), map_floor.walls(o), g,
+                                      {{c->first_index, c->last_index}}, o.refine_beams,
+                                      c->alignment, 0.3);
+  if (c->see_through <= o.wall_recheck) return mp_before;
+  ParticleFilter filter(*map_floor.map, o.filter,
+                        seed ^ (0x3A11ULL + 977ULL * static_cast<std::uint64_t>(kp)));
+  filter.setWallModel(&map_floor.wallModel(o), o.wall_beams, o.wall_log_p, 0.3);
+  filter.initializeUniform();
+  const SequenceRun run = runSequence(&filter, g, at, kp, o);
+  *evaluations += filter.beamEvaluations();
+  const double first_through = c->see_through;
+  if (!run.converged) {
+    c->status = CandidateStatus::kPoorFit;
+    c->reason = common::str("sees through walls (", first_through,
+                            " of beams) and the wall model does not converge");
+    return mp_before;
+  }
+  *c = makeCandidate(map_floor, scans_floor, l_min, o, backwards, at, kp, run);
+  c->see_through = seeThroughFraction(map_floor.map->frame(), map_floor.walls(o), g,
+                                      {{c->first_index, c->last_index}}, o.refine_beams,
+                                      c->alignment, 0.3);
+  c->reason = common::str("re-localised with the wall model (the first estimate saw through ",
+                          first_through, " of beams)", c->reason.empty() ? "" : "; ", c->reason);
+  return std::max(mp_before, run.mp);
+}
+
 // Algorithm 1's loop: replays `scans`' node scans in `map`'s map from uniform particles,
 // one sequence after another, and turns each converged filter into a candidate whose
 // alignment is `scans`' frame in `map`'s frame (the caller re-expresses it when the
 // direction is reversed). Gated against `l_min`. With `backwards`, the scans are replayed
 // last to first (the odometry increments inverted): a sequence then starts where the
 // robot ended, so a pass through shared structure at the end of a visit is seen from
-// its far end first, as the pass at the start of a visit is forwards.
+// its far end first, as the pass at the start of a visit is forwards. With `walls`, each
+// gated candidate goes through recheckWalls.
 std::vector<Candidate> localiseSequences(const PreparedFloor& map_floor,
                                          const PreparedFloor& scans_floor, double l_min,
                                          const FloorMatcherOptions& o, std::uint64_t seed,
-                                         bool backwards, PairResult* counters,
+                                         bool backwards, bool walls, PairResult* counters,
                                          std::uint64_t* evaluations) {
   const floor::FloorGraph& ref = *map_floor.graph;
   const floor::FloorGraph& g = *scans_floor.graph;
@@ -360,64 +500,15 @@ std::vector<Candidate> localiseSequences(const PreparedFloor& map_floor,
   while (kp + o.min_sequence <= count && !ref.nodes.empty()) {
     ++counters->sequences;
     filter.initializeUniform();
-    const int end = std::min(count, kp + o.max_sequence);
-    int mp = kp;
-    bool converged = false;
-    double lt = 0.0;
-    FilterState st;
-    for (mp = kp; mp < end; ++mp) {
-      if (mp > kp)
-        filter.predict(g.nodes[at(mp - 1)].odometry.between(g.nodes[at(mp)].odometry));
-      lt = filter.update(g.nodes[at(mp)].scan);
-      st = filter.state();
-      if (mp - kp + 1 >= o.min_sequence && st.converged) {
-        converged = true;
-        break;
-      }
-      filter.resampleIfNeeded();
-    }
-    if (!converged) {
+    const SequenceRun run = runSequence(&filter, g, at, kp, o);
+    if (!run.converged) {
       ++counters->not_converged;
       kp += o.restart_stride;
       continue;
     }
-    const int k = at(kp), m = at(mp);
-    const int first = std::min(k, m), last = std::max(k, m);
-    Candidate c;
-    c.reference_graph_id = ref.graph_id;
-    c.graph_id = g.graph_id;
-    c.first_index = first;
-    c.last_index = last;
-    c.backwards = backwards;
-    c.node_index = k;
-    c.node_id = g.nodes[k].id;
-    c.estimate = st.mean;
-    c.likelihood = lt;
-    c.l_min = l_min;
-    c.particles = st.particles;
-    c.mass_within = st.mass_within;
-    c.dz = g.floor_height - ref.floor_height;
-    Pose2 alignment = st.mean * g.nodes[m].pose.inverse();
-    c.fit = refineAlignment(map_floor.map->field(), g, {{first, last}}, o.refine_beams,
-                            o.refine_iterations, &alignment);
-    c.alignment = alignment;
-    c.see_through = seeThroughFraction(map_floor.map->frame(), map_floor.walls, g,
-                                       {{first, last}}, o.refine_beams, alignment, 0.3);
-    const Pose2 refined_m = alignment * g.nodes[m].pose;
-    c.refine_correction = (refined_m.translation() - st.mean.translation()).norm();
-    const Pose2 x_k = alignment * g.nodes[k].pose;
-    const int q = ref.nearestNodeIndex(x_k.translation());
-    c.reference_node_id = ref.nodes[q].id;
-    c.measurement = ref.nodes[q].pose.between(x_k);
-    if (lt < l_min) {
-      c.status = CandidateStatus::kLowLikelihood;
-      c.reason = common::str("l_t ", lt, " < l_min ", l_min);
-    } else if (c.refine_correction > o.max_refine_correction || c.fit < o.min_fit) {
-      c.status = CandidateStatus::kPoorFit;
-      c.reason = common::str("refinement moved ", c.refine_correction, " m, fit ", c.fit);
-    } else {
-      c.status = CandidateStatus::kOutlier;  // decided by RANSAC
-    }
+    Candidate c = makeCandidate(map_floor, scans_floor, l_min, o, backwards, at, kp, run);
+    int mp = run.mp;
+    if (walls) mp = recheckWalls(map_floor, scans_floor, l_min, o, seed, &c, evaluations);
     out.push_back(std::move(c));
     kp = mp + 1;
   }
@@ -563,30 +654,36 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
   std::mt19937_64 rng(seed);
   std::uint64_t evaluations = 0;
   result.candidates =
-      localiseSequences(reference, floor_data, result.l_min, o, seed, false, &result, &evaluations);
+      localiseSequences(reference, floor_data, result.l_min, o, seed, false, false, &result,
+                        &evaluations);
   decideConsistentSet(reference, floor_data, o, count, &rng, &result);
   if (!result.accepted && both_directions && ref.graph_id != g.graph_id) {
     // Too few or two rival consistent sets: g_ref's scans localised in g_i's map are
     // independent evidence about the same alignment (shared structure that g_i's robot
     // passed only briefly may be where g_ref's robot spent longer).
     PairResult reverse;
+    for (Candidate& c : result.candidates)
+      if (c.status != CandidateStatus::kLowLikelihood && c.status != CandidateStatus::kPoorFit)
+        c.status = CandidateStatus::kOutlier;
+    // The first pass's candidates that saw through walls are rechecked now (the recheck
+    // is costly, so only a pair that needs more evidence pays for it).
+    for (Candidate& c : result.candidates)
+      recheckWalls(reference, floor_data, result.l_min, o, seed, &c, &evaluations);
     std::vector<Candidate> back = localiseSequences(floor_data, reference, result.l_min, o,
-                                                    seed ^ 0xBAC4ULL, false, &reverse, &evaluations);
+                                                    seed ^ 0xBAC4ULL, false, true, &reverse,
+                                                    &evaluations);
     if (o.backwards_sequences) {
       // Both floors' scans replayed last to first as well (see localiseSequences).
       std::vector<Candidate> more = localiseSequences(reference, floor_data, result.l_min, o,
-                                                      seed, true, &result, &evaluations);
+                                                      seed, true, true, &result, &evaluations);
       result.candidates.insert(result.candidates.end(), more.begin(), more.end());
       more = localiseSequences(floor_data, reference, result.l_min, o, seed ^ 0xBAC4ULL, true,
-                               &reverse, &evaluations);
+                               true, &reverse, &evaluations);
       back.insert(back.end(), more.begin(), more.end());
     }
     result.sequences += reverse.sequences;
     result.not_converged += reverse.not_converged;
     result.reversed_candidates = static_cast<int>(back.size());
-    for (Candidate& c : result.candidates)
-      if (c.status != CandidateStatus::kLowLikelihood && c.status != CandidateStatus::kPoorFit)
-        c.status = CandidateStatus::kOutlier;
     for (const Candidate& r : back) result.candidates.push_back(reverseCandidate(r, ref, g));
     result.ambiguous = false;
     result.set_alignments.clear();
@@ -662,6 +759,109 @@ void parallelFor(int n, int threads, F job) {
   for (int i = 1; i < t; ++i) pool.emplace_back(worker);
   worker();
   for (auto& th : pool) th.join();
+}
+
+}  // namespace
+
+namespace {
+
+// A floor g_i that failed against the reference for too few consistent candidates, and
+// failed again against a graph g_r already aligned to the reference (T_r): the two pairs'
+// candidates are evidence about one alignment of g_i in the reference frame (g_r's mapped
+// through T_r, the loop T_ref,i = T_r * T_r,i). One RANSAC over both; when it finds
+// min_constraints disjoint candidates (and no rival set), the floor is accepted with
+// constraints to both graphs. Returns the combined pair (accepted or not).
+PairResult combineThroughAligned(const PairResult& direct, const PairResult& via,
+                                 const Pose2& t_r, const PreparedFloor& reference,
+                                 const PreparedFloor& aligned, const PreparedFloor& floor_data,
+                                 const FloorMatcherOptions& o, std::uint64_t seed) {
+  const floor::FloorGraph& g = *floor_data.graph;
+  PairResult out;
+  out.reference_graph_id = direct.reference_graph_id;
+  out.graph_id = direct.graph_id;
+  out.l_min = direct.l_min;
+  out.candidates = direct.candidates;
+  const std::size_t first_via = out.candidates.size();
+  out.candidates.insert(out.candidates.end(), via.candidates.begin(), via.candidates.end());
+  // Alignments in the reference's frame, for RANSAC.
+  std::vector<Candidate> in_reference = out.candidates;
+  for (std::size_t i = first_via; i < in_reference.size(); ++i)
+    in_reference[i].alignment = t_r * in_reference[i].alignment;
+  std::vector<std::size_t> pool;
+  for (std::size_t i = 0; i < out.candidates.size(); ++i) {
+    const CandidateStatus s = out.candidates[i].status;
+    if (s != CandidateStatus::kLowLikelihood && s != CandidateStatus::kPoorFit) {
+      pool.push_back(i);
+      out.candidates[i].status = CandidateStatus::kOutlier;
+    }
+  }
+  std::mt19937_64 rng(seed);
+  std::vector<std::size_t> best_all;
+  const std::vector<std::size_t> best = largestConsistentSet(in_reference, pool, g, o, &rng,
+                                                             &best_all);
+  std::vector<std::size_t> rest;
+  for (std::size_t i : pool)
+    if (std::find(best_all.begin(), best_all.end(), i) == best_all.end()) rest.push_back(i);
+  const std::vector<std::size_t> second = largestConsistentSet(in_reference, rest, g, o, &rng);
+  int from_via = 0;
+  for (std::size_t i : best) from_via += i >= first_via;
+  auto markAll = [&](const std::vector<std::size_t>& which, CandidateStatus st,
+                     const std::string& why) {
+    for (std::size_t i : which) {
+      out.candidates[i].status = st;
+      out.candidates[i].reason = why;
+    }
+  };
+  const std::string via_name = common::str("graph ", via.reference_graph_id);
+  if (static_cast<int>(best.size()) < o.min_constraints) {
+    out.reason = common::str("with ", via_name, " (aligned): largest consistent set has ",
+                             best.size(), " of ", pool.size(), " gated candidates (need ",
+                             o.min_constraints, ")");
+    markAll(pool, CandidateStatus::kTooFew, out.reason);
+    return out;
+  }
+  if (second.size() >= 2 && static_cast<double>(second.size()) >=
+                                o.ambiguity_ratio * static_cast<double>(best.size())) {
+    out.ambiguous = true;
+    out.reason = common::str("with ", via_name, " (aligned): two disjoint consistent sets of ",
+                             best.size(), " and ", second.size());
+    markAll(pool, CandidateStatus::kAmbiguous, out.reason);
+    return out;
+  }
+  out.accepted = true;
+  out.reason = common::str("accepted with ", via_name, " (aligned to the reference): ",
+                           best.size(), " consistent of ", pool.size(), " gated candidates, ",
+                           from_via, " of them against ", via_name);
+  markAll(rest, CandidateStatus::kOutlier, "disagrees with the largest consistent set");
+  for (std::size_t i : best_all)
+    if (std::find(best.begin(), best.end(), i) == best.end())
+      markAll({i}, CandidateStatus::kOutlier, "agrees, but its scans overlap an inlier's (counted once)");
+  markAll(best, CandidateStatus::kAccepted, "inlier of the consistent set over both graphs");
+  // The joint alignment: the inliers' scans of g_i that were localised in the reference's
+  // map refine it there; without any, their mean stands.
+  std::vector<Pose2> alignments;
+  std::vector<std::pair<int, int>> ranges;
+  for (std::size_t i : best) {
+    alignments.push_back(in_reference[i].alignment);
+    if (i < first_via && !out.candidates[i].reversed)
+      ranges.emplace_back(out.candidates[i].first_index, out.candidates[i].last_index);
+  }
+  Pose2 joint = meanAlignment(alignments);
+  if (!ranges.empty())
+    refineAlignment(reference.map->field(), g, ranges, o.refine_beams, o.refine_iterations,
+                    &joint);
+  out.alignment = joint;
+  const Pose2 joint_in_r = t_r.inverse() * joint;
+  for (std::size_t i : best) {
+    Candidate& c = out.candidates[i];
+    const bool via_r = i >= first_via;
+    const floor::FloorGraph& other = via_r ? *aligned.graph : *reference.graph;
+    const Pose2 x = (via_r ? joint_in_r : joint) * g.nodes[c.node_index].pose;
+    const int q = other.nearestNodeIndex(x.translation());
+    c.reference_node_id = other.nodes[q].id;
+    c.measurement = other.nodes[q].pose.between(x);
+  }
+  return out;
 }
 
 }  // namespace
@@ -775,7 +975,16 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
           p.reason += "; confirmed through the reference";
         }
       }
+      const bool combine = !p.accepted && !p.ambiguous && !before.ambiguous &&
+                           to_reference.count(r) && r != ref;
       retries[j].push_back(std::move(p));
+      if (combine) {
+        // Together, the two pairs may have enough (see combineThroughAligned).
+        PairResult both = combineThroughAligned(before, retries[j].back(), to_reference.at(r),
+                                                prepared[ref], prepared[r], prepared[i], o,
+                                                seedFor(r, i) ^ 0xC0B1ULL);
+        retries[j].push_back(std::move(both));
+      }
       if (retries[j].back().accepted) break;
     }
   });

@@ -37,6 +37,7 @@
 #include <cstdint>
 #include <iosfwd>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -97,6 +98,13 @@ struct FloorMatcherOptions {
   // ...and both floors' scans are also replayed last to first (time-reversed sequences).
   // Candidates whose scans overlap count once in RANSAC (see largestConsistentSet).
   bool backwards_sequences = true;
+  // Negative information: a gated candidate whose beams cross solid walls of the reference
+  // (Candidate::see_through) more than this fraction is localised again from its first
+  // scan with the wall model in the filter (WallModel: `wall_beams` traced per scan, a beam
+  // through a wall has log p `wall_log_p`). 1 turns it off.
+  double wall_recheck = 0.05;
+  int wall_beams = 12;
+  double wall_log_p = -10.0;
   int threads = 2;
   std::uint64_t seed = 1;
 };
@@ -137,7 +145,7 @@ struct Candidate {
   double refine_correction = 0.0;  // metres the refinement moved node m
   // Fraction of the sequence's beams that, placed by `alignment`, cross a solid wall of the
   // map they were localised in (solidWalls) before their endpoint.
-  double see_through = 0.0;
+  double see_through = -1.0;  // -1: not computed (only pairs that need more evidence)
   std::size_t particles = 0;       // filter size at convergence
   double mass_within = 0.0;
   CandidateStatus status = CandidateStatus::kOutlier;
@@ -204,7 +212,19 @@ struct PreparedFloor {
   std::unique_ptr<LocalizationMap> map;
   double l_min = 0.0;         // learned quantile (before likelihood_scale)
   std::size_t structure = 0;  // occupied cells: how much there is to localise against
-  std::vector<std::uint8_t> walls;  // solidWalls() of the map
+  // solidWalls() of the map and its WallModel, computed on first use (only pairs that
+  // need more evidence use them); safe to call from several threads.
+  const std::vector<std::uint8_t>& walls(const FloorMatcherOptions& options) const;
+  const WallModel& wallModel(const FloorMatcherOptions& options) const;
+
+ private:
+  struct Walls {
+    std::once_flag once;
+    std::vector<std::uint8_t> cells;
+    WallModel model;
+  };
+  void computeWalls(const FloorMatcherOptions& options) const;
+  std::shared_ptr<Walls> walls_ = std::make_shared<Walls>();
 };
 PreparedFloor prepareFloor(const floor::FloorGraph& graph, const FloorMatcherOptions& options);
 

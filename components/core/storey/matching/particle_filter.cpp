@@ -88,6 +88,86 @@ std::vector<Eigen::Vector2d> selectBeams(const sensor::LaserScan& scan, int beam
   return out;
 }
 
+WallModel makeWallModel(const grid::GridFrame& frame, const std::vector<std::uint8_t>& walls,
+                        double cap) {
+  WallModel m;
+  m.frame = frame;
+  const int w = frame.width, h = frame.height;
+  const float big = static_cast<float>(cap);
+  m.distance.assign(frame.cellCount(), big);
+  for (std::size_t i = 0; i < walls.size() && i < m.distance.size(); ++i)
+    if (walls[i]) m.distance[i] = 0.0f;
+  // Two-pass chamfer distance (3-4 weights, within 8 % of Euclidean, never above it by more
+  // than that; crosses() steps conservatively).
+  const float r = static_cast<float>(frame.resolution), rd = r * 1.41421356f;
+  auto relax = [&](int x, int y, int dx, int dy, float cost) {
+    const int nx = x + dx, ny = y + dy;
+    if (nx < 0 || ny < 0 || nx >= w || ny >= h) return;
+    float& d = m.distance[frame.index(x, y)];
+    d = std::min(d, m.distance[frame.index(nx, ny)] + cost);
+  };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      relax(x, y, -1, 0, r);
+      relax(x, y, 0, -1, r);
+      relax(x, y, -1, -1, rd);
+      relax(x, y, 1, -1, rd);
+    }
+  for (int y = h - 1; y >= 0; --y)
+    for (int x = w - 1; x >= 0; --x) {
+      relax(x, y, 1, 0, r);
+      relax(x, y, 0, 1, r);
+      relax(x, y, 1, 1, rd);
+      relax(x, y, -1, 1, rd);
+    }
+  return m;
+}
+
+bool WallModel::crosses(const Eigen::Vector2d& from, const Eigen::Vector2d& to) const {
+  const Eigen::Vector2d d = to - from;
+  const double length = d.norm();
+  if (length <= 0.0 || frame.width <= 0 || frame.height <= 0) return false;
+  const Eigen::Vector2d u = d / length;
+  // Clip the segment to the map's box (no walls outside it; Liang-Barsky).
+  double t0 = 0.0, t1 = length;
+  const double lo[2] = {frame.origin_x, frame.origin_y}, hi[2] = {frame.maxX(), frame.maxY()};
+  for (int a = 0; a < 2; ++a) {
+    if (std::abs(u[a]) < 1e-12) {
+      if (from[a] < lo[a] || from[a] >= hi[a]) return false;
+      continue;
+    }
+    double ta = (lo[a] - from[a]) / u[a], tb = (hi[a] - from[a]) / u[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  const double res = frame.resolution, min_step = 0.5 * res;
+  for (double t = t0; t < t1;) {
+    const Eigen::Vector2d p = from + t * u;
+    const int cx = grid::floorToInt((p.x() - frame.origin_x) / res);
+    const int cy = grid::floorToInt((p.y() - frame.origin_y) / res);
+    if (!frame.contains(cx, cy)) {  // on the box's far edge by rounding
+      t += min_step;
+      continue;
+    }
+    const double dist = distance[frame.index(cx, cy)];
+    if (dist <= 0.0) return true;
+    // The point may be up to 0.71 cells from its cell's centre, and so may the wall's
+    // nearest point from its own; the chamfer distance is within 8 % of the true one:
+    // step no further than 0.92 of it less 1.5 cells.
+    t += std::max(0.92 * dist - 1.5 * res, min_step);
+  }
+  return false;
+}
+
+void ParticleFilter::setWallModel(const WallModel* model, int beams, double log_p_through,
+                                  double margin) {
+  walls_ = model;
+  wall_beams_ = std::max(1, beams);
+  wall_log_p_ = log_p_through;
+  wall_margin_ = margin;
+}
+
 ParticleFilter::ParticleFilter(const LocalizationMap& map, const ParticleFilterOptions& options,
                                std::uint64_t seed)
     : map_(map), options_(options), rng_(seed) {}
@@ -206,6 +286,29 @@ double ParticleFilter::update(const sensor::LaserScan& scan) {
     max_log = std::max(max_log, lw);
   }
   beam_evaluations_ += static_cast<std::uint64_t>(n) * nb;
+  if (walls_) {
+    // Negative information: beams that would have passed a wall to reach their endpoint.
+    const std::vector<Eigen::Vector2d> traced = selectBeams(scan, wall_beams_);
+    const Eigen::Vector2d sensor = scan.sensor_offset.translation();
+    std::vector<Eigen::Vector2d> stop(traced.size());
+    for (std::size_t b = 0; b < traced.size(); ++b) {
+      const Eigen::Vector2d d = traced[b] - sensor;
+      const double length = d.norm();
+      stop[b] = length > wall_margin_ ? Eigen::Vector2d(sensor + d * ((length - wall_margin_) / length))
+                                      : sensor;
+    }
+    const double scale =
+        options_.effective_beams * wall_log_p_ / static_cast<double>(std::max<std::size_t>(1, traced.size()));
+    max_log = -std::numeric_limits<double>::infinity();
+    for (std::size_t j = 0; j < n; ++j) {
+      const Pose2 pose(x_[j], y_[j], theta_[j]);
+      const Eigen::Vector2d origin = pose.transformPoint(sensor);
+      int crossed = 0;
+      for (const auto& e : stop) crossed += walls_->crosses(origin, pose.transformPoint(e));
+      log_w_[j] += scale * crossed;
+      max_log = std::max(max_log, log_w_[j]);
+    }
+  }
   double total = 0.0;
   for (std::size_t j = 0; j < n; ++j) {
     w_[j] = std::exp(log_w_[j] - max_log);

@@ -113,6 +113,21 @@ class LocalizationMap {
   std::size_t occupied_cells_ = 0;
 };
 
+// Negative information for the sensor model (optional): the likelihood field scores where a
+// beam ends and not what it passed, so a pose whose beams cross walls can outscore the
+// true one (a corridor seen from inside fits both ways round when its open end shows
+// rooms the reference does not have). `distance` holds, per cell of `frame`, metres to
+// the nearest wall cell (0 on one), capped, for sphere tracing a beam.
+struct WallModel {
+  grid::GridFrame frame;
+  std::vector<float> distance;
+  // Does the segment from `from` to `to` pass a wall cell?
+  bool crosses(const Eigen::Vector2d& from, const Eigen::Vector2d& to) const;
+};
+// `walls`: 1 per wall cell of `frame`. Distances are capped at `cap` metres.
+WallModel makeWallModel(const grid::GridFrame& frame, const std::vector<std::uint8_t>& walls,
+                        double cap = 2.0);
+
 class ParticleFilter {
  public:
   ParticleFilter(const LocalizationMap& map, const ParticleFilterOptions& options,
@@ -130,6 +145,10 @@ class ParticleFilter {
   // observation likelihood, where one particle's likelihood is the geometric mean of
   // its beams' p (so l_t does not depend on how many beams were used).
   double update(const sensor::LaserScan& scan);
+  // With a wall model, update() also traces `beams` of each scan per particle (up to
+  // `margin` metres short of the endpoint) and adds effective_beams * (fraction crossing
+  // a wall) * log_p_through to its log-weight. nullptr turns it off (the default).
+  void setWallModel(const WallModel* model, int beams, double log_p_through, double margin);
   // Low-variance resampling when the effective sample size is low, then KLD-sampling
   // resizes the set. Returns true when it resampled.
   bool resampleIfNeeded();
@@ -155,6 +174,10 @@ class ParticleFilter {
   std::vector<double> x_, y_, theta_, w_;
   std::vector<double> log_w_;  // scratch
   std::uint64_t beam_evaluations_ = 0;
+  const WallModel* walls_ = nullptr;
+  int wall_beams_ = 0;
+  double wall_log_p_ = 0.0;
+  double wall_margin_ = 0.0;
 };
 
 // Endpoints of up to `beams` evenly spread valid returns, in the robot frame.
