@@ -121,6 +121,7 @@ OrientationFirstInfo initializeOrientationFirst(PoseGraph& graph) {
     if (!fixed[i]) var[i] = vars++;
   }
   info.nodes = static_cast<std::size_t>(vars);
+  info.anchored = fixed;
   if (vars == 0) return info;
 
   // Orientations: θj − θi = δ + 2πk per edge, weighted by 1 / Σθθ.
@@ -158,6 +159,7 @@ OrientationFirstInfo initializeOrientationFirst(PoseGraph& graph) {
   // The orientation system has the pose graph's pattern: the position system's blocks.
   SparseUpper node_pattern;
   const Eigen::VectorXd th = solveUpper(vars, upper, rhs, "orientation", nullptr, 1, &node_pattern);
+  info.ordering = node_pattern.block_ordering;
   for (std::size_t i = 0; i < n; ++i) {
     if (var[i] >= 0) theta[i] = th[var[i]];
   }

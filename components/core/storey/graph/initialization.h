@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstddef>
+#include <vector>
 
 #include "storey/graph/pose_graph.h"
 
@@ -19,6 +20,10 @@ struct OrientationFirstInfo {
   std::size_t nodes = 0;          // nodes moved (free ones)
   std::size_t wrapped_edges = 0;  // edges whose rotation needed a 2π·k correction
   double seconds = 0.0;
+  std::vector<char> anchored;  // per node index: held as an anchor
+  // Fill-reducing order (AMD, new → old) of the free nodes numbered in node order over the
+  // enabled edges: the optimiser reuses it for its own system on the same pattern.
+  std::vector<int> ordering;
 };
 
 // Moves every free node. Anchors (kept as they are): the fixed nodes and, in each connected

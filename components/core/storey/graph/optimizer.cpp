@@ -233,6 +233,7 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
   chooseGauge(graph, options_.gauge, &fixed, &auto_fixed, &components);
   result.components = components;
   result.auto_fixed = auto_fixed;
+  std::vector<int> init_ordering;
   if (options_.initialization != Initialization::kNone) {
     result.initial_chi2 = graph.chi2();
     bool robust = false;
@@ -247,7 +248,10 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
                                    static_cast<double>(std::max<std::size_t>(enabled, 1)));
     // Its anchors are the gauge's fixed nodes (same rule), so fixed poses stay put.
     if (result.initialized) {
-      result.time.initialization = initializeOrientationFirst(graph).seconds;
+      OrientationFirstInfo info = initializeOrientationFirst(graph);
+      result.time.initialization = info.seconds;
+      // Same anchors as the gauge: the same pose graph, so its AMD order serves H too.
+      if (info.anchored == fixed) init_ordering = std::move(info.ordering);
     }
     phase = Clock::now();
   }
@@ -312,6 +316,7 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
                                        lower[k].begin());
       for (int c = 0; c < 3; ++c) s->offdiag[e][c] = h.col_ptr[3 * k + c] + 3 * pos;
     }
+    if (static_cast<int>(init_ordering.size()) == vars) h.block_ordering = init_ordering;
     structure_ = std::move(s);
     result.reanalysed = true;
   }
