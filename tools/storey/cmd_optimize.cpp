@@ -114,10 +114,10 @@ int run_optimize(Args& args) {
   if (r.initialized) {
     std::cout << "orientation-first initialisation: chi2 " << r.initialized_chi2 << "\n";
   }
-  std::cout << "time [ms]: initialisation " << 1e3 * r.time.initialization << ", assembly " << 1e3 * r.time.assembly << ", symbolic "
-            << 1e3 * r.time.symbolic << ", numeric " << 1e3 * r.time.numeric << ", solve "
-            << 1e3 * r.time.solve << ", evaluate " << 1e3 * r.time.evaluate << ", total "
-            << 1e3 * r.time.total << "\n";
+  std::cout << "time [ms]: initialisation " << 1e3 * r.time.initialization << ", assembly "
+            << 1e3 * r.time.assembly << ", symbolic " << 1e3 * r.time.symbolic << ", numeric "
+            << 1e3 * r.time.numeric << ", solve " << 1e3 * r.time.solve << ", evaluate "
+            << 1e3 * r.time.evaluate << ", total " << 1e3 * r.time.total << "\n";
   if (!r.auto_fixed.empty()) {
     std::cout << "gauge: fixed node(s)";
     for (graph::NodeId id : r.auto_fixed) std::cout << ' ' << id;

@@ -193,9 +193,9 @@ int main(int argc, char** argv) {
       "the per-pair ratios Ceres/storey.\n"
       "f: numeric factorisations (Ceres: linear solves).\n",
       repeats);
-  std::printf("%-15s %-9s %-9s | %14s %3s %3s %8s | %-8s %14s %3s %3s %8s | %7s %7s %9s\n",
-              "file", "init", "storey", "storey chi2", "it", "f", "time[s]", "ceres", "ceres chi2",
-              "it", "f", "time[s]", "best", "median", "rel.diff");
+  std::printf("%-15s %-9s %-9s | %14s %3s %3s %8s | %-8s %14s %3s %3s %8s | %7s %7s %9s\n", "file",
+              "init", "storey", "storey chi2", "it", "f", "time[s]", "ceres", "ceres chi2", "it",
+              "f", "time[s]", "best", "median", "rel.diff");
   auto row = [](const Case& c, const char* storey_mode, const char* ceres_mode,
                 const Comparison& cmp) {
     const Run& s = cmp.storey;

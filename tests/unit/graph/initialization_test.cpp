@@ -16,8 +16,7 @@ double maxError(const PoseGraph& g, const std::vector<Pose2>& truth, double* max
   for (std::size_t i = 0; i < truth.size(); ++i) {
     const Pose2& p = g.nodes()[i].pose;
     worst = std::max(worst, (p.translation() - truth[i].translation()).norm());
-    *max_angle =
-        std::max(*max_angle, std::abs(geometry::angleDiff(p.theta(), truth[i].theta())));
+    *max_angle = std::max(*max_angle, std::abs(geometry::angleDiff(p.theta(), truth[i].theta())));
   }
   return worst;
 }

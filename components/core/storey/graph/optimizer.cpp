@@ -104,8 +104,7 @@ OptimizerOptions readOptimizerOptions(const common::ConfigNode& config) {
       config.getDouble("lambda_decrease_limit", o.lambda_decrease_limit, 1e-6, 1.0);
   o.chord_min_ratio = config.getDouble("chord_min_ratio", o.chord_min_ratio, 0.0, 1.0);
   o.chord_max_change = config.getDouble("chord_max_change", o.chord_max_change, 0.0, 1.0);
-  o.chord_pcg_iterations =
-      config.getInt("chord_pcg_iterations", o.chord_pcg_iterations, 0, 1000);
+  o.chord_pcg_iterations = config.getInt("chord_pcg_iterations", o.chord_pcg_iterations, 0, 1000);
   o.chord_pcg_tolerance =
       config.getDouble("chord_pcg_tolerance", o.chord_pcg_tolerance, 1e-12, 1.0);
   const std::string gauge =
@@ -589,8 +588,7 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
       factor_diag = s.diag_saved;
       if (!ok) {
         if (!lm) {
-          result.termination =
-              "H is not positive definite (an under-constrained node?); try lm";
+          result.termination = "H is not positive definite (an under-constrained node?); try lm";
           break;
         }
         lambda = lambda > 0.0 ? lambda * nu : options_.restart_lambda;
@@ -660,9 +658,8 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
     const double rho = (cost - trial_cost) / std::max(predicted, 1e-300);
     if (options_.verbose) {
       common::logInfo(str("lm ", result.iterations, chord ? " (chord)" : "", " pcg ",
-                          result.pcg_iterations, ": cost ",
-                          std::setprecision(12), cost, " -> ", trial_cost, " lambda ",
-                          factor_lambda, " rho ", rho));
+                          result.pcg_iterations, ": cost ", std::setprecision(12), cost, " -> ",
+                          trial_cost, " lambda ", factor_lambda, " rho ", rho));
     }
     if (std::isfinite(trial_cost) && trial_cost < cost && rho > 0.0) {
       ++result.accepted_steps;
