@@ -681,13 +681,13 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
                                true, &reverse, &evaluations);
       back.insert(back.end(), more.begin(), more.end());
     }
-    result.sequences += reverse.sequences;
-    result.not_converged += reverse.not_converged;
-    result.reversed_candidates = static_cast<int>(back.size());
     for (const Candidate& r : back) result.candidates.push_back(reverseCandidate(r, ref, g));
     result.ambiguous = false;
     result.set_alignments.clear();
     decideConsistentSet(reference, floor_data, o, count, &rng, &result);
+    result.sequences += reverse.sequences;
+    result.not_converged += reverse.not_converged;
+    result.reversed_candidates = static_cast<int>(back.size());
   }
   result.beam_evaluations = evaluations;
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -1039,6 +1039,7 @@ void printMatchReport(std::ostream& out, const MatchResult& result) {
           << c.first_index << ".." << c.last_index
           << " node " << c.node_id << " -> ref node " << c.reference_node_id << "  l_t "
           << std::setprecision(4) << c.likelihood << "  fit " << std::setprecision(3) << c.fit
+          << (c.see_through >= 0.0 ? common::str("  through ", c.see_through) : std::string())
           << "  particles " << c.particles << "  alignment " << c.alignment << "  c "
           << c.measurement << " dz " << c.dz << "  " << candidateStatusName(c.status);
       if (!c.reason.empty()) out << " (" << c.reason << ")";
