@@ -1,5 +1,6 @@
 // storey replay INPUT: publishes a recording (rosbag2 bag or CARMEN log) over DDS.
 #include <csignal>
+#include <cstdlib>
 #include <iostream>
 
 #include "args.h"
@@ -27,6 +28,8 @@ int run_replay(Args& args) {
       .option("subscribers", "N",
               "first wait until each topic of a robot has a subscriber and its scan topic N, then --wait",
               "0")
+      .option("ack-wait", "SECONDS", "at the end, wait this long at most for reliable subscribers' acknowledgments",
+              "3")
       .flag("quiet", "no progress bar");
   if (!args.parse()) return 0;
   const std::string input = args.positional(0, "INPUT");
@@ -36,6 +39,8 @@ int run_replay(Args& args) {
   options.log_robot = args.get("robot");
   options.topic_prefix = args.get("prefix");
   options.settle_seconds = args.getDouble("wait");
+  options.ack_seconds = args.getDouble("ack-wait");
+  if (options.ack_seconds < 0) throw UsageError("--ack-wait must not be negative");
   options.min_subscribers = static_cast<int>(args.getInt("subscribers"));
   if (options.min_subscribers < 0) throw UsageError("--subscribers must not be negative");
   runtime::ContextOptions context_options;
@@ -58,8 +63,13 @@ int run_replay(Args& args) {
     }
   });
   if (!quiet) std::cerr << "\n";
-  std::cout << summary.text();
-  return summary.stopped ? 130 : 0;
+  std::cout << summary.text() << std::flush;
+  // Everything sent was acknowledged (or waited for); leave without deleting the writers:
+  // Fast DDS 2.9 can deadlock deleting a reliable writer that still has unacknowledged
+  // samples (seen here with a subscriber killed mid-replay; fixed after 2.9, e.g.
+  // eProsima/Fast-DDS#4076). The OS closes the sockets; peers drop us after our lease.
+  std::cerr << std::flush;
+  std::_Exit(summary.stopped ? 130 : 0);
 }
 
 }  // namespace storey::cli

@@ -243,6 +243,9 @@ class Deployment {
     fs::create_directories(dir_);
     const std::string config = test::sourceDir() + "/config/";
     write("graph_server.yaml", "journal: " + journal() + "\n");
+    // The mapper under test logs its input, so that a restart resumes its graphs.
+    write("floor_mapper.yaml", replaceAll(readText(config + "floor_mapper.yaml"), "input_log: \"\"",
+                                          "input_log: " + dir_ + "/mapper_input.log"));
     // The witness: the shipped parameters on witness topics.
     write("witness_floor_detector.yaml", replaceAll(readText(config + "floor_detector.yaml"),
                                                     "events_topic: floor_events", "events_topic: witness_floor_events"));
@@ -266,8 +269,7 @@ class Deployment {
     const std::string header = "    domain_id: " + std::to_string(domain) + "\n    components:\n";
     const std::string detector = "      - {kind: floor_detector, name: robot1_floor_detector, parameters: " + config +
                                  "floor_detector.yaml}\n";
-    const std::string mapper = "      - {kind: floor_mapper, name: robot1_floor_mapper, parameters: " + config +
-                               "floor_mapper.yaml}\n";
+    const std::string mapper = "      - {kind: floor_mapper, name: robot1_floor_mapper, parameters: floor_mapper.yaml}\n";
     const std::string matcher = "      - {kind: floor_matcher, name: floor_matcher, parameters: floor_matcher.yaml}\n";
     const std::string server = "      - {kind: graph_server, name: graph_server, parameters: graph_server.yaml}\n";
     std::string text = "processes:\n";
@@ -322,7 +324,9 @@ class Deployment {
     while (running() < processes_.size() && Clock::now() < end) sleepFor(0.05);
     ASSERT_EQ(running(), processes_.size()) << logs();
     replay_ = spawn({kStorey, "replay", bag, "--rate", std::to_string(kReplayRate), "--domain",
-                     std::to_string(domain_), "--subscribers", std::to_string(subscribers_), "--wait", "0.5", "--quiet"},
+                     std::to_string(domain_), "--subscribers", std::to_string(subscribers_), "--wait", "0.5",
+                     // The matchers' idle rule is timed from the end of the replay.
+                     "--ack-wait", "0", "--quiet"},
                     log("replay"));
     replay_start_ = Clock::now();
   }
@@ -420,20 +424,20 @@ class FaultsTest : public ::testing::Test {
     sleepFor(down_for);
     d.start(process);
     d.finish();
-    if (process == "server")  // it rebuilt what it had from its journal
-      EXPECT_NE(readText(d.log("server")).find(": resumed "), std::string::npos) << readText(d.log("server"));
+    // The server rebuilt what it had from its journal, the mapper from its input log.
+    if (process == "server" || process == "mapper") {
+      EXPECT_NE(readText(d.log(process)).find(": resumed "), std::string::npos) << readText(d.log(process));
+    }
     return {rebuild(d.journal()), rebuild(d.witnessJournal())};
   }
   std::string dir_, bag_;
 };
 
 // Issue #9: bringup split as a robot and a server process (bringup/split.yaml, under
-// `storey launch`) gives the building of the same components in one process.
-// DISABLED: not true yet. The two floor_mappers, fed the same reliable sensor streams,
-// give different floor graphs (e.g. 107 / 119 nodes on F0; "odometry jumped" warnings in
-// one pipeline only), so the buildings differ by up to metres; see docs/reliability.md.
-// Run with --gtest_also_run_disabled_tests.
-TEST_F(FaultsTest, DISABLED_SplitDeploymentEqualsSingleProcess) {
+// `storey launch`) gives the building of the same components in one process. It holds
+// since the mapper orders scans and floor events by their stamps (InputSequencer), not by
+// their arrival.
+TEST_F(FaultsTest, SplitDeploymentEqualsSingleProcess) {
   Deployment d(dir_ + "/split", 140, Deployment::Layout::kSplit);
   d.launch();
   d.startReplay(bag_);
@@ -451,10 +455,17 @@ TEST_F(FaultsTest, MatcherKilledAndRestartedGivesTheSameBuilding) {
   expectSameBuilding(compare(witness, b));
 }
 
-// DISABLED for the same reason as the split test: its witness is a whole pipeline, whose
-// floor_mapper does not give the same graphs as the one under test even undisturbed.
-TEST_F(FaultsTest, DISABLED_DetectorKilledAndRestartedGivesTheSameBuilding) {
+// The restarted detector gets the sensor history again (transient local here) and sends
+// the same events; the mapper skips those it took before.
+TEST_F(FaultsTest, DetectorKilledAndRestartedGivesTheSameBuilding) {
   const auto [b, witness] = withRestart(143, "detector", 4.0, 0.5, Deployment::Witness::kPipeline);
+  expectSameBuilding(compare(witness, b));
+}
+
+// The restarted mapper replays its input log (same graphs, same updates re-sent) and
+// resumes after the last logged scan with what the sensor topics' history gives it.
+TEST_F(FaultsTest, MapperKilledAndRestartedGivesTheSameBuilding) {
+  const auto [b, witness] = withRestart(144, "mapper", 6.0, 1.0, Deployment::Witness::kPipeline);
   expectSameBuilding(compare(witness, b));
 }
 

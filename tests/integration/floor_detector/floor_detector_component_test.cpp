@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <limits>
 #include <cmath>
 #include <fstream>
 #include <mutex>
@@ -12,7 +15,7 @@
 
 #include "storey/catalog/all_components.h"
 #include "storey/detection/barometer.h"
-#include "storey/floor_detector/conversions.h"
+#include "storey/runtime/floor_event_conversions.h"
 #include "storey/runtime/context.h"
 #include "storey/runtime/publisher.h"
 #include "storey/runtime/sensor_conversions.h"
@@ -97,10 +100,12 @@ TEST(FloorDetectorComponent, PublishesTheRideAndLateSubscribersGetIt) {
   runtime::Context context(onDomain(230));
   std::mutex mutex;
   std::vector<EventMsg> received;
+  std::vector<double> progress;  // decided_at of every message, events and progress alike
   EventSub events(context, "/fd_robot/floor_events", runtime::TopicKind::kGraph,
                   [&](const EventMsg& m) {
                     std::lock_guard<std::mutex> lock(mutex);
-                    received.push_back(m);
+                    progress.push_back(runtime::fromTimeMessage(m.decided_at()));
+                    if (m.kind() != storey_msgs::msg::FloorEvent_Constants::KIND_PROGRESS) received.push_back(m);
                   });
   FloorDetectorComponent component(context, parametersFor("fd_robot"), "detector");
   component.configure();
@@ -127,6 +132,23 @@ TEST(FloorDetectorComponent, PublishesTheRideAndLateSubscribersGetIt) {
     const double end = runtime::fromTimeMessage(received[1].stamp());
     EXPECT_LE(start, 130.0);
     EXPECT_GE(end, 134.0);
+    // Each event was decided after it began, and the detector's progress (on the same
+    // topic, so the mapper can order scans and events by stamp) only moves forward, about
+    // every progress_period (0.5 s) of the 75 s ride recording.
+    EXPECT_GT(runtime::fromTimeMessage(received[0].decided_at()), start);
+    EXPECT_GT(runtime::fromTimeMessage(received[1].decided_at()), end);
+  }
+  EXPECT_TRUE(waitFor(
+      [&] {
+        std::lock_guard<std::mutex> lock(mutex);
+        return !progress.empty() && progress.back() >= 174.0;
+      },
+      5.0));
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    EXPECT_TRUE(std::is_sorted(progress.begin(), progress.end()));
+    EXPECT_GE(progress.size(), 100u);  // 75 s / 0.5 s, less samples the best-effort topic lost
+    EXPECT_LE(progress.size(), 153u);
   }
   EXPECT_EQ(component.currentFloor(), 1);
   EXPECT_EQ(component.eventsPublished(), 2u);
@@ -192,7 +214,8 @@ TEST(FloorDetectorConversions, RoundTrip) {
   e.floor_height = 4.0;
   e.confidence = 0.9;
   e.mode = detection::TransitMode::kStairs;
-  const detection::FloorEvent back = fromMessage(toMessage(e, "r"));
+  e.decided_at = 14.0;
+  const detection::FloorEvent back = runtime::fromMessage(runtime::toMessage(e, "r"));
   EXPECT_EQ(back.type, e.type);
   EXPECT_DOUBLE_EQ(back.stamp, e.stamp);
   EXPECT_EQ(back.floor_id, 3);
@@ -202,9 +225,22 @@ TEST(FloorDetectorConversions, RoundTrip) {
   EXPECT_DOUBLE_EQ(back.floor_height, 4.0);
   EXPECT_DOUBLE_EQ(back.confidence, 0.9);
   EXPECT_EQ(back.mode, detection::TransitMode::kStairs);
+  EXPECT_DOUBLE_EQ(back.decided_at, 14.0);
   detection::FloorEvent s;
   s.stamp = 3.0;
-  EXPECT_EQ(toMessage(s, "r").floor_id(), -1);
+  EXPECT_EQ(runtime::toMessage(s, "r").floor_id(), -1);
+  // A publisher that leaves decided_at zero: the event's stamp stands in for it.
+  EXPECT_DOUBLE_EQ(runtime::fromMessage(runtime::toMessage(s, "r")).decided_at, 3.0);
+  detection::FloorEvent p;
+  p.type = detection::FloorEventType::kProgress;
+  p.stamp = p.decided_at = 20.0;
+  EXPECT_EQ(runtime::fromMessage(runtime::toMessage(p, "r")).type, detection::FloorEventType::kProgress);
+  storey_msgs::msg::FloorEvent bad;
+  bad.kind(9);
+  EXPECT_THROW(runtime::fromMessage(bad), std::invalid_argument);
+  bad.kind(storey_msgs::msg::FloorEvent_Constants::KIND_TRANSIT_ENDED);
+  bad.floor_height(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_THROW(runtime::fromMessage(bad), std::invalid_argument);
 }
 
 }  // namespace

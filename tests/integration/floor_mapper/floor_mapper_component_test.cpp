@@ -76,6 +76,16 @@ TEST(FloorMapperComponent, MapsTwoFloorsAndPublishesTheirGraphs) {
 
   const mapping::test::World office = mapping::test::officeWorld();
   double t = 100.0;
+  // The test plays the floor detector too: its progress, on the events topic, lets the
+  // mapper pass scans on (it holds them until the detector has decided past them).
+  auto progress = [&](double decided_at) {
+    storey_msgs::msg::FloorEvent m;
+    m.robot("fm_robot");
+    m.kind(storey_msgs::msg::FloorEvent_Constants::KIND_PROGRESS);
+    m.stamp(runtime::toTimeMessage(decided_at));
+    m.decided_at(runtime::toTimeMessage(decided_at));
+    events.publish(m);
+  };
   auto drive = [&](double y) {
     for (int i = 0; i < 12; ++i) {
       const Pose2 pose(1.5 + 0.3 * i, y, 0.0);
@@ -84,7 +94,9 @@ TEST(FloorMapperComponent, MapsTwoFloorsAndPublishesTheirGraphs) {
       o.pose = pose;
       odom.publish(runtime::toMessage(o));
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
-      scans.publish(runtime::toMessage(office.scan(pose, t)));
+      // The laser at base_link: no tf_static needed (another frame waits for its mounting).
+      scans.publish(runtime::toMessage(office.scan(pose, t), "fm_robot/base_link"));
+      progress(t);
       std::this_thread::sleep_for(std::chrono::milliseconds(40));
       t += 0.5;
     }
@@ -98,7 +110,11 @@ TEST(FloorMapperComponent, MapsTwoFloorsAndPublishesTheirGraphs) {
   event.robot("fm_robot");
   event.kind(storey_msgs::msg::FloorEvent_Constants::KIND_TRANSIT_STARTED);
   event.floor_id(storey_msgs::msg::FloorEvent_Constants::FLOOR_UNKNOWN);
+  event.stamp(runtime::toTimeMessage(t - 0.4));
+  event.decided_at(runtime::toTimeMessage(t - 0.3));
   events.publish(event);
+  event.stamp(runtime::toTimeMessage(t - 0.2));
+  event.decided_at(runtime::toTimeMessage(t - 0.1));
   event.kind(storey_msgs::msg::FloorEvent_Constants::KIND_TRANSIT_ENDED);
   event.floor_id(1);
   event.floor_height(3.0);
@@ -186,9 +202,6 @@ TEST(FloorMapperConversions, EdgesAndPosesOnTheWire) {
   EXPECT_DOUBLE_EQ(m.new_edges()[0].information()[4], 20.0);
   ASSERT_EQ(m.optimized_poses().size(), 1u);
   EXPECT_DOUBLE_EQ(m.optimized_poses()[0].theta(), 0.3);
-  storey_msgs::msg::FloorEvent bad;
-  bad.kind(9);
-  EXPECT_THROW(fromMessage(bad), std::invalid_argument);
 }
 
 }  // namespace

@@ -1,7 +1,5 @@
 #include "storey/building/journal.h"
 
-#include <unistd.h>
-#include <zlib.h>
 
 #include <algorithm>
 #include <cstring>
@@ -12,29 +10,16 @@
 #include <stdexcept>
 
 #include "storey/common/log.h"
+#include "storey/common/record_file.h"
 
 namespace storey::building {
 namespace {
 
 constexpr char kFileMagic[8] = {'S', 'T', 'O', 'R', 'E', 'Y', 'J', '1'};
-constexpr std::uint32_t kRecordMagic = 0x4A524543;  // "JREC"
-constexpr std::size_t kFrameHeader = 8;            // magic + payload length
-constexpr std::size_t kFrameTrailer = 4;           // crc32 of the payload
-constexpr std::uint32_t kMaxPayload = 1u << 30;
 enum RecordType : std::uint8_t { kDelta = 1, kConstraint = 2 };
 
-class Encoder {
+class Encoder : public common::ByteEncoder {
  public:
-  template <typename T>
-  void put(T value) {
-    static_assert(std::is_trivially_copyable_v<T>);
-    const auto* p = reinterpret_cast<const std::uint8_t*>(&value);
-    bytes.insert(bytes.end(), p, p + sizeof(T));
-  }
-  void putString(const std::string& s) {
-    put<std::uint32_t>(static_cast<std::uint32_t>(s.size()));
-    bytes.insert(bytes.end(), s.begin(), s.end());
-  }
   void putPose(const geometry::Pose2& p) {
     put(p.x());
     put(p.y());
@@ -43,27 +28,11 @@ class Encoder {
   void putMatrix(const Eigen::Matrix3d& m) {
     for (int i = 0; i < 9; ++i) put(m.data()[i]);
   }
-  std::vector<std::uint8_t> bytes;
 };
 
-class Decoder {
+class Decoder : public common::ByteDecoder {
  public:
-  Decoder(const std::uint8_t* data, std::size_t size) : data_(data), size_(size) {}
-  template <typename T>
-  T get() {
-    if (pos_ + sizeof(T) > size_) throw std::runtime_error("record ends early");
-    T value;
-    std::memcpy(&value, data_ + pos_, sizeof(T));
-    pos_ += sizeof(T);
-    return value;
-  }
-  std::string getString() {
-    const auto n = get<std::uint32_t>();
-    if (pos_ + n > size_) throw std::runtime_error("string runs past the record");
-    std::string s(reinterpret_cast<const char*>(data_ + pos_), n);
-    pos_ += n;
-    return s;
-  }
+  using common::ByteDecoder::ByteDecoder;
   geometry::Pose2 getPose() {
     const double x = get<double>(), y = get<double>(), t = get<double>();
     return geometry::Pose2(x, y, t);
@@ -73,19 +42,6 @@ class Decoder {
     for (int i = 0; i < 9; ++i) m.data()[i] = get<double>();
     return m;
   }
-  // A count of items of at least `min_item_bytes` each must fit in what is left.
-  std::uint32_t getCount(std::size_t min_item_bytes) {
-    const auto n = get<std::uint32_t>();
-    if (static_cast<std::uint64_t>(n) * min_item_bytes > size_ - pos_)
-      throw std::runtime_error("count larger than the record");
-    return n;
-  }
-  bool done() const { return pos_ == size_; }
-
- private:
-  const std::uint8_t* data_;
-  std::size_t size_;
-  std::size_t pos_ = 0;
 };
 
 }  // namespace
@@ -247,103 +203,21 @@ void applyDelta(BuildingGraph& building, const FloorGraphDelta& delta) {
 }
 
 JournalReadResult readJournal(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(path + ": cannot open the journal");
-  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   JournalReadResult result;
-  if (bytes.empty()) return result;
-  if (bytes.size() < sizeof(kFileMagic) || std::memcmp(bytes.data(), kFileMagic, sizeof(kFileMagic)) != 0) {
-    if (bytes.size() < sizeof(kFileMagic) &&
-        std::memcmp(bytes.data(), kFileMagic, bytes.size()) == 0) {  // torn while creating
-      result.torn_tail = true;
-      return result;
-    }
-    throw std::runtime_error(path + ": not a storey journal");
-  }
-  std::size_t pos = sizeof(kFileMagic);
-  result.valid_bytes = pos;
-  while (pos < bytes.size()) {
-    const std::size_t left = bytes.size() - pos;
-    auto torn = [&](const std::string& why) {
-      common::logWarn(common::str(path, ": dropping a torn last record at offset ", pos, " (", why, ")"));
-      result.torn_tail = true;
-    };
-    if (left < kFrameHeader) {
-      torn("short header");
-      break;
-    }
-    std::uint32_t magic, length;
-    std::memcpy(&magic, &bytes[pos], 4);
-    std::memcpy(&length, &bytes[pos + 4], 4);
-    if (magic != kRecordMagic || length > kMaxPayload) {
-      std::ostringstream out;
-      out << path << ": corrupt journal record at offset " << pos;
-      throw std::runtime_error(out.str());
-    }
-    if (left < kFrameHeader + length + kFrameTrailer) {
-      torn("short record");
-      break;
-    }
-    const std::uint8_t* payload = &bytes[pos + kFrameHeader];
-    std::uint32_t crc;
-    std::memcpy(&crc, payload + length, 4);
-    const bool last = pos + kFrameHeader + length + kFrameTrailer == bytes.size();
-    if (crc != static_cast<std::uint32_t>(crc32(0L, payload, length))) {
-      if (last) {
-        torn("checksum mismatch");
-        break;
-      }
-      std::ostringstream out;
-      out << path << ": journal record at offset " << pos << " fails its checksum";
-      throw std::runtime_error(out.str());
-    }
-    try {
-      result.records.push_back(decodeRecord(payload, length));
-    } catch (const std::runtime_error& e) {
-      std::ostringstream out;
-      out << path << ": journal record at offset " << pos << ": " << e.what();
-      throw std::runtime_error(out.str());
-    }
-    pos += kFrameHeader + length + kFrameTrailer;
-    result.valid_bytes = pos;
-  }
+  const common::RecordFileReadResult read =
+      common::readRecordFile(path, kFileMagic, "journal", [&](const std::uint8_t* payload, std::size_t size) {
+        result.records.push_back(decodeRecord(payload, size));
+      });
+  result.torn_tail = read.torn_tail;
+  result.valid_bytes = read.valid_bytes;
   return result;
 }
 
-JournalWriter::JournalWriter(const std::string& path, bool sync) : path_(path), sync_(sync) {
-  std::uint64_t valid = 0;
-  if (std::ifstream(path).good()) {
-    JournalReadResult read = readJournal(path);
-    existing_ = std::move(read.records);
-    had_torn_tail_ = read.torn_tail;
-    valid = read.valid_bytes;
-    if (truncate(path.c_str(), static_cast<off_t>(valid)) != 0)
-      throw std::runtime_error(path + ": cannot cut off the torn journal tail");
-  }
-  file_ = std::fopen(path.c_str(), "ab");
-  if (!file_) throw std::runtime_error(path + ": cannot open the journal for appending");
-  if (valid == 0) {
-    std::fwrite(kFileMagic, 1, sizeof(kFileMagic), file_);
-    std::fflush(file_);
-  }
-}
+JournalWriter::JournalWriter(const std::string& path, bool sync)
+    : file_(path, kFileMagic, "journal", sync, [this](const std::uint8_t* payload, std::size_t size) {
+        existing_.push_back(decodeRecord(payload, size));
+      }) {}
 
-JournalWriter::~JournalWriter() {
-  if (file_) std::fclose(file_);
-}
-
-void JournalWriter::append(const JournalRecord& record) {
-  const std::vector<std::uint8_t> payload = encodeRecord(record);
-  const std::uint32_t length = static_cast<std::uint32_t>(payload.size());
-  const std::uint32_t crc = static_cast<std::uint32_t>(crc32(0L, payload.data(), length));
-  std::vector<std::uint8_t> frame(kFrameHeader + payload.size() + kFrameTrailer);
-  std::memcpy(&frame[0], &kRecordMagic, 4);
-  std::memcpy(&frame[4], &length, 4);
-  std::memcpy(&frame[8], payload.data(), payload.size());
-  std::memcpy(&frame[8 + payload.size()], &crc, 4);
-  if (std::fwrite(frame.data(), 1, frame.size(), file_) != frame.size() || std::fflush(file_) != 0)
-    throw std::runtime_error(path_ + ": journal write failed");
-  if (sync_ && fdatasync(fileno(file_)) != 0) throw std::runtime_error(path_ + ": journal sync failed");
-}
+void JournalWriter::append(const JournalRecord& record) { file_.append(encodeRecord(record)); }
 
 }  // namespace storey::building

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "storey/building/building_graph.h"
+#include "storey/common/record_file.h"
 #include "storey/floor/floor_graph.h"
 
 namespace storey::building {
@@ -54,22 +55,18 @@ class JournalWriter {
   // Opens (creating if needed) for appending. An existing file is first read; a torn tail
   // is truncated away. `sync` makes every append durable (fdatasync) before returning.
   JournalWriter(const std::string& path, bool sync);
-  ~JournalWriter();
   JournalWriter(const JournalWriter&) = delete;
   JournalWriter& operator=(const JournalWriter&) = delete;
 
   // Records that were already in the file when it was opened.
   const std::vector<JournalRecord>& existing() const { return existing_; }
-  bool hadTornTail() const { return had_torn_tail_; }
+  bool hadTornTail() const { return file_.hadTornTail(); }
   void append(const JournalRecord& record);
-  const std::string& path() const { return path_; }
+  const std::string& path() const { return file_.path(); }
 
  private:
-  std::string path_;
-  bool sync_;
-  std::FILE* file_ = nullptr;
-  std::vector<JournalRecord> existing_;
-  bool had_torn_tail_ = false;
+  std::vector<JournalRecord> existing_;  // filled while file_ is opened (declared first)
+  common::RecordFileWriter file_;
 };
 
 // Encoding, exposed for tests and fuzzing.

@@ -125,6 +125,7 @@ bool FloorDetector::addPressure(const sensor::PressureSample& sample) {
     return false;
   }
   ++stats_.pressure_samples;
+  const std::size_t first_new_event = events_.size();
   if (stats_.pressure_samples > 1 && sample.stamp - last_pressure_stamp_ > b.max_gap) {
     handleGap(last_pressure_stamp_, sample.stamp);
   }
@@ -148,6 +149,7 @@ bool FloorDetector::addPressure(const sensor::PressureSample& sample) {
   const bool outlier = std::abs(centre.value - median) > kHampelSigmas * 1.4826 * mad;
   filtered_.push_back({centre.t, outlier ? median : centre.value});
   processFiltered(sample.stamp);
+  for (std::size_t i = first_new_event; i < events_.size(); ++i) events_[i].decided_at = sample.stamp;
   return true;
 }
 

@@ -21,13 +21,19 @@ namespace storey::detection {
 enum class TransitMode { kUnknown = 0, kElevator = 1, kStairs = 2 };
 const char* transitModeName(TransitMode mode);
 
-enum class FloorEventType { kTransitStarted = 0, kTransitEnded = 1 };
+// kProgress is not a change of floor: the floor_detector component sends it now and then
+// so that a consumer (the floor mapper) knows that no event decided up to `decided_at`
+// is still to come, and can order scans and events by their stamps (docs/floor_mapper.md).
+enum class FloorEventType { kTransitStarted = 0, kTransitEnded = 1, kProgress = 2 };
 
 // One event. TransitStarted fills stamp, from_floor and from_height; TransitEnded fills
 // everything.
 struct FloorEvent {
   FloorEventType type = FloorEventType::kTransitStarted;
   double stamp = 0.0;        // s: start of the vertical motion, or its end
+  // s: the pressure stamp at which the detector decided the event (later than `stamp`:
+  // a ride is confirmed after it began). Scans up to it were mapped on the floor before.
+  double decided_at = 0.0;
   double start_stamp = 0.0;  // s: start of the ride (TransitEnded)
   int from_floor = 0;
   double from_height = 0.0;    // m, building frame
@@ -71,6 +77,9 @@ class FloorDetector {
   std::vector<FloorEvent> takeEvents();
 
   int currentFloor() const { return current_floor_; }
+  // Stamp of the last pressure sample processed: every event decided up to it has been
+  // returned by takeEvents() (or is waiting there).
+  double processedUntil() const { return last_pressure_stamp_; }
   bool inTransit() const { return state_ == State::kTransit && !silent_transit_; }
   // Height estimate of the robot in the building frame (m); the current floor's height
   // plus the filtered barometric change since the floor's reference.

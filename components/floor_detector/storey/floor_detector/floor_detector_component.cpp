@@ -1,7 +1,7 @@
 #include "storey/floor_detector/floor_detector_component.h"
 
 #include "storey/common/log.h"
-#include "storey/floor_detector/conversions.h"
+#include "storey/runtime/floor_event_conversions.h"
 #include "storey/runtime/sensor_bag.h"
 #include "storey/runtime/sensor_conversions.h"
 
@@ -19,6 +19,7 @@ FloorDetectorComponentOptions readFloorDetectorComponentOptions(const common::Co
   } catch (const std::invalid_argument& e) {
     node.fail("robot", e.what());
   }
+  o.progress_period = node.getDouble("progress_period", o.progress_period, 0.01, 60.0);
   o.detector = detection::readFloorDetectorOptions(node.child("detector"));
   node.finish();
   return o;
@@ -45,6 +46,7 @@ void FloorDetectorComponent::onConfigure() {
     std::lock_guard<std::mutex> lock(mutex_);
     detector_ = std::make_unique<detection::FloorDetector>(options_.detector);
     published_ = 0;
+    last_progress_ = -1e300;
   }
   const std::string& robot = options_.robot;
   publisher_ =
@@ -99,11 +101,23 @@ void FloorDetectorComponent::publishEvents() {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!detector_) return;
     events = detector_->takeEvents();
+    // Every event is progress too; between events, one progress message per period.
+    const double until = detector_->processedUntil();
+    if (!events.empty()) {
+      last_progress_ = events.back().decided_at;
+    } else if (until - last_progress_ >= options_.progress_period) {
+      detection::FloorEvent progress;
+      progress.type = detection::FloorEventType::kProgress;
+      progress.stamp = until;
+      progress.decided_at = until;
+      events.push_back(progress);
+      last_progress_ = until;
+    }
   }
   for (const auto& event : events) {
-    if (publisher_ && publisher_->publish(toMessage(event, options_.robot))) {
+    if (publisher_ && publisher_->publish(runtime::toMessage(event, options_.robot))) {
       std::lock_guard<std::mutex> lock(mutex_);
-      ++published_;
+      if (event.type != detection::FloorEventType::kProgress) ++published_;
     }
   }
 }

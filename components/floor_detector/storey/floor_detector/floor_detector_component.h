@@ -1,7 +1,10 @@
 // floor_detector component: subscribes a robot's pressure, IMU, odometry and scan topics
 // (best effort), runs detection::FloorDetector, and publishes storey_msgs/FloorEvent on
 // /<robot>/<events_topic> (reliable, transient local, so a late floor_mapper gets every
-// event). Parameters: config/floor_detector.yaml. Samples are processed only while active.
+// event). Now and then (progress_period of sensor time) it sends a progress message on the
+// same topic, so the floor_mapper can apply each event between the right scans whatever
+// the delivery timing. Parameters: config/floor_detector.yaml. Samples are processed only
+// while active.
 #pragma once
 
 #include <memory>
@@ -21,9 +24,10 @@ namespace storey::floor_detector {
 struct FloorDetectorComponentOptions {
   std::string robot;                          // topic namespace
   std::string events_topic = "floor_events";  // under the robot's namespace
+  double progress_period = 0.5;  // s of sensor time between progress messages (optional key)
   detection::FloorDetectorOptions detector;
 };
-// Reads robot, events_topic and detector; calls finish().
+// Reads robot, events_topic, progress_period and detector; calls finish().
 FloorDetectorComponentOptions readFloorDetectorComponentOptions(const common::ConfigNode& node);
 
 class FloorDetectorComponent : public runtime::Component {
@@ -49,6 +53,7 @@ class FloorDetectorComponent : public runtime::Component {
       runtime::Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>>
       publisher_;
   std::uint64_t published_ = 0;
+  double last_progress_ = -1e300;  // decided_at of the last message sent
 };
 
 }  // namespace storey::floor_detector

@@ -38,18 +38,4 @@ storey_msgs::msg::FloorGraphUpdate toMessage(const floor::FloorGraph& graph, con
   return m;
 }
 
-FloorEventInfo fromMessage(const storey_msgs::msg::FloorEvent& message) {
-  FloorEventInfo info;
-  if (message.kind() == storey_msgs::msg::FloorEvent_Constants::KIND_TRANSIT_STARTED) {
-    info.transit_started = true;
-  } else if (message.kind() != storey_msgs::msg::FloorEvent_Constants::KIND_TRANSIT_ENDED) {
-    throw std::invalid_argument("floor event of unknown kind " + std::to_string(message.kind()));
-  }
-  info.floor_id = message.floor_id();
-  info.floor_height = message.floor_height();
-  if (!info.transit_started && !std::isfinite(info.floor_height))
-    throw std::invalid_argument("floor event with a non-finite floor height");
-  return info;
-}
-
 }  // namespace storey::floor_mapper

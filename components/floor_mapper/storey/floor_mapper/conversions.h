@@ -5,7 +5,6 @@
 
 #include "storey/floor/floor_graph.h"
 #include "storey/mapping/floor_slam.h"
-#include "storey_msgs/msg/FloorEvent.h"
 #include "storey_msgs/msg/FloorGraphUpdate.h"
 
 namespace storey::floor_mapper {
@@ -16,13 +15,5 @@ namespace storey::floor_mapper {
 storey_msgs::msg::FloorGraphUpdate toMessage(const floor::FloorGraph& graph,
                                              const mapping::GraphUpdate& update,
                                              std::uint32_t sequence_number);
-
-struct FloorEventInfo {
-  bool transit_started = false;  // else ended
-  int floor_id = 0;
-  double floor_height = 0.0;
-};
-// Throws std::invalid_argument for an unknown kind or a non-finite height.
-FloorEventInfo fromMessage(const storey_msgs::msg::FloorEvent& message);
 
 }  // namespace storey::floor_mapper

@@ -4,6 +4,7 @@
 
 #include "storey/common/log.h"
 #include "storey/floor_mapper/conversions.h"
+#include "storey/runtime/floor_event_conversions.h"
 #include "storey/runtime/sensor_bag.h"
 #include "storey/runtime/sensor_conversions.h"
 
@@ -25,7 +26,11 @@ FloorMapperComponentOptions readFloorMapperComponentOptions(const common::Config
   }
   o.initial_floor = node.getInt("initial_floor", o.initial_floor, -1000, 1000);
   o.initial_height = node.getDouble("initial_height", o.initial_height, -1e4, 1e4);
-  o.max_odometry_gap = node.getDouble("max_odometry_gap", o.max_odometry_gap, 1e-3, 60.0);
+  o.input.max_odometry_gap = node.getDouble("max_odometry_gap", o.input.max_odometry_gap, 1e-3, 60.0);
+  o.input.wait_for_floor_detector = node.get<bool>("wait_for_floor_detector", o.input.wait_for_floor_detector);
+  o.input.max_floor_detector_lag =
+      node.getDouble("max_floor_detector_lag", o.input.max_floor_detector_lag, 0.0, 3600.0);
+  o.input_log = node.get<std::string>("input_log", o.input_log);
   o.slam = mapping::readFloorSlamOptions(node.child("slam"));
   node.finish();
   return o;
@@ -56,8 +61,22 @@ void FloorMapperComponent::onConfigure() {
     std::lock_guard<std::mutex> lock(mutex_);
     sessions_ = std::make_unique<mapping::FloorSessions>(options_.slam, options_.robot, options_.initial_floor,
                                                          options_.initial_height);
-    odometry_.clear();
-    pending_scans_.clear();
+    // Inputs are queued, not mapped, until activate (nothing is published before it).
+    sequencer_ = std::make_unique<mapping::InputSequencer>(
+        options_.input,
+        [this](const sensor::LaserScan& scan, const geometry::Pose2& odometry) {
+          if (input_log_) input_log_->appendScan(scan, odometry);
+          addScan(scan, odometry);
+        },
+        [this](const detection::FloorEvent& event) {
+          if (input_log_) input_log_->appendFloorEvent(event);
+          applyFloorEvent(event);
+        },
+        name());
+    sequencer_->setPaused(true);
+    input_log_.reset();
+    unmounted_.clear();
+    mounting_warned_ = false;
     sequence_.clear();
     published_ = 0;
   }
@@ -79,25 +98,44 @@ void FloorMapperComponent::onConfigure() {
   common::logInfo(str(name(), ": mapping floors of '", robot, "', graphs on ", options_.floor_graph_topic));
 }
 
+// A restart: the input log is replayed through the same steps, which rebuilds the graphs
+// and re-publishes the same updates (same sequence numbers: subscribers that had them
+// ignore them, the graph server and matchers that joined since need them), then mapping
+// resumes after the last logged input.
+void FloorMapperComponent::onActivate() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!options_.input_log.empty() && !input_log_) {
+    if (publisher_) publisher_->setActive(true);  // the replayed updates go out now
+    input_log_ = std::make_unique<mapping::InputLog>(options_.input_log, [this](const mapping::LoggedInput& in) {
+      if (in.is_scan) addScan(in.scan, in.odometry);
+      else applyFloorEvent(in.event);
+    });
+    if (input_log_->existingInputs() > 0) {
+      sequencer_->resumeAfter(input_log_->lastScanStamp(), input_log_->lastEventDecidedAt());
+      common::logInfo(str(name(), ": resumed ", input_log_->existingInputs(), " inputs from ", options_.input_log,
+                          " (scans up to t=", input_log_->lastScanStamp(), "), ", published_, " updates re-sent"));
+    }
+  }
+  sequencer_->setPaused(false);
+}
+
+void FloorMapperComponent::onDeactivate() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (sequencer_) sequencer_->setPaused(true);
+}
+
 void FloorMapperComponent::onCleanup() {
   std::lock_guard<std::mutex> lock(mutex_);
+  input_log_.reset();
+  sequencer_.reset();
   sessions_.reset();
   publisher_.reset();
 }
 
 void FloorMapperComponent::onOdometry(const nav_msgs::msg::Odometry& message) {
-  if (state() != runtime::LifecycleState::kActive) return;
   const sensor::OdometrySample sample = runtime::fromMessage(message);
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!std::isfinite(sample.stamp) || !sample.pose.isFinite()) return;
-  if (!odometry_.empty() && sample.stamp < odometry_.back().stamp) return;  // out of order
-  odometry_.push_back(sample);
-  processPendingScans(false);
-  // Kept 10 s back, and as far back as the oldest scan still waiting needs.
-  double keep_from = sample.stamp - 10.0;
-  if (!pending_scans_.empty())
-    keep_from = std::min(keep_from, pending_scans_.front().stamp - options_.max_odometry_gap - 1.0);
-  while (odometry_.size() > 2 && odometry_.front().stamp < keep_from) odometry_.pop_front();
+  if (sequencer_) sequencer_->addOdometry(sample);
 }
 
 void FloorMapperComponent::onTfStatic(const tf2_msgs::msg::TFMessage& message) {
@@ -105,76 +143,61 @@ void FloorMapperComponent::onTfStatic(const tf2_msgs::msg::TFMessage& message) {
   std::lock_guard<std::mutex> lock(mutex_);
   for (const auto& t : message.transforms())
     if (t.header().frame_id() == base) laser_offsets_[t.child_frame_id()] = runtime::fromTransform(t);
+  passMountedScans(false);
 }
 
+// tf_static and the scans are separate topics: after a restart, a durable scan history can
+// arrive before the laser's mounting. A scan is mapped from where it was taken or not at
+// all, so scans of a laser frame whose mounting is unknown wait for it (in order); after
+// kMaxUnmounted they go on as if the laser sat at base_link, with a warning.
 void FloorMapperComponent::onScan(const sensor_msgs::msg::LaserScan& message) {
-  if (state() != runtime::LifecycleState::kActive) return;
   std::lock_guard<std::mutex> lock(mutex_);
-  auto mounting = laser_offsets_.find(message.header().frame_id());
-  if (!sessions_) return;
-  pending_scans_.push_back(
-      runtime::fromMessage(message, mounting == laser_offsets_.end() ? geometry::Pose2() : mounting->second));
-  processPendingScans(false);
+  if (!sequencer_) return;
+  unmounted_.emplace_back(message.header().frame_id(), runtime::fromMessage(message, geometry::Pose2()));
+  passMountedScans(false);
 }
 
-// Scan and odometry topics are delivered independently; a scan handled before the
-// odometry around its stamp has arrived would get another pose, or be dropped, depending
-// on thread timing. So a scan waits until odometry at or after its stamp is here (or
-// kMaxWaiting scans wait: then none is coming), and the result does not depend on how
-// the topics interleave or how late a reliable topic's resent sample comes.
-void FloorMapperComponent::processPendingScans(bool all) {
-  constexpr std::size_t kMaxWaiting = 600;   // scans waiting for odometry (none is coming?)
-  while (!pending_scans_.empty()) {
-    const sensor::LaserScan& scan = pending_scans_.front();
-    const bool odometry_after = !odometry_.empty() && odometry_.back().stamp >= scan.stamp;
-    if (!all && !odometry_after && pending_scans_.size() <= kMaxWaiting) return;
-    addScan(scan);
-    pending_scans_.pop_front();
+void FloorMapperComponent::passMountedScans(bool all) {
+  constexpr std::size_t kMaxUnmounted = 400;
+  const std::string base = runtime::robotFrame(options_.robot, "base_link");
+  while (!unmounted_.empty()) {
+    auto& [frame, scan] = unmounted_.front();
+    auto mounting = laser_offsets_.find(frame);
+    if (mounting != laser_offsets_.end()) {
+      scan.sensor_offset = mounting->second;
+    } else if (frame != base && !all && unmounted_.size() <= kMaxUnmounted) {
+      return;
+    } else if (frame != base && !mounting_warned_) {
+      common::logWarn(str(name(), ": no tf_static mounting of laser frame '", frame, "' on ", base,
+                          "; its scans are taken as if at base_link"));
+      mounting_warned_ = true;
+    }
+    sequencer_->addScan(std::move(scan));
+    unmounted_.pop_front();
   }
 }
 
-void FloorMapperComponent::addScan(const sensor::LaserScan& scan) {
-  // Odometry at the scan's stamp: interpolated between the samples around it, or the
-  // nearest one within max_odometry_gap.
-  const sensor::OdometrySample* before = nullptr;
-  const sensor::OdometrySample* after = nullptr;
-  for (const auto& s : odometry_) {
-    if (s.stamp <= scan.stamp) before = &s;
-    else if (!after) after = &s;
-  }
-  geometry::Pose2 odometry;
-  if (before && after && after->stamp - before->stamp <= options_.max_odometry_gap) {
-    odometry = geometry::interpolate(before->pose, after->pose,
-                                     (scan.stamp - before->stamp) / (after->stamp - before->stamp));
-  } else if (before && scan.stamp - before->stamp <= options_.max_odometry_gap) {
-    odometry = before->pose;
-  } else if (after && after->stamp - scan.stamp <= options_.max_odometry_gap) {
-    odometry = after->pose;
-  } else {
-    common::logDebug(str(name(), ": no odometry near the scan at ", scan.stamp, "; scan dropped"));
-    return;
-  }
+void FloorMapperComponent::addScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry) {
   sessions_->addScan(scan, odometry);
   publishUpdates();
 }
 
+// Taken in any state: the topic is transient local, and history that arrives between
+// configure and activate is part of the input.
 void FloorMapperComponent::onFloorEvent(const storey_msgs::msg::FloorEvent& message) {
-  FloorEventInfo event;
+  detection::FloorEvent event;
   try {
-    event = fromMessage(message);
+    event = runtime::fromMessage(message);
   } catch (const std::invalid_argument& e) {
     common::logWarn(str(name(), ": ignoring a floor event: ", e.what()));
     return;
   }
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!sessions_) return;
-  // Scans from before the event belong to the floor as it was.
-  const double stamp = runtime::fromTimeMessage(message.stamp());
-  while (!pending_scans_.empty() && pending_scans_.front().stamp <= stamp) {
-    addScan(pending_scans_.front());
-    pending_scans_.pop_front();
-  }
-  if (event.transit_started) {
+  if (sequencer_) sequencer_->addFloorEvent(event);
+}
+
+void FloorMapperComponent::applyFloorEvent(const detection::FloorEvent& event) {
+  if (event.type == detection::FloorEventType::kTransitStarted) {
     sessions_->beginTransit();
   } else {
     sessions_->endTransit(event.floor_id, event.floor_height);
@@ -186,7 +209,8 @@ bool FloorMapperComponent::flush(double timeout_s) {
   (void)timeout_s;  // optimisation is synchronous
   std::lock_guard<std::mutex> lock(mutex_);
   if (sessions_) {
-    processPendingScans(true);
+    passMountedScans(true);
+    sequencer_->flush();
     sessions_->flush();
     publishUpdates();
   }

@@ -1,5 +1,7 @@
 // floor_mapper component: subscribes a robot's scan and odometry (best effort) and its
-// floor events (reliable), runs mapping::FloorSessions (one floor graph per floor,
+// floor events (reliable), puts them in stamp order (mapping::InputSequencer: the same
+// recording gives the same graphs however delivery interleaves the topics), runs
+// mapping::FloorSessions (one floor graph per floor,
 // resumed when the robot comes back), and publishes storey_msgs/FloorGraphUpdate on
 // floor_graph_topic (reliable, transient local): new nodes with scans, new edges, and
 // optimised poses. Parameters: config/floor_mapper.yaml. Data is processed only while
@@ -16,6 +18,8 @@
 #include "sensor_msgs/msg/LaserScanPubSubTypes.h"
 #include "storey/mapping/floor_sessions.h"
 #include "storey/runtime/component.h"
+#include "storey/mapping/input_log.h"
+#include "storey/mapping/input_sequencer.h"
 #include "storey_msgs/msg/FloorEventPubSubTypes.h"
 #include "storey_msgs/msg/FloorGraphUpdatePubSubTypes.h"
 #include "tf2_msgs/msg/TFMessagePubSubTypes.h"
@@ -28,7 +32,11 @@ struct FloorMapperComponentOptions {
   std::string floor_graph_topic = "storey/floor_graphs";
   int initial_floor = 0;
   double initial_height = 0.0;
-  double max_odometry_gap = 0.5;  // s: a scan needs odometry this close to its stamp
+  // max_odometry_gap, wait_for_floor_detector, max_floor_detector_lag (top-level keys).
+  mapping::InputSequencerOptions input;
+  // Input log (mapping::InputLog) replayed on start, so a restarted mapper resumes its
+  // graphs exactly; empty: none (a restarted mapper would start afresh).
+  std::string input_log;
   mapping::FloorSlamOptions slam;
 };
 // Reads the keys above and `slam` (see mapping::readFloorSlamOptions); calls finish().
@@ -47,6 +55,8 @@ class FloorMapperComponent : public runtime::Component {
 
  protected:
   void onConfigure() override;
+  void onActivate() override;
+  void onDeactivate() override;
   void onCleanup() override;
 
  private:
@@ -55,14 +65,19 @@ class FloorMapperComponent : public runtime::Component {
   void onFloorEvent(const storey_msgs::msg::FloorEvent& message);
   void onTfStatic(const tf2_msgs::msg::TFMessage& message);
   void publishUpdates();  // with mutex_ held
-  void processPendingScans(bool all);  // with mutex_ held
-  void addScan(const sensor::LaserScan& scan);  // with mutex_ held
+  // In stamp order, from the sequencer, with mutex_ held.
+  void addScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry);
+  void applyFloorEvent(const detection::FloorEvent& event);
+  void passMountedScans(bool all);  // with mutex_ held
 
   FloorMapperComponentOptions options_;
   mutable std::mutex mutex_;
   std::unique_ptr<mapping::FloorSessions> sessions_;
-  std::deque<sensor::OdometrySample> odometry_;
-  std::deque<sensor::LaserScan> pending_scans_;  // waiting for odometry past their stamps
+  std::unique_ptr<mapping::InputSequencer> sequencer_;
+  std::unique_ptr<mapping::InputLog> input_log_;
+  // Scans (laser frame, scan) waiting for their laser's mounting from tf_static.
+  std::deque<std::pair<std::string, sensor::LaserScan>> unmounted_;
+  bool mounting_warned_ = false;
   std::map<std::string, geometry::Pose2> laser_offsets_;  // laser frame -> mounting on base_link
   std::map<int, std::uint32_t> sequence_;  // per floor graph
   std::shared_ptr<runtime::Publisher<storey_msgs::msg::FloorGraphUpdate,

@@ -110,8 +110,17 @@ bool FloorMatcherComponent::grewEnough(const floor::FloorGraph& g) const {
 
 void FloorMatcherComponent::onUpdate(const storey_msgs::msg::FloorGraphUpdate& message) {
   std::lock_guard<std::mutex> lock(mutex_);
+  // A restarted mapper sends its updates again, in order: applying an old one twice would
+  // duplicate its edges and put back its older poses.
+  const auto key = std::make_pair(message.robot(), static_cast<int>(message.floor_graph_id()));
+  const auto last = last_sequence_.find(key);
+  if (last != last_sequence_.end() && message.sequence_number() <= last->second) {
+    ++stats_.resent;
+    return;
+  }
   try {
     applyUpdate(message, &graphs_);  // conversion only: matching runs on the worker
+    last_sequence_[key] = message.sequence_number();
     last_update_ = std::chrono::steady_clock::now();
     ++stats_.updates_accepted;
   } catch (const std::exception& e) {

@@ -47,6 +47,7 @@ FloorMatcherComponentOptions readFloorMatcherComponentOptions(const common::Conf
 struct FloorMatcherStats {
   std::size_t updates_accepted = 0;
   std::size_t rejected = 0;
+  std::size_t resent = 0;  // updates already applied (a restarted mapper sends them again)
   std::size_t matchings = 0;
   std::size_t constraints_published = 0;
 };
@@ -92,6 +93,7 @@ class FloorMatcherComponent : public runtime::Component {
   bool stop_ = true;
   std::thread worker_;
   FloorMatcherStats stats_;
+  std::map<std::pair<std::string, int>, std::uint32_t> last_sequence_;  // per (robot, floor graph)
 };
 
 }  // namespace storey::floor_matcher

@@ -24,6 +24,9 @@ class PublisherBase {
   const std::string& topic() const { return topic_; }
   // Number of matched subscriptions (DDS readers) right now.
   virtual int matchedCount() const = 0;
+  // Waits until every matched reader acknowledged every sample (reliable topics; a best-
+  // effort writer returns at once); false on timeout.
+  virtual bool waitForAcknowledgments(double timeout_s) const = 0;
   // Waits until at least `count` readers matched; false on timeout.
   bool waitForSubscribers(int count, double timeout_s) const {
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
@@ -70,6 +73,13 @@ class Publisher : public PublisherBase {
     }
     ++published_;
     return true;
+  }
+
+  bool waitForAcknowledgments(double timeout_s) const override {
+    const auto ns = static_cast<std::int64_t>(timeout_s * 1e9);
+    const eprosima::fastrtps::Duration_t timeout(static_cast<std::int32_t>(ns / 1000000000),
+                                                 static_cast<std::uint32_t>(ns % 1000000000));
+    return writer_->wait_for_acknowledgments(timeout) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK;
   }
 
   int matchedCount() const override {

@@ -27,6 +27,11 @@ std::string ReplaySummary::text() const {
   if (skipped) out << "  skipped: " << skipped << " (other types or unreadable)\n";
   if (out_of_order) out << "  stamps going backwards: " << out_of_order << "\n";
   if (stopped) out << "  interrupted before the end\n";
+  if (!unacknowledged.empty()) {
+    out << "  not every reliable subscriber acknowledged every sample in time on:";
+    for (const auto& topic : unacknowledged) out << " " << topic;
+    out << "\n";
+  }
   return out.str();
 }
 
@@ -205,6 +210,19 @@ ReplaySummary SensorReplayer::replay(SensorSource& source, const std::atomic<boo
     summary.first_stamp = std::min(summary.first_stamp, record.stamp);
     summary.last_stamp = std::max(summary.last_stamp, record.stamp);
     if (progress && summary.total % 200 == 0) progress(summary.total, source.expectedCount());
+  }
+  // Reliable subscribers get everything before the replay ends (waited for at most
+  // ack_seconds: a subscriber killed mid-replay is only dropped after its lease).
+  if (!summary.stopped && options_.ack_seconds > 0.0) {
+    const auto ack_end = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                              std::chrono::duration<double>(options_.ack_seconds));
+    auto left = [&] { return std::max(0.0, std::chrono::duration<double>(ack_end - std::chrono::steady_clock::now()).count()); };
+    for (auto& [robot, p] : publishers_) {
+      for (const runtime::PublisherBase* w :
+           std::initializer_list<const runtime::PublisherBase*>{&p->scan, &p->odom, &p->pressure, &p->imu})
+        if (!w->waitForAcknowledgments(left())) summary.unacknowledged.push_back(w->topic());
+    }
+    if (tf_static_ && !tf_static_->waitForAcknowledgments(left())) summary.unacknowledged.push_back(tf_static_->topic());
   }
   summary.skipped = source.skipped();
   summary.out_of_order = source.outOfOrder();

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <functional>
 #include <map>
+#include <vector>
 #include <memory>
 #include <string>
 
@@ -23,6 +24,7 @@ struct ReplayOptions {
   std::string log_robot = "robot";   // CARMEN logs carry no robot name
   std::string topic_prefix;          // prepended to every topic ("" -> "<robot>/scan")
   double settle_seconds = 0.3;       // wait after creating publishers, for discovery
+  double ack_seconds = 3.0;          // at the end, wait this long at most for acknowledgments
   // > 0: before a robot's first message, wait until each of its topics has a subscriber
   // and its scan topic this many (e.g. detector + mapper), then settle_seconds; so a
   // deployment started beforehand misses nothing (throws after subscriber_timeout).
@@ -41,6 +43,8 @@ struct ReplaySummary {
   std::uint64_t skipped = 0;       // records of other types, or unreadable
   std::uint64_t out_of_order = 0;  // stamps going backwards (published anyway)
   bool stopped = false;            // interrupted before the end
+  // Topics whose reliable subscribers did not all acknowledge every sample in time.
+  std::vector<std::string> unacknowledged;
   std::string text() const;        // a readable summary
 };
 

@@ -1,0 +1,111 @@
+#include "storey/mapping/input_log.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace storey::mapping {
+namespace {
+
+constexpr char kFileMagic[8] = {'S', 'T', 'O', 'R', 'E', 'Y', 'M', '1'};
+enum InputType : std::uint8_t { kScan = 1, kFloorEvent = 2 };
+
+void putPose(common::ByteEncoder& e, const geometry::Pose2& p) {
+  e.put(p.x());
+  e.put(p.y());
+  e.put(p.theta());
+}
+
+geometry::Pose2 getPose(common::ByteDecoder& d) {
+  const double x = d.get<double>(), y = d.get<double>(), theta = d.get<double>();
+  return geometry::Pose2(x, y, theta);
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> encodeLoggedInput(const LoggedInput& input) {
+  common::ByteEncoder e;
+  if (input.is_scan) {
+    const sensor::LaserScan& s = input.scan;
+    e.put<std::uint8_t>(kScan);
+    e.put(s.stamp);
+    e.put(s.angle_min);
+    e.put(s.angle_increment);
+    e.put(s.range_min);
+    e.put(s.range_max);
+    putPose(e, s.sensor_offset);
+    putPose(e, input.odometry);
+    e.put<std::uint32_t>(static_cast<std::uint32_t>(s.ranges.size()));
+    for (float r : s.ranges) e.put(r);
+  } else {
+    const detection::FloorEvent& ev = input.event;
+    e.put<std::uint8_t>(kFloorEvent);
+    e.put<std::uint8_t>(static_cast<std::uint8_t>(ev.type));
+    e.put(ev.stamp);
+    e.put(ev.decided_at);
+    e.put<std::int32_t>(ev.floor_id);
+    e.put(ev.floor_height);
+  }
+  return e.bytes;
+}
+
+LoggedInput decodeLoggedInput(const std::uint8_t* data, std::size_t size) {
+  common::ByteDecoder d(data, size);
+  LoggedInput input;
+  const auto type = d.get<std::uint8_t>();
+  if (type == kScan) {
+    sensor::LaserScan& s = input.scan;
+    s.stamp = d.get<double>();
+    s.angle_min = d.get<double>();
+    s.angle_increment = d.get<double>();
+    s.range_min = d.get<double>();
+    s.range_max = d.get<double>();
+    s.sensor_offset = getPose(d);
+    input.odometry = getPose(d);
+    s.ranges.resize(d.getCount(sizeof(float)));
+    for (auto& r : s.ranges) r = d.get<float>();
+    if (!std::isfinite(s.stamp)) throw std::runtime_error("scan with a non-finite stamp");
+  } else if (type == kFloorEvent) {
+    input.is_scan = false;
+    detection::FloorEvent& ev = input.event;
+    const auto kind = d.get<std::uint8_t>();
+    if (kind > static_cast<std::uint8_t>(detection::FloorEventType::kTransitEnded))
+      throw std::runtime_error("unknown floor event type " + std::to_string(kind));
+    ev.type = static_cast<detection::FloorEventType>(kind);
+    ev.stamp = d.get<double>();
+    ev.decided_at = d.get<double>();
+    ev.floor_id = d.get<std::int32_t>();
+    ev.floor_height = d.get<double>();
+    if (!std::isfinite(ev.decided_at) || !std::isfinite(ev.floor_height))
+      throw std::runtime_error("floor event with a non-finite stamp or height");
+  } else {
+    throw std::runtime_error("unknown input type " + std::to_string(type));
+  }
+  if (!d.done()) throw std::runtime_error("trailing bytes in an input record");
+  return input;
+}
+
+InputLog::InputLog(const std::string& path, const std::function<void(const LoggedInput&)>& on_existing) {
+  file_ = std::make_unique<common::RecordFileWriter>(
+      path, kFileMagic, "input log", false, [&](const std::uint8_t* payload, std::size_t size) {
+        const LoggedInput input = decodeLoggedInput(payload, size);
+        if (input.is_scan) last_scan_stamp_ = input.scan.stamp;
+        else last_event_decided_at_ = input.event.decided_at;
+        on_existing(input);
+      });
+}
+
+void InputLog::appendScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry) {
+  LoggedInput input;
+  input.scan = scan;
+  input.odometry = odometry;
+  file_->append(encodeLoggedInput(input));
+}
+
+void InputLog::appendFloorEvent(const detection::FloorEvent& event) {
+  LoggedInput input;
+  input.is_scan = false;
+  input.event = event;
+  file_->append(encodeLoggedInput(input));
+}
+
+}  // namespace storey::mapping

@@ -1,0 +1,95 @@
+#include "storey/runtime/floor_event_conversions.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "storey/runtime/sensor_conversions.h"
+
+namespace storey::runtime {
+
+namespace {
+constexpr std::int32_t kFloorUnknown = -1;
+
+std::uint8_t toMode(detection::TransitMode mode) {
+  switch (mode) {
+    case detection::TransitMode::kElevator:
+      return storey_msgs::msg::FloorEvent_Constants::MODE_ELEVATOR;
+    case detection::TransitMode::kStairs:
+      return storey_msgs::msg::FloorEvent_Constants::MODE_STAIRS;
+    default:
+      return storey_msgs::msg::FloorEvent_Constants::MODE_UNKNOWN;
+  }
+}
+
+std::uint8_t toKind(detection::FloorEventType type) {
+  namespace k = storey_msgs::msg::FloorEvent_Constants;
+  switch (type) {
+    case detection::FloorEventType::kTransitStarted:
+      return k::KIND_TRANSIT_STARTED;
+    case detection::FloorEventType::kTransitEnded:
+      return k::KIND_TRANSIT_ENDED;
+    default:
+      return k::KIND_PROGRESS;
+  }
+}
+}  // namespace
+
+storey_msgs::msg::FloorEvent toMessage(const detection::FloorEvent& event, const std::string& robot) {
+  namespace k = storey_msgs::msg::FloorEvent_Constants;
+  storey_msgs::msg::FloorEvent m;
+  m.robot(robot);
+  m.stamp(toTimeMessage(event.stamp));
+  m.decided_at(toTimeMessage(event.decided_at));
+  m.kind(toKind(event.type));
+  const bool ended = event.type == detection::FloorEventType::kTransitEnded;
+  const bool started = event.type == detection::FloorEventType::kTransitStarted;
+  m.floor_id(ended ? event.floor_id : kFloorUnknown);
+  m.new_floor(ended && event.new_floor);
+  m.height_change(ended ? event.height_change : 0.0);
+  m.height_change_stddev(ended ? event.height_change_stddev : 0.0);
+  m.floor_height(ended ? event.floor_height : started ? event.from_height : 0.0);
+  m.confidence(ended ? event.confidence : 0.0);
+  m.mode(ended ? toMode(event.mode) : k::MODE_UNKNOWN);
+  return m;
+}
+
+detection::FloorEvent fromMessage(const storey_msgs::msg::FloorEvent& m) {
+  namespace k = storey_msgs::msg::FloorEvent_Constants;
+  detection::FloorEvent e;
+  switch (m.kind()) {
+    case k::KIND_TRANSIT_STARTED:
+      e.type = detection::FloorEventType::kTransitStarted;
+      break;
+    case k::KIND_TRANSIT_ENDED:
+      e.type = detection::FloorEventType::kTransitEnded;
+      break;
+    case k::KIND_PROGRESS:
+      e.type = detection::FloorEventType::kProgress;
+      break;
+    default:
+      throw std::invalid_argument("floor event of unknown kind " + std::to_string(m.kind()));
+  }
+  const bool ended = e.type == detection::FloorEventType::kTransitEnded;
+  e.stamp = fromTimeMessage(m.stamp());
+  const double decided = fromTimeMessage(m.decided_at());
+  e.decided_at = decided == 0.0 ? e.stamp : decided;
+  if (!std::isfinite(e.stamp) || !std::isfinite(e.decided_at))
+    throw std::invalid_argument("floor event with a non-finite stamp");
+  e.start_stamp = e.stamp;
+  e.floor_id = m.floor_id();
+  e.new_floor = m.new_floor();
+  e.floor_changed = ended;
+  e.height_change = m.height_change();
+  e.height_change_stddev = m.height_change_stddev();
+  e.floor_height = m.floor_height();
+  if (ended && !std::isfinite(e.floor_height))
+    throw std::invalid_argument("floor event with a non-finite floor height");
+  if (e.type == detection::FloorEventType::kTransitStarted) e.from_height = m.floor_height();
+  e.confidence = m.confidence();
+  e.mode = m.mode() == k::MODE_ELEVATOR ? detection::TransitMode::kElevator
+           : m.mode() == k::MODE_STAIRS ? detection::TransitMode::kStairs
+                                        : detection::TransitMode::kUnknown;
+  return e;
+}
+
+}  // namespace storey::runtime
