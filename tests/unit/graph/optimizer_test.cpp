@@ -123,12 +123,14 @@ TEST(Optimizer, PcgChordStepsReachTheSameOptimum) {
   plain.chord_pcg_iterations = 0;
   pcg.chord_pcg_iterations = 20;
   pcg.chord_pcg_tolerance = 1e-6;
+  pcg.chord_pcg_min_cost = 0.0;  // this small graph's factorisation is cheap: force PCG
   PoseGraph a = s.graph, b = s.graph, c = s.graph;
   const OptimizerResult ra = Optimizer(none).optimize(a);
   const OptimizerResult rb = Optimizer(plain).optimize(b);
   const OptimizerResult rc = Optimizer(pcg).optimize(c);
   for (const OptimizerResult* r : {&ra, &rb, &rc}) ASSERT_TRUE(r->converged) << r->termination;
   EXPECT_EQ(rb.pcg_iterations, 0);
+  EXPECT_TRUE(rc.pcg_used);
   EXPECT_GT(rc.chord_steps, 0);
   EXPECT_GT(rc.pcg_iterations, 0);
   EXPECT_LE(rc.factorizations, rb.factorizations);
@@ -140,6 +142,27 @@ TEST(Optimizer, PcgChordStepsReachTheSameOptimum) {
   EXPECT_LT(angle, 1e-4);
 }
 
+// With the default cost rule a small graph (factorisation ≈ a few solves) uses plain chord
+// steps; a high bar does so anywhere.
+TEST(Optimizer, PcgOnlyWhereAFactorizationIsExpensive) {
+  const testing::Synthetic s = testing::makeLaps(5, 10, 0.05, 0.02, 33);
+  OptimizerOptions cheap;  // defaults
+  OptimizerOptions forced;
+  forced.chord_pcg_min_cost = 0.0;
+  OptimizerOptions never;
+  never.chord_pcg_min_cost = 1e9;
+  PoseGraph a = s.graph, b = s.graph, c = s.graph;
+  const OptimizerResult ra = Optimizer(cheap).optimize(a);
+  const OptimizerResult rb = Optimizer(forced).optimize(b);
+  const OptimizerResult rc = Optimizer(never).optimize(c);
+  EXPECT_FALSE(ra.pcg_used);
+  EXPECT_EQ(ra.pcg_iterations, 0);
+  EXPECT_GT(ra.chord_steps, 0);
+  EXPECT_TRUE(rb.pcg_used);
+  EXPECT_FALSE(rc.pcg_used);
+  EXPECT_NEAR(ra.final_chi2, rb.final_chi2, 1e-6 * rb.final_chi2);
+}
+
 // A PCG that cannot reach its tolerance within the cap falls back to a factorisation and
 // still converges to the same optimum.
 TEST(Optimizer, PcgChordFallsBackToAFactorization) {
@@ -147,6 +170,7 @@ TEST(Optimizer, PcgChordFallsBackToAFactorization) {
   OptimizerOptions strict;
   strict.chord_pcg_iterations = 1;
   strict.chord_pcg_tolerance = 1e-12;
+  strict.chord_pcg_min_cost = 0.0;
   OptimizerOptions none;
   none.chord_min_ratio = 0.0;
   PoseGraph a = s.graph, b = s.graph;
@@ -377,6 +401,7 @@ TEST(OptimizerOptions, ReadStrictlyFromYaml) {
       "gauge: per_component\n"
       "chord_pcg_iterations: 3\n"
       "chord_pcg_tolerance: 1e-4\n"
+      "chord_pcg_min_cost: 3\n"
       "robust:\n"
       "  loop_closure: {kernel: cauchy, delta: 2.5}\n"
       "  inter_floor: {kernel: dcs}\n",
@@ -389,6 +414,7 @@ TEST(OptimizerOptions, ReadStrictlyFromYaml) {
   EXPECT_EQ(o.gauge, GaugeMode::kPerComponent);
   EXPECT_EQ(o.chord_pcg_iterations, 3);
   EXPECT_EQ(o.chord_pcg_tolerance, 1e-4);
+  EXPECT_EQ(o.chord_pcg_min_cost, 3.0);
   EXPECT_EQ(o.robust[static_cast<int>(EdgeKind::kLoopClosure)].type, RobustKernelType::kCauchy);
   EXPECT_EQ(o.robust[static_cast<int>(EdgeKind::kLoopClosure)].delta, 2.5);
   EXPECT_EQ(o.robust[static_cast<int>(EdgeKind::kInterFloor)].type, RobustKernelType::kDcs);

@@ -42,6 +42,10 @@ class LinearSolver {
   virtual void solve(const Eigen::MatrixXd& b, Eigen::MatrixXd* x) = 0;
   // The block ordering used by the last analyze() (empty when the backend orders itself).
   virtual std::vector<int> blockOrdering() const { return {}; }
+  // Flop estimates from the last analyze(): one numeric factorisation and one solve with
+  // one right-hand side (0 when the backend does not know).
+  virtual double factorizationFlops() const { return 0.0; }
+  virtual double solveFlops() const { return 0.0; }
 };
 
 // "cholmod", "cholmod_supernodal", "cholmod_nd" or "eigen"; throws std::invalid_argument

@@ -107,6 +107,7 @@ OptimizerOptions readOptimizerOptions(const common::ConfigNode& config) {
   o.chord_pcg_iterations = config.getInt("chord_pcg_iterations", o.chord_pcg_iterations, 0, 1000);
   o.chord_pcg_tolerance =
       config.getDouble("chord_pcg_tolerance", o.chord_pcg_tolerance, 1e-12, 1.0);
+  o.chord_pcg_min_cost = config.getDouble("chord_pcg_min_cost", o.chord_pcg_min_cost, 0.0, 1e12);
   const std::string gauge =
       config.getChoice("gauge", "first_node", {"first_node", "per_component"});
   o.gauge = gauge == "first_node" ? GaugeMode::kFirstNode : GaugeMode::kPerComponent;
@@ -512,12 +513,18 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
   // false when the residual does not fall below the tolerance within the iteration cap (or
   // a direction of non-positive curvature appears): H has moved too far from the factor.
   Eigen::MatrixXd z_mat;
+  int pcg_iterations = options_.chord_pcg_iterations;
+  if (n_vars > 0 && options_.chord_pcg_min_cost > 0.0 && solver_->factorizationFlops() > 0.0) {
+    const double iteration = solver_->solveFlops() + 4.0 * static_cast<double>(s.h.values.size());
+    if (solver_->factorizationFlops() < options_.chord_pcg_min_cost * iteration) pcg_iterations = 0;
+  }
+  result.pcg_used = pcg_iterations > 0;
   auto pcg = [&](double damping, Eigen::VectorXd* x) {
     const int n = 3 * n_vars;
     Eigen::VectorXd r = -b;
     solver_->solve(r, &z_mat);
     Eigen::VectorXd p = z_mat.col(0);
-    if (options_.chord_pcg_iterations == 0) {
+    if (pcg_iterations == 0) {
       *x = p;  // the plain chord step
       return true;
     }
@@ -527,7 +534,7 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
     const double target = options_.chord_pcg_tolerance * b_norm;
     double rz = r.dot(p);
     std::string trace;
-    for (int k = 0; k < options_.chord_pcg_iterations; ++k) {
+    for (int k = 0; k < pcg_iterations; ++k) {
       ++result.pcg_iterations;
       multiply(p, damping, &ap);
       const double pap = p.dot(ap);
@@ -636,10 +643,12 @@ OptimizerResult Optimizer::optimize(PoseGraph& graph) {
       continue;
     }
     // Gain ratio against the quadratic model, L(0) − L(Δ) = −2bᵀΔ − ΔᵀHΔ; for a step that
-    // solves (H + λD)Δ = −b exactly this is −bᵀΔ + λ ΔᵀDΔ. (A chord step solved the current
-    // system only approximately: its model decrease is evaluated with H.)
+    // solves (H + λD)Δ = −b exactly this is −bᵀΔ + λ ΔᵀDΔ. (A PCG chord step solved the
+    // current system only approximately: its model decrease is evaluated with H.)
+    // A plain chord step (no PCG) is exact for the reused factor's system: its model is
+    // that one (with the current H, an overshooting step can even predict an increase).
     double predicted = 0.0;
-    if (chord) {
+    if (chord && pcg_iterations > 0) {
       multiply(dx, 0.0, &hdx);
       predicted = -2.0 * b.dot(dx) - dx.dot(hdx);
     } else {

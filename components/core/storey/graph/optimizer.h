@@ -85,6 +85,11 @@ struct OptimizerOptions {
   // orientation-first start).
   int chord_pcg_iterations = 8;
   double chord_pcg_tolerance = 1e-3;
+  // PCG only pays where a factorisation costs many PCG iterations: it is used when the
+  // analysis estimates a factorisation at ≥ chord_pcg_min_cost iterations (flops of one
+  // solve plus one product with H); below, chord steps are plain (city10000: ~16, PCG;
+  // manhattan ~6, intel ~3, MIT ~1: plain, 5–16 % faster there). 0: always PCG.
+  double chord_pcg_min_cost = 8.0;
   GaugeMode gauge = GaugeMode::kFirstNode;
   Initialization initialization = Initialization::kNone;
   double auto_initialization_chi2 = 10.0;
@@ -108,6 +113,7 @@ struct OptimizerOptions {
 //   chord_max_change: 0.5
 //   chord_pcg_iterations: 8
 //   chord_pcg_tolerance: 1e-3
+//   chord_pcg_min_cost: 8
 //   gauge: first_node        # first_node | per_component
 //   initialization: none     # none | orientation_first | auto
 //   auto_initialization_chi2: 10
@@ -142,6 +148,7 @@ struct OptimizerResult {
   int factorizations = 0;
   int chord_steps = 0;      // accepted steps that reused the previous factorisation
   int pcg_iterations = 0;   // conjugate-gradient iterations of the chord steps (all tried)
+  bool pcg_used = false;    // chord steps were PCG-refined (else plain; chord_pcg_min_cost)
   int chord_fallbacks = 0;  // chord steps whose PCG did not converge (then factorised)
   bool reanalysed = false;  // the structure was (re)analysed in this call
   double final_lambda = 0.0;
