@@ -26,9 +26,10 @@ endfunction()
 # storey_test(NAME <name> LABEL unit|integration|scenario LIBS <targets>...
 #             [SOURCES <files>...])
 # One gtest executable per call; every TEST becomes its own ctest entry with the label.
-# Without SOURCES, every *_test.cpp beside the calling CMakeLists.txt is used.
+# Without SOURCES, every *_test.cpp beside the calling CMakeLists.txt is used. Tests that
+# name the same RESOURCE_LOCK never run at the same time (ctest --parallel).
 function(storey_test)
-  cmake_parse_arguments(ARG "" "NAME;LABEL;TIMEOUT" "LIBS;SOURCES" ${ARGN})
+  cmake_parse_arguments(ARG "" "NAME;LABEL;TIMEOUT;RESOURCE_LOCK" "LIBS;SOURCES" ${ARGN})
   if(NOT ARG_SOURCES)
     file(GLOB ARG_SOURCES CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*_test.cpp)
   endif()
@@ -46,10 +47,14 @@ function(storey_test)
   add_executable(${ARG_NAME} ${ARG_SOURCES})
   target_link_libraries(${ARG_NAME} PRIVATE ${ARG_LIBS} storey_test_support GTest::gtest_main)
   target_compile_definitions(${ARG_NAME} PRIVATE STOREY_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+  set(extra_properties)
+  if(ARG_RESOURCE_LOCK)
+    set(extra_properties RESOURCE_LOCK ${ARG_RESOURCE_LOCK})
+  endif()
   gtest_discover_tests(${ARG_NAME}
     DISCOVERY_MODE PRE_TEST
     WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR}
-    PROPERTIES LABELS ${ARG_LABEL} TIMEOUT ${ARG_TIMEOUT})
+    PROPERTIES LABELS ${ARG_LABEL} TIMEOUT ${ARG_TIMEOUT} ${extra_properties})
 endfunction()
 
 # storey_component_library(NAME <component> DEPS <targets>...)
