@@ -55,12 +55,35 @@ struct Floor {
   bool configured = false;
 };
 
+// What a restarted detector needs to go on where it stopped (FloorDetector::state/resume):
+// the floors, where the robot is, and the barometric reference it compares against.
+struct FloorDetectorState {
+  std::vector<Floor> floors;
+  int current_floor = 0;
+  double height_offset = 0.0;  // robot above its floor's height, m
+  double offset_stddev = 0.0;
+  bool in_transit = false;  // a TransitStarted was sent and its TransitEnded was not
+  double onset = 0.0;       // s: start of that ride
+  // Filtered barometric height (hypsometric, absolute) that the current floor (plus
+  // offset) or, in transit, the floor left corresponds to; invalid before enough samples.
+  bool reference_valid = false;
+  double reference_height = 0.0;
+  double reference_stddev = 0.0;
+  double saved_at = 0.0;  // s: last pressure sample processed
+};
+
+// Written atomically (a temporary file renamed over it). Reading is strict: an error names
+// the file and the key.
+void writeFloorDetectorState(const std::string& path, const FloorDetectorState& state);
+FloorDetectorState readFloorDetectorState(const std::string& path);
+
 struct FloorDetectorStats {
   std::size_t pressure_samples = 0;
   std::size_t rejected_pressure = 0;  // NaN, out of range, out of order
   std::size_t rejected_other = 0;     // bad IMU / odometry / scan samples
   std::size_t gaps = 0;
   std::size_t cancelled_candidates = 0;  // vertical motion too short to be a ride
+  std::size_t before_resume = 0;         // pressure samples not after the resumed state
 };
 
 class FloorDetector {
@@ -75,6 +98,15 @@ class FloorDetector {
 
   // Events produced since the last call, oldest first.
   std::vector<FloorEvent> takeEvents();
+
+  FloorDetectorState state() const;
+  // Goes on from a saved state (a restarted detector). Pressure samples up to saved_at are
+  // skipped. The first samples after it are compared with the saved reference, as after a
+  // gap: a ride missed while stopped is reported (TransitStarted and TransitEnded), a ride
+  // in progress ends with its TransitEnded; unless more than `max_resume_gap` seconds
+  // passed (the weather moves the barometer), then the saved floor is kept as it is.
+  // Throws std::invalid_argument for an inconsistent state.
+  void resume(const FloorDetectorState& state, double max_resume_gap = 60.0);
 
   int currentFloor() const { return current_floor_; }
   // Stamp of the last pressure sample processed: every event decided up to it has been
@@ -163,6 +195,10 @@ class FloorDetector {
   std::deque<TimedValue> scan_similarity_;
   double height_offset_ = 0.0;  // robot above its floor's height (a ramp, a landing), m
   double offset_stddev_ = 0.0;
+  bool resume_pending_ = false;
+  FloorDetectorState resumed_;
+  double max_resume_gap_ = 60.0;
+  void applyResume(double now);
   double last_imu_stamp_ = -1e300;
   double last_odom_stamp_ = -1e300;
   double last_scan_stamp_ = -1e300;

@@ -1,5 +1,7 @@
 #include "storey/floor_detector/floor_detector_component.h"
 
+#include <fstream>
+
 #include "storey/common/log.h"
 #include "storey/runtime/floor_event_conversions.h"
 #include "storey/runtime/sensor_bag.h"
@@ -20,6 +22,7 @@ FloorDetectorComponentOptions readFloorDetectorComponentOptions(const common::Co
     node.fail("robot", e.what());
   }
   o.progress_period = node.getDouble("progress_period", o.progress_period, 0.01, 60.0);
+  o.state_file = node.get<std::string>("state_file", o.state_file);
   o.detector = detection::readFloorDetectorOptions(node.child("detector"));
   node.finish();
   return o;
@@ -47,6 +50,14 @@ void FloorDetectorComponent::onConfigure() {
     detector_ = std::make_unique<detection::FloorDetector>(options_.detector);
     published_ = 0;
     last_progress_ = -1e300;
+    if (!options_.state_file.empty() && std::ifstream(options_.state_file).good()) {
+      const detection::FloorDetectorState state = detection::readFloorDetectorState(options_.state_file);
+      detector_->resume(state);
+      last_progress_ = state.saved_at;
+      common::logInfo(str(name(), ": resumed from ", options_.state_file, " on floor ",
+                          state.floors[static_cast<std::size_t>(state.current_floor)].id,
+                          state.in_transit ? " in a ride" : "", ", state of t=", state.saved_at));
+    }
   }
   const std::string& robot = options_.robot;
   publisher_ =
@@ -113,12 +124,21 @@ void FloorDetectorComponent::publishEvents() {
       events.push_back(progress);
       last_progress_ = until;
     }
+    if (!events.empty() && !options_.state_file.empty()) saveState();
   }
   for (const auto& event : events) {
     if (publisher_ && publisher_->publish(runtime::toMessage(event, options_.robot))) {
       std::lock_guard<std::mutex> lock(mutex_);
       if (event.type != detection::FloorEventType::kProgress) ++published_;
     }
+  }
+}
+
+void FloorDetectorComponent::saveState() {
+  try {
+    detection::writeFloorDetectorState(options_.state_file, detector_->state());
+  } catch (const std::runtime_error& e) {
+    common::logWarn(str(name(), ": ", e.what()));
   }
 }
 

@@ -25,6 +25,9 @@ struct FloorDetectorComponentOptions {
   std::string robot;                          // topic namespace
   std::string events_topic = "floor_events";  // under the robot's namespace
   double progress_period = 0.5;  // s of sensor time between progress messages (optional key)
+  // Where the detector keeps its state (floors, current floor, barometric reference) so a
+  // restarted detector goes on from it; "" = none (optional key).
+  std::string state_file;
   detection::FloorDetectorOptions detector;
 };
 // Reads robot, events_topic, progress_period and detector; calls finish().
@@ -54,6 +57,7 @@ class FloorDetectorComponent : public runtime::Component {
       publisher_;
   std::uint64_t published_ = 0;
   double last_progress_ = -1e300;  // decided_at of the last message sent
+  void saveState();                  // with mutex_ held
 };
 
 }  // namespace storey::floor_detector
