@@ -93,7 +93,8 @@ void printCandidateTruth(const matching::MatchResult& result,
       if (c.status == matching::CandidateStatus::kLowLikelihood ||
           c.status == matching::CandidateStatus::kPoorFit)
         continue;
-      const auto e = matching::alignmentError(c.alignment, c.reference_graph_id, c.graph_id, floors);
+      const auto e =
+          matching::alignmentError(c.alignment, c.reference_graph_id, c.graph_id, floors);
       const std::size_t si = c.reversed ? ri : gi;
       const auto& nodes = floors.graphs[si].nodes;
       const Pose2 a = floors.frames[si] * nodes[c.first_index].pose;
@@ -105,12 +106,12 @@ void printCandidateTruth(const matching::MatchResult& result,
           c.reversed ? floors.frames[gi] * c.alignment.inverse() * nodes[c.last_index].pose
                      : floors.frames[ri] * c.alignment * nodes[c.last_index].pose;
       std::cout << "  graph " << c.graph_id << " in " << c.reference_graph_id << " "
-                << (c.reversed ? "ref scans " : "scans ") << (c.backwards ? "<" : "") << c.first_index << ".." << c.last_index
-                << std::fixed << std::setprecision(1) << " (" << a.x() << "," << a.y() << ")->("
-                << b.x() << "," << b.y() << ") " << matching::candidateStatusName(c.status)
-                << std::setprecision(3) << "  l_t " << c.likelihood << "  through " << c.see_through
-                << "  " << e.translation
-                << " m " << e.rotation * 180.0 / M_PI << " deg";
+                << (c.reversed ? "ref scans " : "scans ") << (c.backwards ? "<" : "")
+                << c.first_index << ".." << c.last_index << std::fixed << std::setprecision(1)
+                << " (" << a.x() << "," << a.y() << ")->(" << b.x() << "," << b.y() << ") "
+                << matching::candidateStatusName(c.status) << std::setprecision(3) << "  l_t "
+                << c.likelihood << "  through " << c.see_through << "  " << e.translation << " m "
+                << e.rotation * 180.0 / M_PI << " deg";
       if (bad) {
         // The same scans at the true alignment: the fit and the see-through fraction the
         // true place would have had, against those of the place the filter chose.
@@ -122,9 +123,9 @@ void printCandidateTruth(const matching::MatchResult& result,
         Pose2 truth = floors.frames[mi].inverse() * floors.frames[si];
         Pose2 chosen = c.reversed ? c.alignment.inverse() : c.alignment;
         const std::vector<std::pair<int, int>> range{{c.first_index, c.last_index}};
-        const double through_truth = matching::seeThroughFraction(
-            map.map->frame(), map.walls(options), floors.graphs[si], range, options.refine_beams,
-            truth, 0.3);
+        const double through_truth =
+            matching::seeThroughFraction(map.map->frame(), map.walls(options), floors.graphs[si],
+                                         range, options.refine_beams, truth, 0.3);
         const double fit_truth = matching::refineAlignment(map.map->field(), floors.graphs[si],
                                                            range, options.refine_beams, 0, &truth);
         const double fit_chosen = matching::refineAlignment(
@@ -133,8 +134,8 @@ void printCandidateTruth(const matching::MatchResult& result,
                   << ", through " << through_truth << "]";
       }
       if (bad)
-        std::cout << std::setprecision(1) << "  FALSE: scan " << c.last_index << " at ("
-                  << b.x() << "," << b.y() << "," << b.theta() * 180.0 / M_PI << " deg) placed at ("
+        std::cout << std::setprecision(1) << "  FALSE: scan " << c.last_index << " at (" << b.x()
+                  << "," << b.y() << "," << b.theta() * 180.0 / M_PI << " deg) placed at ("
                   << placed.x() << "," << placed.y() << "," << placed.theta() * 180.0 / M_PI
                   << " deg)";
       std::cout << "\n";

@@ -291,10 +291,10 @@ TEST(WallModel, FindsTheWallsASegmentCrossesAndNoOthers) {
   EXPECT_FLOAT_EQ(model.distance[f.index(100, 50)], 0.0f);
   EXPECT_NEAR(model.distance[f.index(90, 50)], 0.5, 0.05);  // chamfer, within 8 %
   EXPECT_TRUE(model.crosses({1.0, 2.5}, {8.0, 2.5}));
-  EXPECT_FALSE(model.crosses({1.0, 2.5}, {4.9, 2.5}));   // stops short of it
-  EXPECT_FALSE(model.crosses({1.0, 0.5}, {8.0, 0.5}));   // passes below its end
-  EXPECT_FALSE(model.crosses({5.5, 2.5}, {9.5, 4.5}));   // starts beyond it
-  EXPECT_TRUE(model.crosses({9.0, 3.9}, {1.0, 1.1}));    // diagonal, right to left
+  EXPECT_FALSE(model.crosses({1.0, 2.5}, {4.9, 2.5}));  // stops short of it
+  EXPECT_FALSE(model.crosses({1.0, 0.5}, {8.0, 0.5}));  // passes below its end
+  EXPECT_FALSE(model.crosses({5.5, 2.5}, {9.5, 4.5}));  // starts beyond it
+  EXPECT_TRUE(model.crosses({9.0, 3.9}, {1.0, 1.1}));   // diagonal, right to left
   // Every segment through the wall's middle at up to 60 degrees from its normal, with
   // random ends in open space on both sides, is caught (sphere tracing must not step over
   // a wall one cell thick).
@@ -370,7 +370,8 @@ TEST(ParticleFilter, WallModelLowersExactlyTheParticlesWhoseBeamsCrossWalls) {
     int crossed = 0;
     for (const auto& b : beams) {
       const Eigen::Vector2d d = b - scan.sensor_offset.translation();
-      const Eigen::Vector2d stop = scan.sensor_offset.translation() + d * ((d.norm() - margin) / d.norm());
+      const Eigen::Vector2d stop =
+          scan.sensor_offset.translation() + d * ((d.norm() - margin) / d.norm());
       crossed += walls.crosses(origin, pose.transformPoint(stop));
     }
     crossing_particles += crossed > 0;

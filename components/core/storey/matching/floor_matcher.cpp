@@ -55,6 +55,7 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
   o.backwards_sequences = node.get<bool>("backwards_sequences", o.backwards_sequences);
   o.wall_recheck = node.getDouble("wall_recheck", o.wall_recheck, 0.0, 1.0);
   o.wall_beams = node.getInt("wall_beams", o.wall_beams, 1, 10000);
+  o.wall_recheck_max = node.getInt("wall_recheck_max", o.wall_recheck_max, 0, 1000000);
   o.wall_log_p = node.getDouble("wall_log_p", o.wall_log_p, -100.0, 0.0);
   o.threads = node.getInt("threads", o.threads, 1, 256);
   o.seed = static_cast<std::uint64_t>(node.get<std::int64_t>("seed", 1));
@@ -393,8 +394,8 @@ SequenceRun runSequence(ParticleFilter* filter, const floor::FloorGraph& g, At a
 // back-propagated to k, gated.
 template <typename At>
 Candidate makeCandidate(const PreparedFloor& map_floor, const PreparedFloor& scans_floor,
-                        double l_min, const FloorMatcherOptions& o, bool backwards, At at,
-                        int kp, const SequenceRun& run) {
+                        double l_min, const FloorMatcherOptions& o, bool backwards, At at, int kp,
+                        const SequenceRun& run) {
   const floor::FloorGraph& ref = *map_floor.graph;
   const floor::FloorGraph& g = *scans_floor.graph;
   const int k = at(kp), m = at(run.mp);
@@ -443,7 +444,7 @@ Candidate makeCandidate(const PreparedFloor& map_floor, const PreparedFloor& sca
 // does not converge. Returns the last replay position used.
 int recheckWalls(const PreparedFloor& map_floor, const PreparedFloor& scans_floor, double l_min,
                  const FloorMatcherOptions& o, std::uint64_t seed, Candidate* c,
-                 std::uint64_t* evaluations) {
+                 PairResult* counters, std::uint64_t* evaluations) {
   const floor::FloorGraph& g = *scans_floor.graph;
   const int count = static_cast<int>(g.nodes.size());
   const bool backwards = c->backwards;
@@ -451,10 +452,20 @@ int recheckWalls(const PreparedFloor& map_floor, const PreparedFloor& scans_floo
   const int kp = backwards ? count - 1 - c->node_index : c->node_index;
   const int mp_before = backwards ? count - 1 - c->first_index : c->last_index;
   if (c->status != CandidateStatus::kOutlier) return mp_before;
-  c->see_through = seeThroughFraction(map_floor.map->frame(), map_floor.walls(o), g,
-                                      {{c->first_index, c->last_index}}, o.refine_beams,
-                                      c->alignment, 0.3);
+  c->see_through =
+      seeThroughFraction(map_floor.map->frame(), map_floor.walls(o), g,
+                         {{c->first_index, c->last_index}}, o.refine_beams, c->alignment, 0.3);
   if (c->see_through <= o.wall_recheck) return mp_before;
+  if (counters->wall_rechecks >= o.wall_recheck_max) {
+    // Unrelated floors give many candidates that see through walls; each recheck is a
+    // global localisation with traced beams. Past the budget, such a candidate is dropped:
+    // it was suspect, and dropping evidence never adds a wrong constraint.
+    c->status = CandidateStatus::kPoorFit;
+    c->reason = common::str("sees through walls (", c->see_through, " of beams); ",
+                            o.wall_recheck_max, " rechecks already spent on this pair");
+    return mp_before;
+  }
+  ++counters->wall_rechecks;
   ParticleFilter filter(*map_floor.map, o.filter,
                         seed ^ (0x3A11ULL + 977ULL * static_cast<std::uint64_t>(kp)));
   filter.setWallModel(&map_floor.wallModel(o), o.wall_beams, o.wall_log_p, 0.3);
@@ -469,9 +480,9 @@ int recheckWalls(const PreparedFloor& map_floor, const PreparedFloor& scans_floo
     return mp_before;
   }
   *c = makeCandidate(map_floor, scans_floor, l_min, o, backwards, at, kp, run);
-  c->see_through = seeThroughFraction(map_floor.map->frame(), map_floor.walls(o), g,
-                                      {{c->first_index, c->last_index}}, o.refine_beams,
-                                      c->alignment, 0.3);
+  c->see_through =
+      seeThroughFraction(map_floor.map->frame(), map_floor.walls(o), g,
+                         {{c->first_index, c->last_index}}, o.refine_beams, c->alignment, 0.3);
   c->reason = common::str("re-localised with the wall model (the first estimate saw through ",
                           first_through, " of beams)", c->reason.empty() ? "" : "; ", c->reason);
   return std::max(mp_before, run.mp);
@@ -508,7 +519,8 @@ std::vector<Candidate> localiseSequences(const PreparedFloor& map_floor,
     }
     Candidate c = makeCandidate(map_floor, scans_floor, l_min, o, backwards, at, kp, run);
     int mp = run.mp;
-    if (walls) mp = recheckWalls(map_floor, scans_floor, l_min, o, seed, &c, evaluations);
+    if (walls)
+      mp = recheckWalls(map_floor, scans_floor, l_min, o, seed, &c, counters, evaluations);
     out.push_back(std::move(c));
     kp = mp + 1;
   }
@@ -653,9 +665,8 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
   const int count = static_cast<int>(g.nodes.size());
   std::mt19937_64 rng(seed);
   std::uint64_t evaluations = 0;
-  result.candidates =
-      localiseSequences(reference, floor_data, result.l_min, o, seed, false, false, &result,
-                        &evaluations);
+  result.candidates = localiseSequences(reference, floor_data, result.l_min, o, seed, false, false,
+                                        &result, &evaluations);
   decideConsistentSet(reference, floor_data, o, count, &rng, &result);
   if (!result.accepted && both_directions && ref.graph_id != g.graph_id) {
     // Too few or two rival consistent sets: g_ref's scans localised in g_i's map are
@@ -668,17 +679,22 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
     // The first pass's candidates that saw through walls are rechecked now (the recheck
     // is costly, so only a pair that needs more evidence pays for it).
     for (Candidate& c : result.candidates)
-      recheckWalls(reference, floor_data, result.l_min, o, seed, &c, &evaluations);
-    std::vector<Candidate> back = localiseSequences(floor_data, reference, result.l_min, o,
-                                                    seed ^ 0xBAC4ULL, false, true, &reverse,
-                                                    &evaluations);
+      recheckWalls(reference, floor_data, result.l_min, o, seed, &c, &result, &evaluations);
+    // One recheck budget for the pair, whichever direction spends it.
+    reverse.wall_rechecks = result.wall_rechecks;
+    std::vector<Candidate> back =
+        localiseSequences(floor_data, reference, result.l_min, o, seed ^ 0xBAC4ULL, false, true,
+                          &reverse, &evaluations);
+    result.wall_rechecks = reverse.wall_rechecks;
     if (o.backwards_sequences) {
       // Both floors' scans replayed last to first as well (see localiseSequences).
-      std::vector<Candidate> more = localiseSequences(reference, floor_data, result.l_min, o,
-                                                      seed, true, true, &result, &evaluations);
+      std::vector<Candidate> more = localiseSequences(reference, floor_data, result.l_min, o, seed,
+                                                      true, true, &result, &evaluations);
       result.candidates.insert(result.candidates.end(), more.begin(), more.end());
-      more = localiseSequences(floor_data, reference, result.l_min, o, seed ^ 0xBAC4ULL, true,
-                               true, &reverse, &evaluations);
+      reverse.wall_rechecks = result.wall_rechecks;
+      more = localiseSequences(floor_data, reference, result.l_min, o, seed ^ 0xBAC4ULL, true, true,
+                               &reverse, &evaluations);
+      result.wall_rechecks = reverse.wall_rechecks;
       back.insert(back.end(), more.begin(), more.end());
     }
     for (const Candidate& r : back) result.candidates.push_back(reverseCandidate(r, ref, g));
@@ -771,10 +787,10 @@ namespace {
 // through T_r, the loop T_ref,i = T_r * T_r,i). One RANSAC over both; when it finds
 // min_constraints disjoint candidates (and no rival set), the floor is accepted with
 // constraints to both graphs. Returns the combined pair (accepted or not).
-PairResult combineThroughAligned(const PairResult& direct, const PairResult& via,
-                                 const Pose2& t_r, const PreparedFloor& reference,
-                                 const PreparedFloor& aligned, const PreparedFloor& floor_data,
-                                 const FloorMatcherOptions& o, std::uint64_t seed) {
+PairResult combineThroughAligned(const PairResult& direct, const PairResult& via, const Pose2& t_r,
+                                 const PreparedFloor& reference, const PreparedFloor& aligned,
+                                 const PreparedFloor& floor_data, const FloorMatcherOptions& o,
+                                 std::uint64_t seed) {
   const floor::FloorGraph& g = *floor_data.graph;
   PairResult out;
   out.reference_graph_id = direct.reference_graph_id;
@@ -797,8 +813,8 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
   }
   std::mt19937_64 rng(seed);
   std::vector<std::size_t> best_all;
-  const std::vector<std::size_t> best = largestConsistentSet(in_reference, pool, g, o, &rng,
-                                                             &best_all);
+  const std::vector<std::size_t> best =
+      largestConsistentSet(in_reference, pool, g, o, &rng, &best_all);
   std::vector<std::size_t> rest;
   for (std::size_t i : pool)
     if (std::find(best_all.begin(), best_all.end(), i) == best_all.end()) rest.push_back(i);
@@ -814,14 +830,14 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
   };
   const std::string via_name = common::str("graph ", via.reference_graph_id);
   if (static_cast<int>(best.size()) < o.min_constraints) {
-    out.reason = common::str("with ", via_name, " (aligned): largest consistent set has ",
-                             best.size(), " of ", pool.size(), " gated candidates (need ",
-                             o.min_constraints, ")");
+    out.reason =
+        common::str("with ", via_name, " (aligned): largest consistent set has ", best.size(),
+                    " of ", pool.size(), " gated candidates (need ", o.min_constraints, ")");
     markAll(pool, CandidateStatus::kTooFew, out.reason);
     return out;
   }
-  if (second.size() >= 2 && static_cast<double>(second.size()) >=
-                                o.ambiguity_ratio * static_cast<double>(best.size())) {
+  if (second.size() >= 2 &&
+      static_cast<double>(second.size()) >= o.ambiguity_ratio * static_cast<double>(best.size())) {
     out.ambiguous = true;
     out.reason = common::str("with ", via_name, " (aligned): two disjoint consistent sets of ",
                              best.size(), " and ", second.size());
@@ -829,13 +845,14 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
     return out;
   }
   out.accepted = true;
-  out.reason = common::str("accepted with ", via_name, " (aligned to the reference): ",
-                           best.size(), " consistent of ", pool.size(), " gated candidates, ",
-                           from_via, " of them against ", via_name);
+  out.reason = common::str("accepted with ", via_name, " (aligned to the reference): ", best.size(),
+                           " consistent of ", pool.size(), " gated candidates, ", from_via,
+                           " of them against ", via_name);
   markAll(rest, CandidateStatus::kOutlier, "disagrees with the largest consistent set");
   for (std::size_t i : best_all)
     if (std::find(best.begin(), best.end(), i) == best.end())
-      markAll({i}, CandidateStatus::kOutlier, "agrees, but its scans overlap an inlier's (counted once)");
+      markAll({i}, CandidateStatus::kOutlier,
+              "agrees, but its scans overlap an inlier's (counted once)");
   markAll(best, CandidateStatus::kAccepted, "inlier of the consistent set over both graphs");
   // The joint alignment: the inliers' scans of g_i that were localised in the reference's
   // map refine it there; without any, their mean stands.
@@ -848,8 +865,7 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
   }
   Pose2 joint = meanAlignment(alignments);
   if (!ranges.empty())
-    refineAlignment(reference.map->field(), g, ranges, o.refine_beams, o.refine_iterations,
-                    &joint);
+    refineAlignment(reference.map->field(), g, ranges, o.refine_beams, o.refine_iterations, &joint);
   out.alignment = joint;
   const Pose2 joint_in_r = t_r.inverse() * joint;
   for (std::size_t i : best) {
@@ -975,14 +991,14 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
           p.reason += "; confirmed through the reference";
         }
       }
-      const bool combine = !p.accepted && !p.ambiguous && !before.ambiguous &&
-                           to_reference.count(r) && r != ref;
+      const bool combine =
+          !p.accepted && !p.ambiguous && !before.ambiguous && to_reference.count(r) && r != ref;
       retries[j].push_back(std::move(p));
       if (combine) {
         // Together, the two pairs may have enough (see combineThroughAligned).
-        PairResult both = combineThroughAligned(before, retries[j].back(), to_reference.at(r),
-                                                prepared[ref], prepared[r], prepared[i], o,
-                                                seedFor(r, i) ^ 0xC0B1ULL);
+        PairResult both =
+            combineThroughAligned(before, retries[j].back(), to_reference.at(r), prepared[ref],
+                                  prepared[r], prepared[i], o, seedFor(r, i) ^ 0xC0B1ULL);
         retries[j].push_back(std::move(both));
       }
       if (retries[j].back().accepted) break;
@@ -1031,14 +1047,15 @@ void printMatchReport(std::ostream& out, const MatchResult& result) {
   out << "reference floor graph: " << result.reference_graph_id << "\n";
   for (const auto& p : result.pairs) {
     out << "graph " << p.graph_id << " in reference " << p.reference_graph_id << ": " << p.reason
-        << " (" << p.sequences << " filters, " << p.not_converged << " not converged, l_min "
+        << " (" << p.sequences << " filters, " << p.not_converged << " not converged, "
+        << p.wall_rechecks << " wall rechecks, l_min "
         << std::setprecision(4) << p.l_min << ", " << std::setprecision(3) << p.seconds << " s)\n";
     if (p.accepted) out << "  alignment (graph frame in reference frame): " << p.alignment << "\n";
     for (const auto& c : p.candidates) {
       out << "  " << (c.reversed ? "ref scans " : "scans ") << (c.backwards ? "<" : "")
-          << c.first_index << ".." << c.last_index
-          << " node " << c.node_id << " -> ref node " << c.reference_node_id << "  l_t "
-          << std::setprecision(4) << c.likelihood << "  fit " << std::setprecision(3) << c.fit
+          << c.first_index << ".." << c.last_index << " node " << c.node_id << " -> ref node "
+          << c.reference_node_id << "  l_t " << std::setprecision(4) << c.likelihood << "  fit "
+          << std::setprecision(3) << c.fit
           << (c.see_through >= 0.0 ? common::str("  through ", c.see_through) : std::string())
           << "  particles " << c.particles << "  alignment " << c.alignment << "  c "
           << c.measurement << " dz " << c.dz << "  " << candidateStatusName(c.status);

@@ -104,6 +104,7 @@ struct FloorMatcherOptions {
   // through a wall has log p `wall_log_p`). 1 turns it off.
   double wall_recheck = 0.05;
   int wall_beams = 12;
+  int wall_recheck_max = 8;  // rechecks per pair (glass3 uses 0-4); past it, such are dropped
   double wall_log_p = -10.0;
   int threads = 2;
   std::uint64_t seed = 1;
@@ -146,7 +147,7 @@ struct Candidate {
   // Fraction of the sequence's beams that, placed by `alignment`, cross a solid wall of the
   // map they were localised in (solidWalls) before their endpoint.
   double see_through = -1.0;  // -1: not computed (only pairs that need more evidence)
-  std::size_t particles = 0;       // filter size at convergence
+  std::size_t particles = 0;  // filter size at convergence
   double mass_within = 0.0;
   CandidateStatus status = CandidateStatus::kOutlier;
   std::string reason;
@@ -177,6 +178,7 @@ struct PairResult {
   int sequences = 0;            // filters started
   int not_converged = 0;        // filters dropped without converging
   int reversed_candidates = 0;  // candidates from g_ref's scans in g_i's map (both directions)
+  int wall_rechecks = 0;        // candidates re-localised with the wall model
   std::vector<Candidate> candidates;
   std::uint64_t beam_evaluations = 0;
   double seconds = 0.0;

@@ -294,11 +294,12 @@ double ParticleFilter::update(const sensor::LaserScan& scan) {
     for (std::size_t b = 0; b < traced.size(); ++b) {
       const Eigen::Vector2d d = traced[b] - sensor;
       const double length = d.norm();
-      stop[b] = length > wall_margin_ ? Eigen::Vector2d(sensor + d * ((length - wall_margin_) / length))
-                                      : sensor;
+      stop[b] = length > wall_margin_
+                    ? Eigen::Vector2d(sensor + d * ((length - wall_margin_) / length))
+                    : sensor;
     }
-    const double scale =
-        options_.effective_beams * wall_log_p_ / static_cast<double>(std::max<std::size_t>(1, traced.size()));
+    const double scale = options_.effective_beams * wall_log_p_ /
+                         static_cast<double>(std::max<std::size_t>(1, traced.size()));
     max_log = -std::numeric_limits<double>::infinity();
     for (std::size_t j = 0; j < n; ++j) {
       const Pose2 pose(x_[j], y_[j], theta_[j]);
