@@ -64,10 +64,9 @@ int run_replay(Args& args) {
   });
   if (!quiet) std::cerr << "\n";
   std::cout << summary.text() << std::flush;
-  // Everything sent was acknowledged (or waited for); leave without deleting the writers:
-  // Fast DDS 2.9 can deadlock deleting a reliable writer that still has unacknowledged
-  // samples (seen here with a subscriber killed mid-replay; fixed after 2.9, e.g.
-  // eProsima/Fast-DDS#4076). The OS closes the sockets; peers drop us after our lease.
+  // Leave without deleting the writers: Fast DDS 2.9 can hang deleting a reliable writer
+  // whose subscriber was killed (seen in the fault tests: RTPSWriter::deinit waiting on a
+  // mutex). The OS closes the sockets; peers drop us after our lease.
   std::cerr << std::flush;
   std::_Exit(summary.stopped ? 130 : 0);
 }

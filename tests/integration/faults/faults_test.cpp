@@ -258,7 +258,10 @@ class Deployment {
         witness == Witness::kServer ? "storey/inter_floor_constraints" : "witness/inter_floor_constraints";
     // Matching after 5 s without updates (2 s by default): on this loaded 2-core machine the
     // mapper stalls for 2 s now and then, and a matching in a stall depends on its timing.
-    const std::string matcher_parameters = readText(config + "floor_matcher.yaml") + "match_after_idle: 5.0\n";
+    // Matching only after the replay (not while graphs grow): a matching of growing graphs
+    // depends on which state it catches, and its constraints stay.
+    const std::string matcher_parameters =
+        readText(config + "floor_matcher.yaml") + "match_after_idle: 5.0\nmatch_while_growing: false\n";
     write("floor_matcher.yaml", matcher_parameters);
     write("witness_floor_matcher.yaml",
           matcher_parameters + "floor_graph_topic: " + graphs + "\nconstraint_topic: " + constraints + "\n");
