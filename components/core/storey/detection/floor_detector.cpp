@@ -128,7 +128,9 @@ FloorDetectorState FloorDetector::state() const {
   return s;
 }
 
-void FloorDetector::resume(const FloorDetectorState& state, double max_resume_gap) {
+namespace {
+// Throws std::invalid_argument for a state no detector could go on from.
+void checkFloorDetectorState(const FloorDetectorState& state) {
   auto bad = [](const std::string& why) { throw std::invalid_argument("floor detector state: " + why); };
   if (state.floors.empty()) bad("no floors");
   for (std::size_t i = 0; i < state.floors.size(); ++i) {
@@ -140,6 +142,11 @@ void FloorDetector::resume(const FloorDetectorState& state, double max_resume_ga
   for (double v : {state.height_offset, state.offset_stddev, state.onset, state.reference_height,
                    state.reference_stddev, state.saved_at})
     if (!std::isfinite(v)) bad("non-finite value");
+}
+}  // namespace
+
+void FloorDetector::resume(const FloorDetectorState& state, double max_resume_gap) {
+  checkFloorDetectorState(state);
   floors_ = state.floors;
   current_floor_ = state.current_floor;
   height_offset_ = state.height_offset;
@@ -231,7 +238,7 @@ FloorDetectorState readFloorDetectorState(const std::string& path) {
   node.finish();
   if (s.current_floor >= static_cast<int>(s.floors.size())) node.fail("current_floor", "is not one of the floors");
   try {
-    FloorDetector(FloorDetectorOptions{}).resume(s);  // the same checks as on use
+    checkFloorDetectorState(s);  // the checks resume() makes
   } catch (const std::invalid_argument& e) {
     node.fail("floors", e.what());
   }

@@ -22,29 +22,36 @@ geometry::Pose2 getPose(common::ByteDecoder& d) {
 
 }  // namespace
 
+namespace {
+// Encodes a scan record from its parts: the mapper logs every scan, so no copy of it is
+// made for logging.
+void encodeScan(common::ByteEncoder& e, const sensor::LaserScan& s, const geometry::Pose2& odometry) {
+  e.put<std::uint8_t>(kScan);
+  e.put(s.stamp);
+  e.put(s.angle_min);
+  e.put(s.angle_increment);
+  e.put(s.range_min);
+  e.put(s.range_max);
+  putPose(e, s.sensor_offset);
+  putPose(e, odometry);
+  e.put<std::uint32_t>(static_cast<std::uint32_t>(s.ranges.size()));
+  for (float r : s.ranges) e.put(r);
+}
+
+void encodeEvent(common::ByteEncoder& e, const detection::FloorEvent& ev) {
+  e.put<std::uint8_t>(kFloorEvent);
+  e.put<std::uint8_t>(static_cast<std::uint8_t>(ev.type));
+  e.put(ev.stamp);
+  e.put(ev.decided_at);
+  e.put<std::int32_t>(ev.floor_id);
+  e.put(ev.floor_height);
+}
+}  // namespace
+
 std::vector<std::uint8_t> encodeLoggedInput(const LoggedInput& input) {
   common::ByteEncoder e;
-  if (input.is_scan) {
-    const sensor::LaserScan& s = input.scan;
-    e.put<std::uint8_t>(kScan);
-    e.put(s.stamp);
-    e.put(s.angle_min);
-    e.put(s.angle_increment);
-    e.put(s.range_min);
-    e.put(s.range_max);
-    putPose(e, s.sensor_offset);
-    putPose(e, input.odometry);
-    e.put<std::uint32_t>(static_cast<std::uint32_t>(s.ranges.size()));
-    for (float r : s.ranges) e.put(r);
-  } else {
-    const detection::FloorEvent& ev = input.event;
-    e.put<std::uint8_t>(kFloorEvent);
-    e.put<std::uint8_t>(static_cast<std::uint8_t>(ev.type));
-    e.put(ev.stamp);
-    e.put(ev.decided_at);
-    e.put<std::int32_t>(ev.floor_id);
-    e.put(ev.floor_height);
-  }
+  if (input.is_scan) encodeScan(e, input.scan, input.odometry);
+  else encodeEvent(e, input.event);
   return e.bytes;
 }
 
@@ -95,17 +102,15 @@ InputLog::InputLog(const std::string& path, const std::function<void(const Logge
 }
 
 void InputLog::appendScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry) {
-  LoggedInput input;
-  input.scan = scan;
-  input.odometry = odometry;
-  file_->append(encodeLoggedInput(input));
+  common::ByteEncoder e;
+  encodeScan(e, scan, odometry);
+  file_->append(e.bytes);
 }
 
 void InputLog::appendFloorEvent(const detection::FloorEvent& event) {
-  LoggedInput input;
-  input.is_scan = false;
-  input.event = event;
-  file_->append(encodeLoggedInput(input));
+  common::ByteEncoder e;
+  encodeEvent(e, event);
+  file_->append(e.bytes);
 }
 
 }  // namespace storey::mapping
