@@ -1,5 +1,7 @@
 #include "storey/floor/floor_graph.h"
 
+#include <algorithm>
+#include <cmath>
 #include <limits>
 
 namespace storey::floor {
@@ -36,6 +38,22 @@ grid::OccupancyGrid renderFloorMap(const FloorGraph& graph, const grid::Occupanc
   grid::OccupancyGrid map(options);
   for (const auto& node : graph.nodes) map.insertScan(node.scan, node.pose);
   return map;
+}
+
+std::vector<Eigen::Vector2d> floorPoints(const FloorGraph& graph, std::size_t first, std::size_t last,
+                                         double max_range) {
+  std::vector<Eigen::Vector2d> points;
+  for (std::size_t i = first; i < last && i < graph.nodes.size(); ++i) {
+    const FloorNode& node = graph.nodes[i];
+    const double limit = std::min(max_range, static_cast<double>(node.scan.range_max));
+    for (std::size_t b = 0; b < node.scan.size(); ++b) {
+      if (!node.scan.isReturn(b) || node.scan.ranges[b] >= limit) continue;
+      const double a = node.scan.angle(b);
+      const Eigen::Vector2d p(node.scan.ranges[b] * std::cos(a), node.scan.ranges[b] * std::sin(a));
+      points.push_back(node.pose.transformPoint(node.scan.sensor_offset.transformPoint(p)));
+    }
+  }
+  return points;
 }
 
 }  // namespace storey::floor

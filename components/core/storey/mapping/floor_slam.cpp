@@ -19,7 +19,7 @@ constexpr int kWideSearchLevels = 7;  // pyramid depth for loop closure and relo
 ScanMatcherOptions readMatcherOrDefault(const common::ConfigNode& node, const std::string& key,
                                         const ScanMatcherOptions& fallback) {
   if (!node.has(key)) return fallback;
-  return readScanMatcherOptions(node.child(key));
+  return readScanMatcherOptions(node.child(key), fallback);
 }
 
 graph::EdgeKind toGraphKind(floor::EdgeKind kind) {
@@ -61,6 +61,8 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
     m.max_insert_range = n.getDouble("max_insert_range", m.max_insert_range, 0.5, 1000.0);
     m.pyramid_levels = n.getInt("pyramid_levels", m.pyramid_levels, 1, 16);
     m.rebuild_every_n_nodes = n.getInt("rebuild_every_n_nodes", m.rebuild_every_n_nodes, 1, 1000);
+    m.point_cell_size = n.getDouble("point_cell_size", m.point_cell_size, 0.0, 1.0);
+    m.point_normal_radius = n.getDouble("point_normal_radius", m.point_normal_radius, 0.01, 5.0);
     if (n.has("likelihood_field")) m.field = grid::readLikelihoodFieldOptions(n.child("likelihood_field"));
     n.finish();
   }
@@ -198,15 +200,21 @@ FloorSlam& FloorSlam::operator=(FloorSlam&&) noexcept = default;
 
 namespace {
 
-grid::OccupancyGrid renderNodes(const floor::FloorGraph& graph, std::size_t first, std::size_t last,
-                                const LocalMapOptions& o) {
+// The map of nodes [first, last): their scans in an occupancy grid (likelihood field and
+// pyramid for the search) and, unless point_cell_size is 0, as points for the refinement.
+MatchTarget buildTarget(const floor::FloorGraph& graph, std::size_t first, std::size_t last,
+                        const LocalMapOptions& o, int pyramid_levels) {
   grid::OccupancyGridOptions go;
   go.resolution = o.resolution;
   go.max_insert_range = o.max_insert_range;
   grid::OccupancyGrid map(go);
   for (std::size_t i = first; i < last && i < graph.nodes.size(); ++i)
     map.insertScan(graph.nodes[i].scan, graph.nodes[i].pose);
-  return map;
+  MatchTarget target(map, o.field, pyramid_levels);
+  if (o.point_cell_size > 0.0)
+    target.setPoints(grid::PointMap(floor::floorPoints(graph, first, last, o.max_insert_range),
+                                    o.point_cell_size, o.point_normal_radius));
+  return target;
 }
 
 }  // namespace
@@ -332,8 +340,7 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     const std::size_t first = n > static_cast<std::size_t>(options_.local_map.max_nodes)
                                   ? n - options_.local_map.max_nodes
                                   : 0;
-    s.local_target = MatchTarget(renderNodes(floor_graph_, first, n, options_.local_map),
-                                 options_.local_map.field, options_.local_map.pyramid_levels);
+    s.local_target = buildTarget(floor_graph_, first, n, options_.local_map, options_.local_map.pyramid_levels);
     s.local_dirty = false;
     s.nodes_since_rebuild = 0;
   }
@@ -438,8 +445,7 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   ++stats_.loop_attempts;
   const std::size_t first = best > o.submap_half_nodes ? best - o.submap_half_nodes : 0;
   const std::size_t end = std::min(last_candidate + 1, static_cast<std::size_t>(best + o.submap_half_nodes + 1));
-  const MatchTarget target(renderNodes(floor_graph_, first, end, options_.local_map), options_.local_map.field,
-                           kWideSearchLevels);
+  const MatchTarget target = buildTarget(floor_graph_, first, end, options_.local_map, kWideSearchLevels);
   const double linear = std::min(o.max_linear_window, o.linear_window + o.sigma_factor * sigma_xy);
   const double angular = std::min(o.max_angular_window, o.angular_window + o.sigma_factor * sigma_theta);
   const MatchResult match = s.loop_matcher.match(target, points, current.pose, linear, angular);
@@ -472,6 +478,8 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
     return false;
   }
   ++stats_.loop_closures;
+  common::logDebug(str("floor_slam: loop closure ", candidate.id, " -> ", current.id, " accepted (score ",
+                       match.score, ", chi2 ", chi2, ")"));
   floor::FloorEdge e{candidate.id, current.id, z, info, floor::EdgeKind::kLoopClosure};
   floor_graph_.edges.push_back(e);
   s.update_edges.push_back(e);
@@ -511,31 +519,54 @@ int FloorSlam::resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& s
     keep.push_back(i);
   }
   if (keep.back() != scans.size() - 1) keep.back() = scans.size() - 1;
-  // The tie goes to the old node nearest the localised pose (before the chain exists).
-  const floor::FloorNode anchor = floor_graph_.nodes[floor_graph_.nearestNodeIndex(pose.translation())];
-  const Pose2& last_odometry = scans.back().odometry;
+  // Walk back from the localised scan: each earlier scan is predicted by odometry from
+  // the one after it and matched in the floor's map as it was; a match ties that node
+  // to its nearest old node too, so odometry's heading drift over the buffered scans
+  // (tens of them: the stairs, the arrival) does not skew the map.
+  const std::size_t old_count = floor_graph_.nodes.size();
+  const MatchTarget target = buildTarget(floor_graph_, 0, old_count, options_.local_map, kWideSearchLevels);
+  std::vector<Pose2> poses(keep.size());
+  std::vector<Eigen::Matrix3d> tie_covariances(keep.size(), Eigen::Matrix3d::Zero());
+  std::vector<bool> tied(keep.size(), false);
+  poses.back() = pose;
+  tie_covariances.back() = covariance;
+  tied.back() = true;
+  for (std::size_t j = keep.size() - 1; j-- > 0;) {
+    const Pose2 prediction = poses[j + 1] * scans[keep[j + 1]].odometry.between(scans[keep[j]].odometry);
+    const std::vector<Eigen::Vector2d> points =
+        filterPoints(scans[keep[j]].scan.pointsInRobotFrame(), options_.matcher.point_filter_distance);
+    const MatchResult match = s.matcher.match(target, points, prediction);
+    tied[j] = match.success && match.score >= options_.loop_closure.min_score;
+    poses[j] = tied[j] ? match.pose : prediction;
+    if (tied[j]) tie_covariances[j] = match.covariance;
+  }
+  std::vector<int> anchors(keep.size(), -1);
+  for (std::size_t j = 0; j < keep.size(); ++j)
+    if (tied[j]) anchors[j] = floor_graph_.nearestNodeIndex(poses[j].translation());
   int previous = -1;
-  Pose2 previous_pose;
-  for (std::size_t i : keep) {
-    const Pose2 p = pose * last_odometry.between(scans[i].odometry);
-    appendNode(scans[i].scan, scans[i].odometry, p);
+  for (std::size_t j = 0; j < keep.size(); ++j) {
+    const Pose2& p = poses[j];
+    appendNode(scans[keep[j]].scan, scans[keep[j]].odometry, p);
     const int id = floor_graph_.nodes.back().id;
     if (previous >= 0) {
-      const Pose2 motion = previous_pose.between(p);
+      const Pose2 motion = scans[keep[j - 1]].odometry.between(scans[keep[j]].odometry);
       appendEdge(previous, id, motion, odometryInformation(motion, options_.odometry), floor::EdgeKind::kOdometry);
     }
+    if (tied[j]) {
+      const floor::FloorNode& anchor = floor_graph_.nodes[anchors[j]];
+      appendEdge(anchor.id, id, anchor.pose.between(p),
+                 safeInformation(rotateCovariance(tie_covariances[j], anchor.pose.theta())),
+                 floor::EdgeKind::kScanMatch);
+    }
     previous = id;
-    previous_pose = p;
   }
-  appendEdge(anchor.id, previous, anchor.pose.between(pose),
-             safeInformation(rotateCovariance(covariance, anchor.pose.theta())), floor::EdgeKind::kScanMatch);
   covariance_ = covariance;
   relocalize_ = false;
   ++stats_.relocalizations;
   s.have_last = true;
   s.have_odometry = true;
   s.last_stamp = scans.back().scan.stamp;
-  s.last_odometry = last_odometry;
+  s.last_odometry = scans.back().odometry;
   s.beam_count = scans.back().scan.size();
   s.local_dirty = true;
   s.nodes_since_attempt = 0;
@@ -553,8 +584,7 @@ ScanResult FloorSlam::relocalizeWith(const sensor::LaserScan& scan, const Pose2&
   }
   const Pose2 guess = s.reloc_guess * s.reloc_odometry.between(odometry);
   if (!s.floor_target_valid) {
-    s.floor_target = MatchTarget(renderNodes(floor_graph_, 0, floor_graph_.nodes.size(), options_.local_map),
-                                 options_.local_map.field, kWideSearchLevels);
+    s.floor_target = buildTarget(floor_graph_, 0, floor_graph_.nodes.size(), options_.local_map, kWideSearchLevels);
     s.floor_target_valid = true;
   }
   const MatchResult match = s.reloc_matcher.match(s.floor_target, points, guess, o.linear_window, o.angular_window);

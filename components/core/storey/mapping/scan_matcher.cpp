@@ -11,8 +11,8 @@ namespace storey::mapping {
 
 using geometry::Pose2;
 
-ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node) {
-  ScanMatcherOptions o;
+ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node, const ScanMatcherOptions& defaults) {
+  ScanMatcherOptions o = defaults;
   o.linear_window = node.getDouble("linear_window", o.linear_window, 0.0, 100.0);
   o.angular_window = node.getDouble("angular_window", o.angular_window, 0.0, M_PI);
   o.angular_step = node.getDouble("angular_step", o.angular_step, 0.0, 0.5);
@@ -32,6 +32,11 @@ ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node) {
       node.getDouble("max_translation_stddev", o.max_translation_stddev, 1e-3, 1e6);
   o.max_rotation_stddev = node.getDouble("max_rotation_stddev", o.max_rotation_stddev, 1e-4, 1e3);
   o.robust_distance = node.getDouble("robust_distance", o.robust_distance, 1e-3, 10.0);
+  o.point_refinement = node.get<bool>("point_refinement", o.point_refinement);
+  o.max_correspondence_distance =
+      node.getDouble("max_correspondence_distance", o.max_correspondence_distance, 1e-3, 10.0);
+  o.point_robust_distance = node.getDouble("point_robust_distance", o.point_robust_distance, 1e-4, 10.0);
+  o.map_normal_information = node.get<bool>("map_normal_information", o.map_normal_information);
   o.min_point_stddev = node.getDouble("min_point_stddev", o.min_point_stddev, 1e-4, 10.0);
   o.normal_radius = node.getDouble("normal_radius", o.normal_radius, 0.01, 10.0);
   o.point_filter_distance =
@@ -308,6 +313,67 @@ MatchResult ScanMatcher::correlativeSearch(const MatchTarget& target, const std:
   return result;
 }
 
+namespace {
+
+double meanScore(const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,
+                 const Pose2& pose) {
+  const double c = std::cos(pose.theta()), s = std::sin(pose.theta());
+  double sum = 0.0;
+  for (const auto& p : points)
+    sum += field.interpolatedScore({c * p.x() - s * p.y() + pose.x(), s * p.x() + c * p.y() + pose.y()});
+  return points.empty() ? 0.0 : sum / static_cast<double>(points.size());
+}
+
+// Laplace approximation σ² (JᵀWJ)⁻¹ from the point-to-line information `h_scan`, σ² the
+// weighted residual variance, floored: a near-perfect fit does not make the map's
+// artefacts confident; inflated by covariance_scale (neighbouring beams are correlated).
+Eigen::Matrix3d matchCovariance(const Eigen::Matrix3d& h_scan, double weighted_r2, double weight_sum,
+                                const ScanMatcherOptions& o) {
+  const double sigma2 =
+      std::max(weighted_r2 / std::max(1.0, weight_sum - 3.0), o.min_point_stddev * o.min_point_stddev);
+  Eigen::Matrix3d info = h_scan / sigma2;
+  info(0, 0) += 1.0 / (o.max_translation_stddev * o.max_translation_stddev);
+  info(1, 1) += 1.0 / (o.max_translation_stddev * o.max_translation_stddev);
+  info(2, 2) += 1.0 / (o.max_rotation_stddev * o.max_rotation_stddev);
+  Eigen::Matrix3d cov = info.inverse() * o.covariance_scale;
+  cov = 0.5 * (cov + cov.transpose());
+  cov(0, 0) += o.min_translation_stddev * o.min_translation_stddev;
+  cov(1, 1) += o.min_translation_stddev * o.min_translation_stddev;
+  cov(2, 2) += o.min_rotation_stddev * o.min_rotation_stddev;
+  return cov;
+}
+
+// The covariance of a match at `pose`: σ² from the weighted likelihood-field residuals,
+// the information from the scan's own geometry (point-to-line, Censi 2007): each point
+// constrains only the direction of its surface normal, so a corridor's axis gets none,
+// whatever small-scale artefacts the map has along its walls. Both refinements use it,
+// so an edge's weight does not depend on how its pose was refined.
+Eigen::Matrix3d fieldCovariance(const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,
+                                const Pose2& pose, const ScanMatcherOptions& o) {
+  const double c2 = o.robust_distance * o.robust_distance;
+  const double cap = field.options().max_distance;
+  const std::vector<Eigen::Vector2d> normals = pointNormals(points, o.normal_radius);
+  const double c = std::cos(pose.theta()), s = std::sin(pose.theta());
+  Eigen::Matrix3d h_scan = Eigen::Matrix3d::Zero();
+  double weighted_r2 = 0.0, weight_sum = 0.0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const double r = pointResidual(field, pose, points[i], nullptr);
+    if (r >= cap) continue;
+    const double w = 1.0 / (1.0 + r * r / c2);
+    weighted_r2 += w * r * r;
+    weight_sum += w;
+    if (normals[i].isZero()) continue;
+    const Eigen::Vector2d& p = points[i];
+    const Eigen::Vector2d n(c * normals[i].x() - s * normals[i].y(), s * normals[i].x() + c * normals[i].y());
+    const Eigen::Vector2d dq_dtheta(-s * p.x() - c * p.y(), c * p.x() - s * p.y());
+    const Eigen::RowVector3d j(n.x(), n.y(), n.dot(dq_dtheta));
+    h_scan += w * j.transpose() * j;
+  }
+  return matchCovariance(h_scan, weighted_r2, weight_sum, o);
+}
+
+}  // namespace
+
 MatchResult ScanMatcher::refine(const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,
                                 const Pose2& initial) const {
   MatchResult result;
@@ -317,7 +383,6 @@ MatchResult ScanMatcher::refine(const grid::LikelihoodField& field, const std::v
     result.problem = common::str("too few points (", points.size(), ")");
     return result;
   }
-  const double n = static_cast<double>(points.size());
   const double wt = options_.translation_prior_weight, wr = options_.rotation_prior_weight;
   // Cauchy weights: points far from every obstacle (clutter, unseen parts of the map)
   // barely pull. Points at the distance cap have no gradient at all.
@@ -386,51 +451,41 @@ MatchResult ScanMatcher::refine(const grid::LikelihoodField& field, const std::v
     cost = evaluate(pose, &h, &b, nullptr, nullptr, nullptr);
     if (step < 1e-6) break;
   }
-  double weighted_r2 = 0.0, weight_sum = 0.0;
-  evaluate(pose, &h, &b, &h_scan, &weighted_r2, &weight_sum);
   result.pose = pose;
   // Mean interpolated likelihood-field score (comparable with the correlative score).
-  double mean = 0.0;
-  for (const auto& p : points) {
-    const double c = std::cos(pose.theta()), s = std::sin(pose.theta());
-    mean += field.interpolatedScore(
-        {c * p.x() - s * p.y() + pose.x(), s * p.x() + c * p.y() + pose.y()});
-  }
-  result.score = mean / n;
-  // Laplace approximation: σ² (JᵀWJ)⁻¹, σ² the weighted residual variance.
-  // The information comes from the scan's own geometry (point-to-line, Censi 2007): each
-  // point constrains only the direction of its surface normal, so a corridor's axis gets
-  // none, whatever small-scale artefacts the map's distance field has along its walls.
-  const std::vector<Eigen::Vector2d> normals = pointNormals(points, options_.normal_radius);
-  h_scan.setZero();
-  {
-    const double c = std::cos(pose.theta()), s = std::sin(pose.theta());
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      if (normals[i].isZero()) continue;
-      const Eigen::Vector2d& p = points[i];
-      const Eigen::Vector2d n(c * normals[i].x() - s * normals[i].y(), s * normals[i].x() + c * normals[i].y());
-      const Eigen::Vector2d dq_dtheta(-s * p.x() - c * p.y(), c * p.x() - s * p.y());
-      const double r = pointResidual(field, pose, p, nullptr);
-      const double w = r < cap ? 1.0 / (1.0 + r * r / c2) : 0.0;
-      const Eigen::RowVector3d j(n.x(), n.y(), n.dot(dq_dtheta));
-      h_scan += w * j.transpose() * j;
-    }
-  }
-  // Floored: a near-perfect fit does not make the map's quantisation artefacts confident.
-  const double sigma2 = std::max(weighted_r2 / std::max(1.0, weight_sum - 3.0),
-                                 options_.min_point_stddev * options_.min_point_stddev);
-  Eigen::Matrix3d info = h_scan / sigma2;
-  info(0, 0) += 1.0 / (options_.max_translation_stddev * options_.max_translation_stddev);
-  info(1, 1) += 1.0 / (options_.max_translation_stddev * options_.max_translation_stddev);
-  info(2, 2) += 1.0 / (options_.max_rotation_stddev * options_.max_rotation_stddev);
-  Eigen::Matrix3d cov = info.inverse() * options_.covariance_scale;
-  cov = 0.5 * (cov + cov.transpose());
-  cov(0, 0) += options_.min_translation_stddev * options_.min_translation_stddev;
-  cov(1, 1) += options_.min_translation_stddev * options_.min_translation_stddev;
-  cov(2, 2) += options_.min_rotation_stddev * options_.min_rotation_stddev;
-  result.covariance = cov;
-  result.success = pose.isFinite() && cov.allFinite();
+  result.score = meanScore(field, points, pose);
+  result.covariance = fieldCovariance(field, points, pose, options_);
+  result.success = pose.isFinite() && result.covariance.allFinite();
   if (!result.success) result.problem = "refinement diverged";
+  return result;
+}
+
+MatchResult ScanMatcher::refineOnPoints(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
+                                        const Pose2& initial) const {
+  MatchResult result;
+  result.points = static_cast<int>(points.size());
+  result.pose = initial;
+  if (static_cast<int>(points.size()) < std::max(3, options_.min_points)) {
+    result.problem = common::str("too few points (", points.size(), ")");
+    return result;
+  }
+  grid::PointAlignmentOptions alignment;
+  alignment.max_iterations = options_.max_iterations;
+  alignment.max_correspondence_distance = options_.max_correspondence_distance;
+  alignment.robust_distance = options_.point_robust_distance;
+  alignment.translation_prior_weight = options_.translation_prior_weight;
+  alignment.rotation_prior_weight = options_.rotation_prior_weight;
+  const grid::PointAlignment fit = grid::alignToPoints(target.points(), points, initial, alignment);
+  const Pose2& pose = fit.pose;
+  const double weight_sum = fit.weight_sum;
+  result.pose = pose;
+  result.score = meanScore(target.field(), points, pose);
+  result.covariance = options_.map_normal_information
+                          ? matchCovariance(fit.information, fit.weighted_r2, fit.weight_sum, options_)
+                          : fieldCovariance(target.field(), points, pose, options_);
+  result.success = weight_sum >= 3.0 && pose.isFinite() && result.covariance.allFinite();
+  if (!result.success)
+    result.problem = weight_sum < 3.0 ? "too few points near the map's points" : "refinement diverged";
   return result;
 }
 
@@ -440,7 +495,9 @@ MatchResult ScanMatcher::match(const MatchTarget& target, const std::vector<Eige
   if (angular_window < 0.0) angular_window = options_.angular_window;
   MatchResult coarse = correlativeSearch(target, points, prediction, linear_window, angular_window);
   if (!coarse.success) return coarse;
-  MatchResult fine = refine(target.field(), points, coarse.pose);
+  MatchResult fine = options_.point_refinement && !target.points().empty()
+                         ? refineOnPoints(target, points, coarse.pose)
+                         : refine(target.field(), points, coarse.pose);
   fine.correlative_score = coarse.correlative_score;
   fine.candidates_scored = coarse.candidates_scored;
   // The refinement must stay within the window and must not lose the match.

@@ -17,6 +17,7 @@
 #include "storey/geometry/pose2.h"
 #include "storey/grid/likelihood_field.h"
 #include "storey/grid/occupancy_grid.h"
+#include "storey/grid/point_map.h"
 
 namespace storey::mapping {
 
@@ -39,6 +40,18 @@ struct ScanMatcherOptions {
   double translation_prior_weight = 1.0;
   double rotation_prior_weight = 1.0;
   double robust_distance = 0.1;  // m, Cauchy width on point-to-obstacle distances
+  // Where the target carries its scans' points (MatchTarget::setPoints), the refinement
+  // uses point-to-line distances to them instead of the likelihood field (sub-cell).
+  // Off by default; config/floor_mapper.yaml turns it on for tracking (docs/floor_mapper.md
+  // has the figures, and the synthetic ring where it does worse).
+  bool point_refinement = false;
+  double max_correspondence_distance = 0.15;  // m, scan point to the map's nearest mean
+  double point_robust_distance = 0.05;        // m, Cauchy width on point-to-line distances
+  // The information of a point-refined match: from the scan's own normals as for the
+  // likelihood field (false), or from the map's normals at every paired point (true:
+  // about twice as confident as the drift it then shows; the chain grows too stiff for
+  // a closure to pull, see docs/floor_mapper.md).
+  bool map_normal_information = true;
   double min_point_stddev = 0.02;  // m, floor of the per-point noise in the covariance
   double normal_radius = 0.3;      // m, neighbourhood of a point's surface normal
   // Covariance: σ² (JᵀJ)⁻¹ times this factor (neighbouring beams are not independent),
@@ -52,7 +65,9 @@ struct ScanMatcherOptions {
   double point_filter_distance = 0.05;  // m
   int min_points = 20;
 };
-ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node);
+// Keys absent from `node` keep their value in `defaults`.
+ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node,
+                                          const ScanMatcherOptions& defaults = {});
 
 // A map prepared for matching: its likelihood field and the max pyramid of the score.
 class MatchTarget {
@@ -62,11 +77,15 @@ class MatchTarget {
               int pyramid_levels = 7);
   bool empty() const { return field_.frame().width == 0; }
   const grid::LikelihoodField& field() const { return field_; }
+  // The map's scan points (same frame) for the sub-cell refinement; none by default.
+  void setPoints(grid::PointMap points) { points_ = std::move(points); }
+  const grid::PointMap& points() const { return points_; }
   const std::vector<grid::Grid2<float>>& pyramid() const { return pyramid_; }
 
  private:
   grid::LikelihoodField field_;
   std::vector<grid::Grid2<float>> pyramid_;
+  grid::PointMap points_;
 };
 
 struct MatchResult {
@@ -116,6 +135,10 @@ class ScanMatcher {
   // The refinement alone, from `initial`; fills pose, score and covariance.
   MatchResult refine(const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,
                      const geometry::Pose2& initial) const;
+  // The refinement on the target's points (point-to-line, re-associated each iteration);
+  // the score is still the likelihood field's, so gates mean the same either way.
+  MatchResult refineOnPoints(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
+                             const geometry::Pose2& initial) const;
 
  private:
   ScanMatcherOptions options_;

@@ -39,6 +39,13 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
   o.max_refine_correction =
       node.getDouble("max_refine_correction", o.max_refine_correction, 0.0, 100.0);
   o.min_fit = node.getDouble("min_fit", o.min_fit, 0.0, 1.0);
+  o.point_cell_size = node.getDouble("point_cell_size", o.point_cell_size, 0.0, 1.0);
+  o.point_refinement_whole_floor =
+      node.get<bool>("point_refinement_whole_floor", o.point_refinement_whole_floor);
+  o.point_normal_radius = node.getDouble("point_normal_radius", o.point_normal_radius, 0.01, 5.0);
+  o.point_correspondence_distance =
+      node.getDouble("point_correspondence_distance", o.point_correspondence_distance, 1e-3, 10.0);
+  o.point_robust_distance = node.getDouble("point_robust_distance", o.point_robust_distance, 1e-4, 10.0);
   o.ransac_iterations = node.getInt("ransac_iterations", o.ransac_iterations, 1, 10000000);
   o.ransac_translation_tolerance =
       node.getDouble("ransac_translation_tolerance", o.ransac_translation_tolerance, 1e-4, 100.0);
@@ -247,6 +254,37 @@ double refineAlignment(const grid::LikelihoodField& field, const floor::FloorGra
   return current;
 }
 
+namespace {
+
+void refineAlignmentOnPoints(const grid::PointMap& map, const floor::FloorGraph& graph,
+                             const std::vector<std::pair<int, int>>& ranges,
+                             const FloorMatcherOptions& o, Pose2* alignment) {
+  if (map.empty() || ranges.empty()) return;
+  const double range = o.map.max_insert_range > 0.0 ? o.map.max_insert_range
+                                                     : std::numeric_limits<double>::infinity();
+  std::vector<Eigen::Vector2d> points;
+  const std::vector<std::pair<int, int>> whole = {{0, static_cast<int>(graph.nodes.size()) - 1}};
+  for (const auto& [first, last] : o.point_refinement_whole_floor ? whole : ranges) {
+    const std::vector<Eigen::Vector2d> more = floor::floorPoints(
+        graph, static_cast<std::size_t>(first), static_cast<std::size_t>(last) + 1, range);
+    points.insert(points.end(), more.begin(), more.end());
+  }
+  grid::PointAlignmentOptions a;
+  a.max_iterations = std::max(1, o.refine_iterations);
+  a.max_correspondence_distance = o.point_correspondence_distance;
+  a.robust_distance = o.point_robust_distance;
+  const grid::PointAlignment fit = grid::alignToPoints(map, points, *alignment, a);
+  // The likelihood field's refinement is already within a cell or two: a larger move
+  // means the points found other walls, and the field's answer stands.
+  const Pose2 moved = alignment->between(fit.pose);
+  if (fit.weight_sum >= 0.5 * static_cast<double>(points.size()) && fit.pose.isFinite() &&
+      moved.translation().norm() <= 2.0 * o.point_correspondence_distance &&
+      std::abs(moved.theta()) <= o.ransac_rotation_tolerance)
+    *alignment = fit.pose;
+}
+
+}  // namespace
+
 std::vector<std::uint8_t> solidWalls(const grid::LikelihoodField& field,
                                      const floor::FloorGraph& graph, int beams) {
   const grid::GridFrame& f = field.frame();
@@ -327,6 +365,12 @@ PreparedFloor prepareFloor(const floor::FloorGraph& graph, const FloorMatcherOpt
   const grid::OccupancyGrid grid = floor::renderFloorMap(graph, options.map);
   p.map = std::make_unique<LocalizationMap>(grid, options.likelihood_field);
   p.structure = p.map->occupiedCells();
+  if (options.point_cell_size > 0.0) {
+    const double range = options.map.max_insert_range > 0.0 ? options.map.max_insert_range
+                                                            : std::numeric_limits<double>::infinity();
+    p.points = grid::PointMap(floor::floorPoints(graph, 0, graph.nodes.size(), range),
+                              options.point_cell_size, options.point_normal_radius);
+  }
   p.l_min = learnLikelihoodThreshold(
       graph, options, mixSeed(options.seed, 0x1EA2, static_cast<std::uint64_t>(graph.graph_id)));
   return p;
@@ -631,10 +675,12 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
     if (!ranges.empty()) {
       refineAlignment(reference.map->field(), g, ranges, o.refine_beams, o.refine_iterations,
                       &joint);
+      refineAlignmentOnPoints(reference.points, g, ranges, o, &joint);
     } else {  // only g_ref's scans localised: fit them in g_i's map
       Pose2 inverse = joint.inverse();
       refineAlignment(floor_data.map->field(), *reference.graph, reversed_ranges, o.refine_beams,
                       o.refine_iterations, &inverse);
+      refineAlignmentOnPoints(floor_data.points, *reference.graph, reversed_ranges, o, &inverse);
       joint = inverse.inverse();
     }
     result.alignment = joint;
@@ -864,8 +910,10 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
       ranges.emplace_back(out.candidates[i].first_index, out.candidates[i].last_index);
   }
   Pose2 joint = meanAlignment(alignments);
-  if (!ranges.empty())
+  if (!ranges.empty()) {
     refineAlignment(reference.map->field(), g, ranges, o.refine_beams, o.refine_iterations, &joint);
+    refineAlignmentOnPoints(reference.points, g, ranges, o, &joint);
+  }
   out.alignment = joint;
   const Pose2 joint_in_r = t_r.inverse() * joint;
   for (std::size_t i : best) {

@@ -44,6 +44,7 @@
 
 #include "storey/common/config.h"
 #include "storey/floor/floor_graph.h"
+#include "storey/grid/point_map.h"
 #include "storey/geometry/pose2.h"
 #include "storey/grid/likelihood_field.h"
 #include "storey/grid/occupancy_grid.h"
@@ -70,6 +71,18 @@ struct FloorMatcherOptions {
   int refine_beams = 90;               // beams per scan used in refinement
   double max_refine_correction = 0.5;  // metres; a larger correction rejects the candidate
   double min_fit = 0.0;                // minimum mean score after refinement, [0, 1]
+  // An accepted set's joint alignment is refined last on the reference floor's scan
+  // points (point-to-line below the map's cell, grid::alignToPoints) with every scan of
+  // the floor (or only the inliers' scans: point_refinement_whole_floor false). The
+  // inliers sit where the floors share structure, often one lobby, whose few metres fix
+  // the rotation to a few tenths of a degree; the whole floor's scans, where they lie on
+  // the reference's walls (0.15 m, robust), fix it over the building's extent.
+  // point_cell_size 0 leaves the alignment at the likelihood field's refinement.
+  double point_cell_size = 0.05;
+  bool point_refinement_whole_floor = true;
+  double point_normal_radius = 0.2;
+  double point_correspondence_distance = 0.15;
+  double point_robust_distance = 0.05;
   // RANSAC: the model is one planar alignment T_i; candidates agree when their
   // alignments place node k within these tolerances.
   int ransac_iterations = 500;
@@ -214,6 +227,7 @@ struct PreparedFloor {
   std::unique_ptr<LocalizationMap> map;
   double l_min = 0.0;         // learned quantile (before likelihood_scale)
   std::size_t structure = 0;  // occupied cells: how much there is to localise against
+  grid::PointMap points;      // its scans' returns per cell (empty: point_cell_size 0)
   // solidWalls() of the map and its WallModel, computed on first use (only pairs that
   // need more evidence use them); safe to call from several threads.
   const std::vector<std::uint8_t>& walls(const FloorMatcherOptions& options) const;
