@@ -521,45 +521,77 @@ int FloorSlam::resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& s
   if (keep.back() != scans.size() - 1) keep.back() = scans.size() - 1;
   // Walk back from the localised scan: each earlier scan is predicted by odometry from
   // the one after it and matched in the floor's map as it was; a match ties that node
-  // to its nearest old node too, so odometry's heading drift over the buffered scans
-  // (tens of them: the stairs, the arrival) does not skew the map.
+  // to its nearest old node too. A scan the old map does not show (the stairwell the
+  // robot came down) is tracked instead against the chain's later scans, as tracking
+  // does forwards. Either way odometry's heading drift over the buffered scans (tens of
+  // them, with the landings' turns) does not skew the map.
   const std::size_t old_count = floor_graph_.nodes.size();
   const MatchTarget target = buildTarget(floor_graph_, 0, old_count, options_.local_map, kWideSearchLevels);
   std::vector<Pose2> poses(keep.size());
-  std::vector<Eigen::Matrix3d> tie_covariances(keep.size(), Eigen::Matrix3d::Zero());
-  std::vector<bool> tied(keep.size(), false);
+  std::vector<Eigen::Matrix3d> covariances(keep.size(), Eigen::Matrix3d::Zero());
+  enum class Placed { kOdometry, kTied, kTracked };
+  std::vector<Placed> placed(keep.size(), Placed::kOdometry);
   poses.back() = pose;
-  tie_covariances.back() = covariance;
-  tied.back() = true;
+  covariances.back() = covariance;
+  placed.back() = Placed::kTied;
+  floor::FloorGraph chain;  // the scans placed so far, from the localised one backwards
+  auto addToChain = [&](std::size_t j) {
+    floor::FloorNode node;
+    node.pose = poses[j];
+    node.scan = scans[keep[j]].scan;
+    chain.nodes.push_back(std::move(node));
+  };
+  addToChain(keep.size() - 1);
   for (std::size_t j = keep.size() - 1; j-- > 0;) {
     const Pose2 prediction = poses[j + 1] * scans[keep[j + 1]].odometry.between(scans[keep[j]].odometry);
     const std::vector<Eigen::Vector2d> points =
         filterPoints(scans[keep[j]].scan.pointsInRobotFrame(), options_.matcher.point_filter_distance);
     const MatchResult match = s.matcher.match(target, points, prediction);
-    tied[j] = match.success && match.score >= options_.loop_closure.min_score;
-    poses[j] = tied[j] ? match.pose : prediction;
-    if (tied[j]) tie_covariances[j] = match.covariance;
+    if (match.success && match.score >= options_.loop_closure.min_score) {
+      placed[j] = Placed::kTied;
+      poses[j] = match.pose;
+      covariances[j] = match.covariance;
+    } else {
+      const std::size_t n = chain.nodes.size();
+      const std::size_t first = n > static_cast<std::size_t>(options_.local_map.max_nodes)
+                                    ? n - options_.local_map.max_nodes
+                                    : 0;
+      const MatchResult tracked =
+          s.matcher.match(buildTarget(chain, first, n, options_.local_map, options_.local_map.pyramid_levels),
+                          points, prediction);
+      placed[j] = tracked.success ? Placed::kTracked : Placed::kOdometry;
+      poses[j] = tracked.success ? tracked.pose : prediction;
+      if (tracked.success) covariances[j] = tracked.covariance;
+    }
+    addToChain(j);
   }
   std::vector<int> anchors(keep.size(), -1);
   for (std::size_t j = 0; j < keep.size(); ++j)
-    if (tied[j]) anchors[j] = floor_graph_.nearestNodeIndex(poses[j].translation());
-  int previous = -1;
+    if (placed[j] == Placed::kTied) anchors[j] = floor_graph_.nearestNodeIndex(poses[j].translation());
+  std::vector<int> ids(keep.size(), -1);
   for (std::size_t j = 0; j < keep.size(); ++j) {
     const Pose2& p = poses[j];
     appendNode(scans[keep[j]].scan, scans[keep[j]].odometry, p);
-    const int id = floor_graph_.nodes.back().id;
-    if (previous >= 0) {
+    ids[j] = floor_graph_.nodes.back().id;
+    if (j > 0) {
       const Pose2 motion = scans[keep[j - 1]].odometry.between(scans[keep[j]].odometry);
-      appendEdge(previous, id, motion, odometryInformation(motion, options_.odometry), floor::EdgeKind::kOdometry);
+      appendEdge(ids[j - 1], ids[j], motion, odometryInformation(motion, options_.odometry),
+                 floor::EdgeKind::kOdometry);
     }
-    if (tied[j]) {
+    if (placed[j] == Placed::kTied) {
       const floor::FloorNode& anchor = floor_graph_.nodes[anchors[j]];
-      appendEdge(anchor.id, id, anchor.pose.between(p),
-                 safeInformation(rotateCovariance(tie_covariances[j], anchor.pose.theta())),
+      appendEdge(anchor.id, ids[j], anchor.pose.between(p),
+                 safeInformation(rotateCovariance(covariances[j], anchor.pose.theta())),
                  floor::EdgeKind::kScanMatch);
     }
-    previous = id;
   }
+  // Tracked scans: matched against the later ones, so their edge comes from the next node.
+  for (std::size_t j = 0; j + 1 < keep.size(); ++j)
+    if (placed[j] == Placed::kTracked)
+      appendEdge(ids[j + 1], ids[j], poses[j + 1].between(poses[j]),
+                 safeInformation(rotateCovariance(covariances[j], poses[j + 1].theta())),
+                 floor::EdgeKind::kScanMatch);
+  const int previous = ids.back();
   covariance_ = covariance;
   relocalize_ = false;
   ++stats_.relocalizations;
