@@ -372,17 +372,24 @@ Eigen::Matrix3d fieldCovariance(const grid::LikelihoodField& field, const std::v
   return matchCovariance(h_scan, weighted_r2, weight_sum, o);
 }
 
+// A refinement's result before it starts: at `initial`, with a problem when there are too
+// few points to refine.
+MatchResult startRefinement(const std::vector<Eigen::Vector2d>& points, const Pose2& initial,
+                            const ScanMatcherOptions& o) {
+  MatchResult result;
+  result.points = static_cast<int>(points.size());
+  result.pose = initial;
+  if (static_cast<int>(points.size()) < std::max(3, o.min_points))
+    result.problem = common::str("too few points (", points.size(), ")");
+  return result;
+}
+
 }  // namespace
 
 MatchResult ScanMatcher::refine(const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,
                                 const Pose2& initial) const {
-  MatchResult result;
-  result.points = static_cast<int>(points.size());
-  result.pose = initial;
-  if (static_cast<int>(points.size()) < std::max(3, options_.min_points)) {
-    result.problem = common::str("too few points (", points.size(), ")");
-    return result;
-  }
+  MatchResult result = startRefinement(points, initial, options_);
+  if (!result.problem.empty()) return result;
   const double wt = options_.translation_prior_weight, wr = options_.rotation_prior_weight;
   // Cauchy weights: points far from every obstacle (clutter, unseen parts of the map)
   // barely pull. Points at the distance cap have no gradient at all.
@@ -462,13 +469,8 @@ MatchResult ScanMatcher::refine(const grid::LikelihoodField& field, const std::v
 
 MatchResult ScanMatcher::refineOnPoints(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
                                         const Pose2& initial) const {
-  MatchResult result;
-  result.points = static_cast<int>(points.size());
-  result.pose = initial;
-  if (static_cast<int>(points.size()) < std::max(3, options_.min_points)) {
-    result.problem = common::str("too few points (", points.size(), ")");
-    return result;
-  }
+  MatchResult result = startRefinement(points, initial, options_);
+  if (!result.problem.empty()) return result;
   grid::PointAlignmentOptions alignment;
   alignment.max_iterations = options_.max_iterations;
   alignment.max_correspondence_distance = options_.max_correspondence_distance;
