@@ -1,7 +1,6 @@
 #include "storey/floor/floor_graph.h"
 
 #include <algorithm>
-#include <cmath>
 #include <limits>
 
 namespace storey::floor {
@@ -45,13 +44,11 @@ std::vector<Eigen::Vector2d> floorPoints(const FloorGraph& graph, std::size_t fi
   std::vector<Eigen::Vector2d> points;
   for (std::size_t i = first; i < last && i < graph.nodes.size(); ++i) {
     const FloorNode& node = graph.nodes[i];
-    const double limit = std::min(max_range, static_cast<double>(node.scan.range_max));
-    for (std::size_t b = 0; b < node.scan.size(); ++b) {
-      if (!node.scan.isReturn(b) || node.scan.ranges[b] >= limit) continue;
-      const double a = node.scan.angle(b);
-      const Eigen::Vector2d p(node.scan.ranges[b] * std::cos(a), node.scan.ranges[b] * std::sin(a));
-      points.push_back(node.pose.transformPoint(node.scan.sensor_offset.transformPoint(p)));
-    }
+    const double range_max = static_cast<double>(node.scan.range_max);
+    const double limit = max_range > 0.0 ? std::min(max_range, range_max) : range_max;
+    const Eigen::Vector2d sensor = node.scan.sensor_offset.translation();
+    for (const auto& p : node.scan.pointsInRobotFrame())
+      if ((p - sensor).norm() < limit) points.push_back(node.pose.transformPoint(p));
   }
   return points;
 }

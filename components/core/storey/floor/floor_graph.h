@@ -48,7 +48,8 @@ struct FloorGraph {
 // The occupancy map of a floor graph: every node's scan inserted at its pose.
 grid::OccupancyGrid renderFloorMap(const FloorGraph& graph, const grid::OccupancyGridOptions& options);
 
-// The returns (closer than `max_range`) of nodes [first, last) in the floor's frame.
+// The returns of nodes [first, last) in the floor's frame, closer than `max_range` to the
+// sensor (0: the scan's range_max, as OccupancyGridOptions::max_insert_range).
 std::vector<Eigen::Vector2d> floorPoints(const FloorGraph& graph, std::size_t first, std::size_t last,
                                          double max_range);
 

@@ -85,15 +85,24 @@ const PointMap::Cell* PointMap::nearest(const Eigen::Vector2d& q, double max_dis
   return found;
 }
 
+namespace {
+
+// r = n·e for e = T p − m, with dq/dθ of T p: the pose's sine and cosine are computed once
+// per iteration by the caller, not once per point.
+double lineResidual(const PointMap::Cell& cell, const Eigen::Vector2d& e, const Eigen::Vector2d& dq_dtheta,
+                    Eigen::RowVector3d* jacobian) {
+  if (jacobian) *jacobian << cell.normal.x(), cell.normal.y(), cell.normal.dot(dq_dtheta);
+  return cell.normal.dot(e);
+}
+
+}  // namespace
+
 double pointToLineResidual(const PointMap::Cell& cell, const geometry::Pose2& pose, const Eigen::Vector2d& point,
                            Eigen::RowVector3d* jacobian) {
   const double c = std::cos(pose.theta()), s = std::sin(pose.theta());
   const Eigen::Vector2d q(c * point.x() - s * point.y() + pose.x(), s * point.x() + c * point.y() + pose.y());
-  if (jacobian) {
-    const Eigen::Vector2d dq_dtheta(-s * point.x() - c * point.y(), c * point.x() - s * point.y());
-    *jacobian << cell.normal.x(), cell.normal.y(), cell.normal.dot(dq_dtheta);
-  }
-  return cell.normal.dot(q - cell.mean);
+  const Eigen::Vector2d dq_dtheta(-s * point.x() - c * point.y(), c * point.x() - s * point.y());
+  return lineResidual(cell, q - cell.mean, dq_dtheta, jacobian);
 }
 
 PointAlignment alignToPoints(const PointMap& map, const std::vector<Eigen::Vector2d>& points,
@@ -117,8 +126,9 @@ PointAlignment alignToPoints(const PointMap& map, const std::vector<Eigen::Vecto
       if (m->normal.isZero()) continue;
       const Eigen::Vector2d e = q - m->mean;
       if (std::abs(m->normal.x() * e.y() - m->normal.y() * e.x()) > max_along) continue;
+      const Eigen::Vector2d dq_dtheta(-s * p.x() - c * p.y(), c * p.x() - s * p.y());
       Eigen::RowVector3d j;
-      const double r = pointToLineResidual(*m, pose, p, &j);
+      const double r = lineResidual(*m, e, dq_dtheta, &j);
       const double w = 1.0 / (1.0 + r * r / c2);
       out.information += w * j.transpose() * j;
       b += w * j.transpose() * r;

@@ -200,10 +200,12 @@ FloorSlam& FloorSlam::operator=(FloorSlam&&) noexcept = default;
 
 namespace {
 
-// The map of nodes [first, last): their scans in an occupancy grid (likelihood field and
-// pyramid for the search) and, unless point_cell_size is 0, as points for the refinement.
+// The map of nodes [first, last) for `matcher`: their scans in an occupancy grid
+// (likelihood field and pyramid for the search) and, where the matcher refines on points
+// (and point_cell_size is not 0), as points; a matcher that refines on the field would
+// never look at them.
 MatchTarget buildTarget(const floor::FloorGraph& graph, std::size_t first, std::size_t last,
-                        const LocalMapOptions& o, int pyramid_levels) {
+                        const LocalMapOptions& o, int pyramid_levels, const ScanMatcher& matcher) {
   grid::OccupancyGridOptions go;
   go.resolution = o.resolution;
   go.max_insert_range = o.max_insert_range;
@@ -211,7 +213,7 @@ MatchTarget buildTarget(const floor::FloorGraph& graph, std::size_t first, std::
   for (std::size_t i = first; i < last && i < graph.nodes.size(); ++i)
     map.insertScan(graph.nodes[i].scan, graph.nodes[i].pose);
   MatchTarget target(map, o.field, pyramid_levels);
-  if (o.point_cell_size > 0.0)
+  if (matcher.options().point_refinement && o.point_cell_size > 0.0)
     target.setPoints(grid::PointMap(floor::floorPoints(graph, first, last, o.max_insert_range),
                                     o.point_cell_size, o.point_normal_radius));
   return target;
@@ -340,7 +342,8 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     const std::size_t first = n > static_cast<std::size_t>(options_.local_map.max_nodes)
                                   ? n - options_.local_map.max_nodes
                                   : 0;
-    s.local_target = buildTarget(floor_graph_, first, n, options_.local_map, options_.local_map.pyramid_levels);
+    s.local_target =
+        buildTarget(floor_graph_, first, n, options_.local_map, options_.local_map.pyramid_levels, s.matcher);
     s.local_dirty = false;
     s.nodes_since_rebuild = 0;
   }
@@ -445,7 +448,8 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   ++stats_.loop_attempts;
   const std::size_t first = best > o.submap_half_nodes ? best - o.submap_half_nodes : 0;
   const std::size_t end = std::min(last_candidate + 1, static_cast<std::size_t>(best + o.submap_half_nodes + 1));
-  const MatchTarget target = buildTarget(floor_graph_, first, end, options_.local_map, kWideSearchLevels);
+  const MatchTarget target =
+      buildTarget(floor_graph_, first, end, options_.local_map, kWideSearchLevels, s.loop_matcher);
   const double linear = std::min(o.max_linear_window, o.linear_window + o.sigma_factor * sigma_xy);
   const double angular = std::min(o.max_angular_window, o.angular_window + o.sigma_factor * sigma_theta);
   const MatchResult match = s.loop_matcher.match(target, points, current.pose, linear, angular);
@@ -526,7 +530,8 @@ int FloorSlam::resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& s
   // does forwards. Either way odometry's heading drift over the buffered scans (tens of
   // them, with the landings' turns) does not skew the map.
   const std::size_t old_count = floor_graph_.nodes.size();
-  const MatchTarget target = buildTarget(floor_graph_, 0, old_count, options_.local_map, kWideSearchLevels);
+  const MatchTarget target =
+      buildTarget(floor_graph_, 0, old_count, options_.local_map, kWideSearchLevels, s.matcher);
   std::vector<Pose2> poses(keep.size());
   std::vector<Eigen::Matrix3d> covariances(keep.size(), Eigen::Matrix3d::Zero());
   enum class Placed { kOdometry, kTied, kTracked };
@@ -557,7 +562,8 @@ int FloorSlam::resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& s
                                     ? n - options_.local_map.max_nodes
                                     : 0;
       const MatchResult tracked =
-          s.matcher.match(buildTarget(chain, first, n, options_.local_map, options_.local_map.pyramid_levels),
+          s.matcher.match(buildTarget(chain, first, n, options_.local_map, options_.local_map.pyramid_levels,
+                                      s.matcher),
                           points, prediction);
       placed[j] = tracked.success ? Placed::kTracked : Placed::kOdometry;
       poses[j] = tracked.success ? tracked.pose : prediction;
@@ -616,7 +622,8 @@ ScanResult FloorSlam::relocalizeWith(const sensor::LaserScan& scan, const Pose2&
   }
   const Pose2 guess = s.reloc_guess * s.reloc_odometry.between(odometry);
   if (!s.floor_target_valid) {
-    s.floor_target = buildTarget(floor_graph_, 0, floor_graph_.nodes.size(), options_.local_map, kWideSearchLevels);
+    s.floor_target = buildTarget(floor_graph_, 0, floor_graph_.nodes.size(), options_.local_map,
+                                 kWideSearchLevels, s.reloc_matcher);
     s.floor_target_valid = true;
   }
   const MatchResult match = s.reloc_matcher.match(s.floor_target, points, guess, o.linear_window, o.angular_window);

@@ -396,9 +396,8 @@ MatchResult ScanMatcher::refine(const grid::LikelihoodField& field, const std::v
   const double c2 = options_.robust_distance * options_.robust_distance;
   const double cap = field.options().max_distance;
   // Cost: Σ ρ(d_i²) over points plus the priors towards `initial`.
-  auto evaluate = [&](const Pose2& pose, Eigen::Matrix3d* h, Eigen::Vector3d* b, Eigen::Matrix3d* h_scan,
-                      double* weighted_r2, double* weight_sum) {
-    double cost = 0.0, wr2 = 0.0, wsum = 0.0;
+  auto evaluate = [&](const Pose2& pose, Eigen::Matrix3d* h, Eigen::Vector3d* b) {
+    double cost = 0.0;
     Eigen::Matrix3d hs = Eigen::Matrix3d::Zero();
     Eigen::Vector3d bs = Eigen::Vector3d::Zero();
     Eigen::RowVector3d j;
@@ -409,13 +408,8 @@ MatchResult ScanMatcher::refine(const grid::LikelihoodField& field, const std::v
         const double w = 1.0 / (1.0 + r * r / c2);
         hs += w * j.transpose() * j;
         bs += w * j.transpose() * r;
-        wr2 += w * r * r;
-        wsum += w;
       }
     }
-    if (weighted_r2) *weighted_r2 = wr2;
-    if (weight_sum) *weight_sum = wsum;
-    if (h_scan) *h_scan = hs;
     const Eigen::Vector3d d(pose.x() - initial.x(), pose.y() - initial.y(),
                             geometry::angleDiff(pose.theta(), initial.theta()));
     cost += wt * (d.x() * d.x() + d.y() * d.y()) + wr * d.z() * d.z();
@@ -431,9 +425,9 @@ MatchResult ScanMatcher::refine(const grid::LikelihoodField& field, const std::v
   };
 
   Pose2 pose = initial;
-  Eigen::Matrix3d h, h_scan;
+  Eigen::Matrix3d h;
   Eigen::Vector3d b;
-  double cost = evaluate(pose, &h, &b, nullptr, nullptr, nullptr);
+  double cost = evaluate(pose, &h, &b);
   for (int it = 0; it < options_.max_iterations; ++it) {
     Eigen::Matrix3d damped = h;
     damped.diagonal() += Eigen::Vector3d::Constant(1e-9);
@@ -445,7 +439,7 @@ MatchResult ScanMatcher::refine(const grid::LikelihoodField& field, const std::v
     for (int k = 0; k < 6; ++k, scale *= 0.5) {
       const Pose2 trial(pose.x() + scale * delta.x(), pose.y() + scale * delta.y(),
                         pose.theta() + scale * delta.z());
-      const double trial_cost = evaluate(trial, nullptr, nullptr, nullptr, nullptr, nullptr);
+      const double trial_cost = evaluate(trial, nullptr, nullptr);
       if (trial_cost <= cost) {
         pose = trial;
         cost = trial_cost;
@@ -455,7 +449,7 @@ MatchResult ScanMatcher::refine(const grid::LikelihoodField& field, const std::v
     }
     if (!improved) break;
     const double step = (scale * delta).head<2>().norm() + std::abs(scale * delta.z());
-    cost = evaluate(pose, &h, &b, nullptr, nullptr, nullptr);
+    cost = evaluate(pose, &h, &b);
     if (step < 1e-6) break;
   }
   result.pose = pose;

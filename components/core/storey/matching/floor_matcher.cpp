@@ -260,13 +260,12 @@ void refineAlignmentOnPoints(const grid::PointMap& map, const floor::FloorGraph&
                              const std::vector<std::pair<int, int>>& ranges,
                              const FloorMatcherOptions& o, Pose2* alignment) {
   if (map.empty() || ranges.empty()) return;
-  const double range = o.map.max_insert_range > 0.0 ? o.map.max_insert_range
-                                                     : std::numeric_limits<double>::infinity();
   std::vector<Eigen::Vector2d> points;
   const std::vector<std::pair<int, int>> whole = {{0, static_cast<int>(graph.nodes.size()) - 1}};
   for (const auto& [first, last] : o.point_refinement_whole_floor ? whole : ranges) {
     const std::vector<Eigen::Vector2d> more = floor::floorPoints(
-        graph, static_cast<std::size_t>(first), static_cast<std::size_t>(last) + 1, range);
+        graph, static_cast<std::size_t>(first), static_cast<std::size_t>(last) + 1,
+        o.map.max_insert_range);
     points.insert(points.end(), more.begin(), more.end());
   }
   grid::PointAlignmentOptions a;
@@ -365,12 +364,9 @@ PreparedFloor prepareFloor(const floor::FloorGraph& graph, const FloorMatcherOpt
   const grid::OccupancyGrid grid = floor::renderFloorMap(graph, options.map);
   p.map = std::make_unique<LocalizationMap>(grid, options.likelihood_field);
   p.structure = p.map->occupiedCells();
-  if (options.point_cell_size > 0.0) {
-    const double range = options.map.max_insert_range > 0.0 ? options.map.max_insert_range
-                                                            : std::numeric_limits<double>::infinity();
-    p.points = grid::PointMap(floor::floorPoints(graph, 0, graph.nodes.size(), range),
+  if (options.point_cell_size > 0.0)
+    p.points = grid::PointMap(floor::floorPoints(graph, 0, graph.nodes.size(), options.map.max_insert_range),
                               options.point_cell_size, options.point_normal_radius);
-  }
   p.l_min = learnLikelihoodThreshold(
       graph, options, mixSeed(options.seed, 0x1EA2, static_cast<std::uint64_t>(graph.graph_id)));
   return p;
