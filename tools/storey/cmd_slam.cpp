@@ -5,6 +5,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <sstream>
 
 #include "args.h"
@@ -197,6 +198,18 @@ int run_slam(Args& args) {
     printStats(report, "slam     far   ", errors.far);
     printStats(report, "odometry nearby", odo.nearby);
     printStats(report, "odometry far   ", odo.far);
+    // The k-th scan that became a node is node k (one floor, no relocalisation here).
+    std::map<int, Pose2> node_reference;
+    for (std::size_t i = 0, k = 0; i < run.status.size(); ++i)
+      if (run.status[i] == mapping::ScanStatus::kNode && k < slam.floorGraph().nodes.size())
+        node_reference[slam.floorGraph().nodes[k++].id] = reference[i];
+    report << "edges against the reference (NEES: 3 when an edge's covariance is right):\n";
+    for (const auto& c : mapping::edgeConsistency(slam.floorGraph(), node_reference))
+      report << "  " << std::left << std::setw(13) << floor::edgeKindName(c.kind) << std::right << " "
+             << std::setw(5) << c.count << "  NEES " << std::setprecision(2) << c.mean_nees << std::setprecision(4)
+             << "  rms error " << c.rms_translation_error << " m " << c.rms_rotation_error * 180.0 / M_PI
+             << " deg  rms sigma " << c.rms_translation_sigma << " m " << c.rms_rotation_sigma * 180.0 / M_PI
+             << " deg\n";
   }
   std::cout << report.str();
   std::ofstream(out_dir + "/report.txt") << report.str();

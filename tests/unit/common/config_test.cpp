@@ -80,5 +80,24 @@ TEST(ConfigNode, ChoicesAndSequences) {
   EXPECT_EQ(items[1].path(), "items[1]");
 }
 
+TEST(OverlayYaml, SetsNestedKeysAndKeepsTheRest) {
+  YAML::Node base = YAML::Load("a: 1\nslam: {matcher: {x: 1, y: 2}, list: [1, 2]}\nname: n");
+  const YAML::Node overlay = YAML::Load("slam: {matcher: {y: 5, z: 6}, list: [3]}\nextra: {k: true}");
+  overlayYaml(base, overlay);
+  EXPECT_EQ(base["a"].as<int>(), 1);
+  EXPECT_EQ(base["name"].as<std::string>(), "n");
+  EXPECT_EQ(base["slam"]["matcher"]["x"].as<int>(), 1);
+  EXPECT_EQ(base["slam"]["matcher"]["y"].as<int>(), 5);
+  EXPECT_EQ(base["slam"]["matcher"]["z"].as<int>(), 6);
+  ASSERT_EQ(base["slam"]["list"].size(), 1u);  // a sequence replaces, it is not appended to
+  EXPECT_EQ(base["slam"]["list"][0].as<int>(), 3);
+  EXPECT_TRUE(base["extra"]["k"].as<bool>());
+  // The overlay is copied, not shared.
+  EXPECT_EQ(overlay["slam"]["matcher"]["y"].as<int>(), 5);
+  base["slam"]["matcher"]["y"] = 7;
+  EXPECT_EQ(overlay["slam"]["matcher"]["y"].as<int>(), 5);
+  EXPECT_THROW(overlayYaml(base, YAML::Load("[1, 2]")), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace storey::common

@@ -4,6 +4,8 @@
 
 #include <random>
 
+#include <Eigen/Eigenvalues>
+
 #include "synthetic_world.h"
 #include "test_support.h"
 
@@ -154,6 +156,54 @@ TEST(MatchTarget, PyramidEqualsGridMaxPyramid) {
   const auto reference = grid::maxPyramid(target.field().score(), 6);
   ASSERT_EQ(target.pyramid().size(), reference.size());
   for (std::size_t k = 0; k < reference.size(); ++k) EXPECT_EQ(target.pyramid()[k].data, reference[k].data) << k;
+}
+
+// Point-to-line information of points on lines with these normals, seen from the origin.
+Eigen::Matrix3d lineInformation(const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>& points_normals) {
+  Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+  for (const auto& [p, n] : points_normals) {
+    const Eigen::RowVector3d j(n.x(), n.y(), n.x() * -p.y() + n.y() * p.x());
+    h += j.transpose() * j;
+  }
+  return h;
+}
+
+TEST(NormalNoise, ACorridorsTiltedNormalsGiveNoInformationAlongIt) {
+  // Two walls along x at y = ±1, normals tilted ±1° at random: the sliver of x
+  // information is the tilt's, not the corridor's.
+  std::mt19937 rng(3);
+  std::normal_distribution<double> tilt(0.0, 0.0175);
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> corridor;
+  for (int i = -100; i <= 100; ++i)
+    for (double y : {-1.0, 1.0}) {
+      const double a = tilt(rng);
+      corridor.push_back({{0.1 * i, y}, {std::sin(a), std::cos(a)}});
+    }
+  const double sigma2 = 0.01 * 0.01;
+  const Eigen::Matrix3d h = lineInformation(corridor) / sigma2;
+  auto covariance = [](const Eigen::Matrix3d& info) {
+    Eigen::Matrix3d regularised = info;
+    regularised.diagonal() += Eigen::Vector3d(0.01, 0.01, 1.0);  // as the matcher: 10 m, 1 rad
+    return Eigen::Matrix3d(regularised.inverse());
+  };
+  const Eigen::Matrix3d before = covariance(h);
+  ASSERT_LT(before(0, 0), 0.1 * 0.1);  // the phantom: < 0.1 m along a featureless corridor
+  const Eigen::Matrix3d after = before + normalNoiseCovariance(h, 0.045, 10.0);
+  EXPECT_GT(std::sqrt(after(0, 0)), 5.0);                  // along: nothing left
+  EXPECT_LT(std::sqrt(after(1, 1)), 0.005);                 // across: still millimetres
+  EXPECT_GE(after(2, 2), before(2, 2));                    // no marginal shrinks
+  EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(after).eigenvalues()(0), 0.0);
+
+  // The same corridor with a door frame (10 points facing along it): kept but for the
+  // tilt's share.
+  auto with_door = corridor;
+  for (int i = 0; i < 10; ++i) with_door.push_back({{3.0, -0.5 + 0.1 * i}, {1.0, 0.0}});
+  const Eigen::Matrix3d hd = lineInformation(with_door) / sigma2;
+  const Eigen::Matrix3d door = covariance(hd);
+  const Eigen::Matrix3d door_after = door + normalNoiseCovariance(hd, 0.045, 10.0);
+  EXPECT_LT(door_after(0, 0), 1.2 * door(0, 0));
+  EXPECT_GE(door_after(0, 0), door(0, 0));
+  EXPECT_TRUE(normalNoiseCovariance(hd, 0.0, 10.0).isZero());
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 
 namespace storey::common {
 namespace {
@@ -220,5 +221,16 @@ template bool ConfigNode::as<bool>() const;
 template int ConfigNode::as<int>() const;
 template double ConfigNode::as<double>() const;
 template std::string ConfigNode::as<std::string>() const;
+
+void overlayYaml(YAML::Node& base, const YAML::Node& overlay) {
+  if (!overlay.IsMap()) throw std::invalid_argument("overlayYaml: the overlay must be a mapping");
+  if (!base.IsMap()) base = YAML::Node(YAML::NodeType::Map);
+  for (const auto& entry : overlay) {
+    const std::string key = entry.first.as<std::string>();
+    YAML::Node target = base[key];
+    if (entry.second.IsMap() && target.IsMap()) overlayYaml(target, entry.second);
+    else base[key] = YAML::Clone(entry.second);
+  }
+}
 
 }  // namespace storey::common

@@ -91,4 +91,8 @@ class ConfigNode {
   std::shared_ptr<std::set<std::string>> used_;
 };
 
+// Sets every key of the mapping `overlay` on `base`, descending into mappings present in
+// both; any other value (scalar, sequence, a mapping over a non-mapping) replaces.
+void overlayYaml(YAML::Node& base, const YAML::Node& overlay);
+
 }  // namespace storey::common

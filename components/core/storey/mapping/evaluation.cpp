@@ -5,6 +5,8 @@
 #include <random>
 #include <stdexcept>
 
+#include <Eigen/LU>
+
 namespace storey::mapping {
 
 using geometry::Pose2;
@@ -108,6 +110,37 @@ RelationErrors relationErrors(const std::vector<Pose2>& estimate, const std::vec
     }
   }
   return {nearby.stats(), far.stats()};
+}
+
+std::vector<EdgeConsistency> edgeConsistency(const floor::FloorGraph& graph,
+                                             const std::map<int, Pose2>& reference) {
+  std::map<floor::EdgeKind, EdgeConsistency> by_kind;
+  for (const auto& edge : graph.edges) {
+    const auto from = reference.find(edge.from), to = reference.find(edge.to);
+    if (from == reference.end() || to == reference.end()) continue;
+    const Pose2 error = from->second.between(to->second).between(edge.measurement);
+    const Eigen::Vector3d e(error.x(), error.y(), error.theta());
+    const Eigen::Matrix3d covariance = edge.information.inverse();
+    EdgeConsistency& c = by_kind[edge.kind];
+    c.kind = edge.kind;
+    ++c.count;
+    c.mean_nees += e.dot(edge.information * e);
+    c.rms_translation_error += 0.5 * e.head<2>().squaredNorm();
+    c.rms_translation_sigma += 0.5 * (covariance(0, 0) + covariance(1, 1));
+    c.rms_rotation_error += e.z() * e.z();
+    c.rms_rotation_sigma += covariance(2, 2);
+  }
+  std::vector<EdgeConsistency> out;
+  for (auto& [kind, c] : by_kind) {
+    const double n = static_cast<double>(c.count);
+    c.mean_nees /= n;
+    c.rms_translation_error = std::sqrt(c.rms_translation_error / n);
+    c.rms_translation_sigma = std::sqrt(c.rms_translation_sigma / n);
+    c.rms_rotation_error = std::sqrt(c.rms_rotation_error / n);
+    c.rms_rotation_sigma = std::sqrt(c.rms_rotation_sigma / n);
+    out.push_back(c);
+  }
+  return out;
 }
 
 }  // namespace storey::mapping

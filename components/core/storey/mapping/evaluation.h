@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <vector>
 
 #include "storey/geometry/pose2.h"
@@ -51,5 +52,19 @@ RelationErrors relationErrors(const std::vector<geometry::Pose2>& estimate,
                               const std::vector<geometry::Pose2>& reference,
                               double far_distance = 10.0, std::size_t far_pairs = 5000,
                               std::uint64_t seed = 1);
+
+// Whether the graph's edges claim the accuracy they have: each edge's error against the
+// reference relative pose, normalised by its information (NEES; 3 on average for an edge
+// whose covariance is right, much less for an inflated one). Per edge kind; edges with a
+// node missing from `reference` (node id → pose) are left out.
+struct EdgeConsistency {
+  floor::EdgeKind kind = floor::EdgeKind::kOdometry;
+  std::size_t count = 0;
+  double mean_nees = 0.0;
+  double rms_translation_error = 0.0, rms_translation_sigma = 0.0;  // m, per axis
+  double rms_rotation_error = 0.0, rms_rotation_sigma = 0.0;        // rad
+};
+std::vector<EdgeConsistency> edgeConsistency(const floor::FloorGraph& graph,
+                                             const std::map<int, geometry::Pose2>& reference);
 
 }  // namespace storey::mapping

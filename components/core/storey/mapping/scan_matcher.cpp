@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <unordered_map>
@@ -38,6 +39,7 @@ ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node, const 
   o.point_robust_distance = node.getDouble("point_robust_distance", o.point_robust_distance, 1e-4, 10.0);
   o.map_normal_information = node.get<bool>("map_normal_information", o.map_normal_information);
   o.min_point_stddev = node.getDouble("min_point_stddev", o.min_point_stddev, 1e-4, 10.0);
+  o.normal_tilt_stddev = node.getDouble("normal_tilt_stddev", o.normal_tilt_stddev, 0.0, 0.5);
   o.normal_radius = node.getDouble("normal_radius", o.normal_radius, 0.01, 10.0);
   o.point_filter_distance =
       node.getDouble("point_filter_distance", o.point_filter_distance, 0.0, 10.0);
@@ -324,6 +326,28 @@ double meanScore(const grid::LikelihoodField& field, const std::vector<Eigen::Ve
   return points.empty() ? 0.0 : sum / static_cast<double>(points.size());
 }
 
+}  // namespace
+
+Eigen::Matrix3d normalNoiseCovariance(const Eigen::Matrix3d& information, double tilt_stddev,
+                                      double max_translation_stddev) {
+  Eigen::Matrix3d extra = Eigen::Matrix3d::Zero();
+  if (tilt_stddev <= 0.0) return extra;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(information.topLeftCorner<2, 2>());
+  const double weak = eigen.eigenvalues()(0), strong = eigen.eigenvalues()(1);
+  if (!(weak > 0.0)) return extra;
+  const double floor = 1.0 / (max_translation_stddev * max_translation_stddev);
+  const double kept = std::max(floor, weak - tilt_stddev * tilt_stddev * strong);
+  if (kept >= weak) return extra;
+  // Variance added along the weak direction only: every marginal can only grow (scaling
+  // the information instead would make the heading more certain as that direction's
+  // coupling to it vanished).
+  Eigen::Vector3d u = Eigen::Vector3d::Zero();
+  u.head<2>() = eigen.eigenvectors().col(0);
+  return (1.0 / kept - 1.0 / weak) * u * u.transpose();
+}
+
+namespace {
+
 // Laplace approximation σ² (JᵀWJ)⁻¹ from the point-to-line information `h_scan`, σ² the
 // weighted residual variance, floored: a near-perfect fit does not make the map's
 // artefacts confident; inflated by covariance_scale (neighbouring beams are correlated).
@@ -335,7 +359,9 @@ Eigen::Matrix3d matchCovariance(const Eigen::Matrix3d& h_scan, double weighted_r
   info(0, 0) += 1.0 / (o.max_translation_stddev * o.max_translation_stddev);
   info(1, 1) += 1.0 / (o.max_translation_stddev * o.max_translation_stddev);
   info(2, 2) += 1.0 / (o.max_rotation_stddev * o.max_rotation_stddev);
-  Eigen::Matrix3d cov = info.inverse() * o.covariance_scale;
+  const Eigen::Matrix3d noise =
+      normalNoiseCovariance(h_scan / sigma2, o.normal_tilt_stddev, o.max_translation_stddev);
+  Eigen::Matrix3d cov = (info.inverse() + noise) * o.covariance_scale;
   cov = 0.5 * (cov + cov.transpose());
   cov(0, 0) += o.min_translation_stddev * o.min_translation_stddev;
   cov(1, 1) += o.min_translation_stddev * o.min_translation_stddev;

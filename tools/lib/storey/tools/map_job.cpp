@@ -131,6 +131,8 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   std::vector<PreparedInput> prepared;
   std::string ground_truth_dir;
   std::vector<eval::CorridorSpec> corridors;
+  // Simulated robots: floor_mapper parameters that suit their sensors (and where from).
+  std::map<std::string, std::pair<YAML::Node, std::string>> mapper_tuning;
   auto phase_start = Clock::now();
   for (std::size_t k = 0; k < inputs.size(); ++k) {
     const MapInput& input = inputs[k];
@@ -152,6 +154,8 @@ MapJobResult runMapJob(const MapJobOptions& options) {
       result.ground_truth_dir = ground_truth_dir;
       corridors = eval::readCorridors((recording / "ground_truth" / "corridors.yaml").string());
       result.scenario = scenario.name;
+      for (const auto& robot : scenario.robots)
+        if (robot.model.floor_mapper.IsMap()) mapper_tuning[robot.name] = {robot.model.floor_mapper, robot.model.floor_mapper_origin};
       p.recording = (recording / "bag").string();
     } else {
       p.recording = input.path;
@@ -186,6 +190,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   runtime::ComponentRegistry registry;
   catalog::registerStoreyComponents(registry);
   std::vector<std::unique_ptr<runtime::Component>> pipeline;  // in data-flow order
+  std::map<std::string, std::string> tuned_by;  // component → robot model section it took parameters from
   graph_server::GraphServer* server = nullptr;
   const std::string journal = (fs::path(options.output_dir) / "journal.bin").string();
   fs::remove(journal);
@@ -198,10 +203,17 @@ MapJobResult runMapJob(const MapJobOptions& options) {
     }
   }
   for (const auto& robot : robots) {
-    pipeline.push_back(registry.create("floor_mapper", context,
-                                       componentParameters(config_dir, "floor_mapper",
-                                                           [&](YAML::Node& n) { n["robot"] = robot; }),
-                                       "floor_mapper_" + robot));
+    const auto tuning = mapper_tuning.find(robot);
+    const common::ConfigNode parameters =
+        componentParameters(config_dir, "floor_mapper", [&](YAML::Node& n) {
+          if (tuning != mapper_tuning.end()) common::overlayYaml(n, tuning->second.first);
+          n["robot"] = robot;
+        });
+    pipeline.push_back(registry.create("floor_mapper", context, parameters, "floor_mapper_" + robot));
+    if (tuning != mapper_tuning.end()) {
+      tuned_by["floor_mapper_" + robot] = tuning->second.second;
+      say("floor_mapper of " + robot + ": parameters of its robot model's sensors from " + tuning->second.second);
+    }
   }
   pipeline.push_back(registry.create("floor_matcher", context,
                                      componentParameters(config_dir, "floor_matcher",
@@ -220,7 +232,16 @@ MapJobResult runMapJob(const MapJobOptions& options) {
                                                          [&](YAML::Node& n) { n["journal"] = journal; }),
                                      "graph_server"));
   server = dynamic_cast<graph_server::GraphServer*>(pipeline.back().get());
-  for (auto& component : pipeline) component->configure();
+  for (auto& component : pipeline) {
+    try {
+      component->configure();
+    } catch (const std::exception& e) {
+      const auto origin = tuned_by.find(component->name());
+      if (origin == tuned_by.end()) throw;
+      throw std::runtime_error(std::string(e.what()) + " (parameters set by the floor_mapper section of " +
+                               origin->second + ")");
+    }
+  }
   for (auto& component : pipeline) component->activate();
 
   // Floors recorded on their own: tell their mappers which floor they are on.
