@@ -328,22 +328,22 @@ double meanScore(const grid::LikelihoodField& field, const std::vector<Eigen::Ve
 
 }  // namespace
 
-Eigen::Matrix3d normalNoiseCovariance(const Eigen::Matrix3d& information, double tilt_stddev,
-                                      double max_translation_stddev) {
-  Eigen::Matrix3d extra = Eigen::Matrix3d::Zero();
-  if (tilt_stddev <= 0.0) return extra;
+Eigen::Matrix3d withoutNormalNoise(const Eigen::Matrix3d& information, double tilt_stddev) {
+  if (tilt_stddev <= 0.0) return information;
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(information.topLeftCorner<2, 2>());
   const double weak = eigen.eigenvalues()(0), strong = eigen.eigenvalues()(1);
-  if (!(weak > 0.0)) return extra;
-  const double floor = 1.0 / (max_translation_stddev * max_translation_stddev);
-  const double kept = std::max(floor, weak - tilt_stddev * tilt_stddev * strong);
-  if (kept >= weak) return extra;
-  // Variance added along the weak direction only: every marginal can only grow (scaling
-  // the information instead would make the heading more certain as that direction's
-  // coupling to it vanished).
-  Eigen::Vector3d u = Eigen::Vector3d::Zero();
-  u.head<2>() = eigen.eigenvectors().col(0);
-  return (1.0 / kept - 1.0 / weak) * u * u.transpose();
+  if (!(weak > 0.0)) return information;
+  const double kept = std::max(0.0, weak - tilt_stddev * tilt_stddev * strong) / weak;
+  if (kept >= 1.0) return information;
+  // Scale the weak direction (its row and column, so the result stays positive
+  // semi-definite) in the eigenbasis of the translation block.
+  Eigen::Matrix3d basis = Eigen::Matrix3d::Identity();
+  basis.topLeftCorner<2, 2>() = eigen.eigenvectors();
+  Eigen::Matrix3d rotated = basis.transpose() * information * basis;
+  const double f = std::sqrt(kept);
+  rotated.row(0) *= f;
+  rotated.col(0) *= f;
+  return basis * rotated * basis.transpose();
 }
 
 namespace {
@@ -355,13 +355,11 @@ Eigen::Matrix3d matchCovariance(const Eigen::Matrix3d& h_scan, double weighted_r
                                 const ScanMatcherOptions& o) {
   const double sigma2 =
       std::max(weighted_r2 / std::max(1.0, weight_sum - 3.0), o.min_point_stddev * o.min_point_stddev);
-  Eigen::Matrix3d info = h_scan / sigma2;
+  Eigen::Matrix3d info = withoutNormalNoise(h_scan, o.normal_tilt_stddev) / sigma2;
   info(0, 0) += 1.0 / (o.max_translation_stddev * o.max_translation_stddev);
   info(1, 1) += 1.0 / (o.max_translation_stddev * o.max_translation_stddev);
   info(2, 2) += 1.0 / (o.max_rotation_stddev * o.max_rotation_stddev);
-  const Eigen::Matrix3d noise =
-      normalNoiseCovariance(h_scan / sigma2, o.normal_tilt_stddev, o.max_translation_stddev);
-  Eigen::Matrix3d cov = (info.inverse() + noise) * o.covariance_scale;
+  Eigen::Matrix3d cov = info.inverse() * o.covariance_scale;
   cov = 0.5 * (cov + cov.transpose());
   cov(0, 0) += o.min_translation_stddev * o.min_translation_stddev;
   cov(1, 1) += o.min_translation_stddev * o.min_translation_stddev;

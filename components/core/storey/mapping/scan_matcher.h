@@ -56,8 +56,8 @@ struct ScanMatcherOptions {
   // Normals are fitted to noisy neighbours, so they tilt by about this much: a straight
   // corridor's normals then show a sliver of information along its axis that is their
   // noise (a translational eigenvalue below tilt² of the other, 1e-4 in the featureless
-  // scenario). That much of the strongest direction's information is not counted along
-  // the weakest (its variance grows), so such a corridor gets none along its axis.
+  // scenario). That much of the strongest direction's information is taken off the
+  // weakest, so such a corridor gets none along its axis.
   double normal_tilt_stddev = 0.0;  // rad (0: off; config/floor_mapper.yaml: 0.045)
   double normal_radius = 0.3;      // m, neighbourhood of a point's surface normal
   // Covariance: σ² (JᵀJ)⁻¹ times this factor (neighbouring beams are not independent),
@@ -120,12 +120,12 @@ double pointResidual(const grid::LikelihoodField& field, const geometry::Pose2& 
 std::vector<Eigen::Vector2d> pointNormals(const std::vector<Eigen::Vector2d>& points, double radius);
 
 // Drops points within `distance` of a previously kept point (greedy, order-preserving).
-// The covariance a match's information (x, y, θ) leaves out when its normals tilt by
-// tilt_stddev: along the weaker translational direction, tilt_stddev² of the stronger
-// one's eigenvalue is only their noise; without it (floored at 1/max_translation_stddev²)
-// that direction's variance grows by the returned matrix, to be added to the inverse.
-Eigen::Matrix3d normalNoiseCovariance(const Eigen::Matrix3d& information, double tilt_stddev,
-                                      double max_translation_stddev);
+// A match's information (x, y, θ) less what noisy normals make up: along the weaker
+// translational direction, tilt_stddev² of the stronger one's eigenvalue is taken off
+// (clamped at none) by scaling that direction's row and column, so the result stays
+// positive semi-definite. (Its coupling to the heading goes with it: where all of it is
+// taken off, the heading's marginal information grows by what the coupling cost.)
+Eigen::Matrix3d withoutNormalNoise(const Eigen::Matrix3d& information, double tilt_stddev);
 
 std::vector<Eigen::Vector2d> filterPoints(const std::vector<Eigen::Vector2d>& points,
                                           double distance);
