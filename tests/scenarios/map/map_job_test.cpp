@@ -44,8 +44,8 @@ TEST(MapJob, BundledBuildingIsMappedAndAligned) {
   ASSERT_EQ(result.evaluation->floors.size(), 2u);
   // Inter-floor constraints must bring the floors into one frame: the rotation residual of
   // every floor falls far below what the unaligned floors show (tens of degrees), and every
-  // floor meets the 0.05 m / 0.2 degree goal (docs/map.md, seed 1: F0 0.006 m / 0.024 deg,
-  // F1 0.012 m / 0.057 deg).
+  // floor meets the 0.05 m / 0.2 degree goal (docs/map.md, seed 1: F0 0.004 m / 0.018 deg,
+  // F1 0.007 m / 0.035 deg).
   for (std::size_t i = 0; i < 2; ++i) {
     const auto& with = result.evaluation->floors[i];
     const auto& without = result.evaluation_unaligned->floors[i];

@@ -64,9 +64,8 @@ struct PointAlignment {
 // The pose T minimising Σ ρ(n·(T p − m)) over `points` (m the nearest cell mean, n its
 // normal; points whose nearest cell is not on a line, or lies more than a cell along the
 // line from them, are left out), by Gauss-Newton re-associating every iteration, from
-// `initial`. The same problem whether T places one
-// scan in a map (points in the robot frame) or one floor's scans on another's (points in
-// the floor's frame).
+// `initial`. The same problem whether T places one scan in a map (points in the robot
+// frame) or one floor's scans on another's (points in the floor's frame).
 PointAlignment alignToPoints(const PointMap& map, const std::vector<Eigen::Vector2d>& points,
                              const geometry::Pose2& initial, const PointAlignmentOptions& options);
 

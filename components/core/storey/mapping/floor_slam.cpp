@@ -219,6 +219,13 @@ MatchTarget buildTarget(const floor::FloorGraph& graph, std::size_t first, std::
   return target;
 }
 
+// The tracking map: the graph's last `max_nodes` nodes.
+MatchTarget buildLocalTarget(const floor::FloorGraph& graph, const LocalMapOptions& o, const ScanMatcher& matcher) {
+  const std::size_t n = graph.nodes.size();
+  const std::size_t first = n > static_cast<std::size_t>(o.max_nodes) ? n - o.max_nodes : 0;
+  return buildTarget(graph, first, n, o, o.pyramid_levels, matcher);
+}
+
 }  // namespace
 
 void FloorSlam::resumeAt(const Pose2& guess) {
@@ -338,12 +345,7 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
 
   // Match against the recent nodes.
   if (s.local_dirty) {
-    const std::size_t n = floor_graph_.nodes.size();
-    const std::size_t first = n > static_cast<std::size_t>(options_.local_map.max_nodes)
-                                  ? n - options_.local_map.max_nodes
-                                  : 0;
-    s.local_target =
-        buildTarget(floor_graph_, first, n, options_.local_map, options_.local_map.pyramid_levels, s.matcher);
+    s.local_target = buildLocalTarget(floor_graph_, options_.local_map, s.matcher);
     s.local_dirty = false;
     s.nodes_since_rebuild = 0;
   }
@@ -557,14 +559,8 @@ int FloorSlam::resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& s
       poses[j] = match.pose;
       covariances[j] = match.covariance;
     } else {
-      const std::size_t n = chain.nodes.size();
-      const std::size_t first = n > static_cast<std::size_t>(options_.local_map.max_nodes)
-                                    ? n - options_.local_map.max_nodes
-                                    : 0;
       const MatchResult tracked =
-          s.matcher.match(buildTarget(chain, first, n, options_.local_map, options_.local_map.pyramid_levels,
-                                      s.matcher),
-                          points, prediction);
+          s.matcher.match(buildLocalTarget(chain, options_.local_map, s.matcher), points, prediction);
       placed[j] = tracked.success ? Placed::kTracked : Placed::kOdometry;
       poses[j] = tracked.success ? tracked.pose : prediction;
       if (tracked.success) covariances[j] = tracked.covariance;

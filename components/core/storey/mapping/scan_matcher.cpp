@@ -315,19 +315,6 @@ MatchResult ScanMatcher::correlativeSearch(const MatchTarget& target, const std:
   return result;
 }
 
-namespace {
-
-double meanScore(const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,
-                 const Pose2& pose) {
-  const double c = std::cos(pose.theta()), s = std::sin(pose.theta());
-  double sum = 0.0;
-  for (const auto& p : points)
-    sum += field.interpolatedScore({c * p.x() - s * p.y() + pose.x(), s * p.x() + c * p.y() + pose.y()});
-  return points.empty() ? 0.0 : sum / static_cast<double>(points.size());
-}
-
-}  // namespace
-
 Eigen::Matrix3d withoutNormalNoise(const Eigen::Matrix3d& information, double tilt_stddev) {
   if (tilt_stddev <= 0.0) return information;
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(information.topLeftCorner<2, 2>());
@@ -347,6 +334,15 @@ Eigen::Matrix3d withoutNormalNoise(const Eigen::Matrix3d& information, double ti
 }
 
 namespace {
+
+double meanScore(const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,
+                 const Pose2& pose) {
+  const double c = std::cos(pose.theta()), s = std::sin(pose.theta());
+  double sum = 0.0;
+  for (const auto& p : points)
+    sum += field.interpolatedScore({c * p.x() - s * p.y() + pose.x(), s * p.x() + c * p.y() + pose.y()});
+  return points.empty() ? 0.0 : sum / static_cast<double>(points.size());
+}
 
 // Laplace approximation σ² (JᵀWJ)⁻¹ from the point-to-line information `h_scan`, σ² the
 // weighted residual variance, floored: a near-perfect fit does not make the map's
@@ -497,15 +493,14 @@ MatchResult ScanMatcher::refineOnPoints(const MatchTarget& target, const std::ve
   alignment.rotation_prior_weight = options_.rotation_prior_weight;
   const grid::PointAlignment fit = grid::alignToPoints(target.points(), points, initial, alignment);
   const Pose2& pose = fit.pose;
-  const double weight_sum = fit.weight_sum;
   result.pose = pose;
   result.score = meanScore(target.field(), points, pose);
   result.covariance = options_.map_normal_information
                           ? matchCovariance(fit.information, fit.weighted_r2, fit.weight_sum, options_)
                           : fieldCovariance(target.field(), points, pose, options_);
-  result.success = weight_sum >= 3.0 && pose.isFinite() && result.covariance.allFinite();
+  result.success = fit.weight_sum >= 3.0 && pose.isFinite() && result.covariance.allFinite();
   if (!result.success)
-    result.problem = weight_sum < 3.0 ? "too few points near the map's points" : "refinement diverged";
+    result.problem = fit.weight_sum < 3.0 ? "too few points near the map's points" : "refinement diverged";
   return result;
 }
 

@@ -119,7 +119,6 @@ double pointResidual(const grid::LikelihoodField& field, const geometry::Pose2& 
 // `radius` (zero where the neighbourhood is not line-like).
 std::vector<Eigen::Vector2d> pointNormals(const std::vector<Eigen::Vector2d>& points, double radius);
 
-// Drops points within `distance` of a previously kept point (greedy, order-preserving).
 // A match's information (x, y, θ) less what noisy normals make up: along the weaker
 // translational direction, tilt_stddev² of the stronger one's eigenvalue is taken off
 // (clamped at none) by scaling that direction's row and column, so the result stays
@@ -127,6 +126,7 @@ std::vector<Eigen::Vector2d> pointNormals(const std::vector<Eigen::Vector2d>& po
 // taken off, the heading's marginal information grows by what the coupling cost.)
 Eigen::Matrix3d withoutNormalNoise(const Eigen::Matrix3d& information, double tilt_stddev);
 
+// Drops points within `distance` of a previously kept point (greedy, order-preserving).
 std::vector<Eigen::Vector2d> filterPoints(const std::vector<Eigen::Vector2d>& points,
                                           double distance);
 

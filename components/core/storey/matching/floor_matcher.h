@@ -44,10 +44,10 @@
 
 #include "storey/common/config.h"
 #include "storey/floor/floor_graph.h"
-#include "storey/grid/point_map.h"
 #include "storey/geometry/pose2.h"
 #include "storey/grid/likelihood_field.h"
 #include "storey/grid/occupancy_grid.h"
+#include "storey/grid/point_map.h"
 #include "storey/matching/particle_filter.h"
 
 namespace storey::matching {

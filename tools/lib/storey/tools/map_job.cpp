@@ -131,8 +131,12 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   std::vector<PreparedInput> prepared;
   std::string ground_truth_dir;
   std::vector<eval::CorridorSpec> corridors;
-  // Simulated robots: floor_mapper parameters that suit their sensors (and where from).
-  std::map<std::string, std::pair<YAML::Node, std::string>> mapper_tuning;
+  // Simulated robots: floor_mapper parameters that suit their sensors, by robot name.
+  struct MapperTuning {
+    YAML::Node parameters;
+    std::string origin;  // "file:line" of the robot model's section
+  };
+  std::map<std::string, MapperTuning> mapper_tuning;
   auto phase_start = Clock::now();
   for (std::size_t k = 0; k < inputs.size(); ++k) {
     const MapInput& input = inputs[k];
@@ -155,7 +159,8 @@ MapJobResult runMapJob(const MapJobOptions& options) {
       corridors = eval::readCorridors((recording / "ground_truth" / "corridors.yaml").string());
       result.scenario = scenario.name;
       for (const auto& robot : scenario.robots)
-        if (robot.model.floor_mapper.IsMap()) mapper_tuning[robot.name] = {robot.model.floor_mapper, robot.model.floor_mapper_origin};
+        if (robot.model.floor_mapper.IsMap())
+          mapper_tuning[robot.name] = {robot.model.floor_mapper, robot.model.floor_mapper_origin};
       p.recording = (recording / "bag").string();
     } else {
       p.recording = input.path;
@@ -206,13 +211,13 @@ MapJobResult runMapJob(const MapJobOptions& options) {
     const auto tuning = mapper_tuning.find(robot);
     const common::ConfigNode parameters =
         componentParameters(config_dir, "floor_mapper", [&](YAML::Node& n) {
-          if (tuning != mapper_tuning.end()) common::overlayYaml(n, tuning->second.first);
+          if (tuning != mapper_tuning.end()) common::overlayYaml(n, tuning->second.parameters);
           n["robot"] = robot;
         });
     pipeline.push_back(registry.create("floor_mapper", context, parameters, "floor_mapper_" + robot));
     if (tuning != mapper_tuning.end()) {
-      tuned_by["floor_mapper_" + robot] = tuning->second.second;
-      say("floor_mapper of " + robot + ": parameters of its robot model's sensors from " + tuning->second.second);
+      tuned_by["floor_mapper_" + robot] = tuning->second.origin;
+      say("floor_mapper of " + robot + ": parameters of its robot model's sensors from " + tuning->second.origin);
     }
   }
   pipeline.push_back(registry.create("floor_matcher", context,
