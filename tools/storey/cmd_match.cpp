@@ -92,7 +92,7 @@ void printCandidateTruth(const matching::MatchResult& result,
       if (ri >= floors.graphs.size() || gi >= floors.graphs.size() || ri == gi) continue;
       if (c.status == matching::CandidateStatus::kLowLikelihood ||
           c.status == matching::CandidateStatus::kPoorFit)
-        continue;
+        continue;  // (underconstrained ones are shown: what the conditioning gate drops)
       const auto e =
           matching::alignmentError(c.alignment, c.reference_graph_id, c.graph_id, floors);
       const std::size_t si = c.reversed ? ri : gi;
@@ -110,7 +110,8 @@ void printCandidateTruth(const matching::MatchResult& result,
                 << c.first_index << ".." << c.last_index << std::fixed << std::setprecision(1)
                 << " (" << a.x() << "," << a.y() << ")->(" << b.x() << "," << b.y() << ") "
                 << matching::candidateStatusName(c.status) << std::setprecision(3) << "  l_t "
-                << c.likelihood << "  through " << c.see_through << "  " << e.translation << " m "
+                << c.likelihood << "  through " << c.see_through << "  ratio " << c.information_ratio << "  "
+                << e.translation << " m "
                 << e.rotation * 180.0 / M_PI << " deg";
       if (bad) {
         // The same scans at the true alignment: the fit and the see-through fraction the

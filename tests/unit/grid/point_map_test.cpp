@@ -120,5 +120,67 @@ TEST(PointMap, PointsBeyondTheMapsWallsDoNotPullTheAlignment) {
   EXPECT_LT(std::abs(fit.pose.theta()), 0.0005);
 }
 
+// Conditioning of the point-to-line information at the true pose: a bare corridor pins
+// nothing along its axis once the normals' noise is discounted, a room pins both axes.
+TEST(PointMap, ConditioningTellsABareCorridorFromARoom) {
+  std::mt19937_64 rng(3);
+  std::vector<Eigen::Vector2d> corridor;
+  addWall(&corridor, {0, 0}, {20, 0}, 0.02, 0.01, &rng);
+  addWall(&corridor, {0, 3}, {20, 3}, 0.02, 0.01, &rng);
+  const PointMap corridor_map(corridor, 0.05, 0.2);
+  std::vector<Eigen::Vector2d> seen;  // a scan's worth of the walls, in the map frame
+  addWall(&seen, {5, 0}, {15, 0}, 0.05, 0.01, &rng);
+  addWall(&seen, {5, 3}, {15, 3}, 0.05, 0.01, &rng);
+  PointAlignmentOptions at_pose;
+  at_pose.max_iterations = 0;
+  const PointAlignment in_corridor = alignToPoints(corridor_map, seen, Pose2(), at_pose);
+  const TranslationConditioning corridor_c =
+      translationConditioning(withoutNormalNoise(in_corridor.information, 0.045));
+  EXPECT_LT(corridor_c.ratio, 1e-3);
+  EXPECT_GT(std::abs(corridor_c.weak_direction.x()), 0.99);  // along the corridor (x)
+  // Without the discount the normals' tilt makes up some along-axis information.
+  EXPECT_GT(translationConditioning(in_corridor.information).ratio, corridor_c.ratio);
+
+  const std::vector<Eigen::Vector2d> room_points = room(0.01, 0.01, 4);
+  const PointMap room_map(room_points, 0.05, 0.2);
+  const PointAlignment in_room = alignToPoints(room_map, room(0.05, 0.01, 5), Pose2(), at_pose);
+  const Eigen::Vector2d centre(4.0, 2.5);  // the room's middle, where the points are
+  const TranslationConditioning room_c =
+      translationConditioning(withoutNormalNoise(in_room.information, 0.045), -centre);
+  // Walls of 2 x 8 m and 2 x 5 m (and the pillar): about 11/17 as much across x as across y.
+  EXPECT_GT(room_c.ratio, 0.5);
+  EXPECT_LT(room_c.ratio, 0.8);
+  EXPECT_GT(std::abs(room_c.weak_direction.x()), 0.9);
+  // About the frame origin, the room's own corner, the heading's lever arm costs x and y.
+  EXPECT_LT(translationConditioning(withoutNormalNoise(in_room.information, 0.045)).ratio, room_c.ratio);
+}
+
+// The heading is marginalised: information coupling x to θ leaves less for x alone.
+TEST(PointMap, ConditioningMarginalisesTheHeadingAboutTheGivenCentre) {
+  Eigen::Matrix3d information;
+  information << 4, 0, 2,  //
+      0, 4, 0,             //
+      2, 0, 2;
+  const TranslationConditioning c = translationConditioning(information);
+  // x's marginal information: 4 - 2·2/2 = 2; y's: 4.
+  EXPECT_NEAR(c.ratio, 0.5, 1e-12);
+  EXPECT_NEAR(c.strong, 4.0, 1e-12);
+  EXPECT_NEAR(std::abs(c.weak_direction.x()), 1.0, 1e-12);
+  EXPECT_EQ(translationConditioning(Eigen::Matrix3d::Zero()).ratio, 0.0);
+  // Re-expressed about a centre c = (0, 1) (t − c = (0, −1)), it equals the information
+  // built directly from residual Jacobians in those parameters: two line residuals of a
+  // point at the pose's own origin, which a turn about c moves by δθ·(1, 0).
+  const Eigen::Vector2d offset(0.0, -1.0);
+  Eigen::Matrix<double, 2, 3> j;  // rows: residuals of x-normal and y-normal lines at (0, 0)
+  j << 1, 0, 0,  //
+      0, 1, 0;
+  Eigen::Matrix<double, 2, 3> j_local;  // d r / d(δt_c, δθ)
+  j_local << 1, 0, 1,  //
+      0, 1, 0;
+  const Eigen::Matrix3d info = j.transpose() * j + Eigen::Vector3d(0, 0, 1).asDiagonal().toDenseMatrix();
+  const Eigen::Matrix3d info_local = j_local.transpose() * j_local + Eigen::Vector3d(0, 0, 1).asDiagonal().toDenseMatrix();
+  EXPECT_NEAR(translationConditioning(info, offset).ratio, translationConditioning(info_local).ratio, 1e-12);
+}
+
 }  // namespace
 }  // namespace storey::grid

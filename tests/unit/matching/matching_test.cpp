@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <Eigen/LU>
+
 #include <sstream>
 
 #include "storey/common/config.h"
@@ -384,6 +386,31 @@ TEST(ParticleFilter, WallModelLowersExactlyTheParticlesWhoseBeamsCrossWalls) {
   }
   EXPECT_GT(crossing_particles, 0);
   EXPECT_GT(checked, 10);
+}
+
+// A constraint claims 1/sigma_xy^2 across the direction its scans pin best and ratio
+// times that along the weak one; without a ratio it is isotropic as before.
+TEST(FloorMatcher, ConstraintInformationIsWeakAlongTheUnpinnedDirection) {
+  FloorMatcherOptions o;
+  o.constraint_sigma_xy = 0.05;
+  o.constraint_sigma_theta = 0.01;
+  Candidate c;
+  c.information_ratio = 0.04;
+  c.weak_direction = M_PI / 2;  // along y in the reference node's frame
+  const Eigen::Matrix3d info = constraintInformation(c, o);
+  EXPECT_NEAR(info(0, 0), 400.0, 1e-9);
+  EXPECT_NEAR(info(1, 1), 16.0, 1e-9);  // sigma 0.25 m along y
+  EXPECT_NEAR(info(0, 1), 0.0, 1e-9);
+  EXPECT_NEAR(info(2, 2), 1e4, 1e-6);
+  c.weak_direction = M_PI / 4;  // the same, turned: eigenvalues kept
+  const Eigen::Matrix2d turned = constraintInformation(c, o).topLeftCorner(2, 2);
+  EXPECT_NEAR(turned.trace(), 416.0, 1e-9);
+  EXPECT_NEAR(turned.determinant(), 400.0 * 16.0, 1e-6);
+  c.information_ratio = 0.0;  // never singular
+  const Eigen::Matrix2d floor_only = constraintInformation(c, o).topLeftCorner(2, 2);
+  EXPECT_GT(floor_only.determinant(), 0.0);
+  c.information_ratio = -1.0;  // not computed
+  EXPECT_NEAR(constraintInformation(c, o)(1, 1), 400.0, 1e-9);
 }
 
 TEST(FloorMatcherOptions, ReadsValuesAndRejectsUnknownKeys) {

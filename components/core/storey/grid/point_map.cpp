@@ -155,4 +155,41 @@ PointAlignment alignToPoints(const PointMap& map, const std::vector<Eigen::Vecto
   return out;
 }
 
+Eigen::Matrix3d withoutNormalNoise(const Eigen::Matrix3d& information, double tilt_stddev) {
+  if (tilt_stddev <= 0.0) return information;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(information.topLeftCorner<2, 2>());
+  const double weak = eigen.eigenvalues()(0), strong = eigen.eigenvalues()(1);
+  if (!(weak > 0.0)) return information;
+  const double kept = std::max(0.0, weak - tilt_stddev * tilt_stddev * strong) / weak;
+  if (kept >= 1.0) return information;
+  // Scale the weak direction (its row and column, so the result stays positive
+  // semi-definite) in the eigenbasis of the translation block.
+  Eigen::Matrix3d basis = Eigen::Matrix3d::Identity();
+  basis.topLeftCorner<2, 2>() = eigen.eigenvectors();
+  Eigen::Matrix3d rotated = basis.transpose() * information * basis;
+  const double f = std::sqrt(kept);
+  rotated.row(0) *= f;
+  rotated.col(0) *= f;
+  return basis * rotated * basis.transpose();
+}
+
+TranslationConditioning translationConditioning(const Eigen::Matrix3d& information,
+                                                const Eigen::Vector2d& centre_offset) {
+  TranslationConditioning c;
+  // A small turn δθ about c moves the pose's translation by δθ·J(t − c) (J the 90° turn),
+  // so (δt, δθ) = A (δt_c, δθ) and the information about (δt_c, δθ) is Aᵀ I A.
+  Eigen::Matrix3d a = Eigen::Matrix3d::Identity();
+  a(0, 2) = -centre_offset.y();
+  a(1, 2) = centre_offset.x();
+  const Eigen::Matrix3d local = a.transpose() * information * a;
+  Eigen::Matrix2d block = local.topLeftCorner<2, 2>();
+  if (local(2, 2) > 0.0) block -= local.topRightCorner<2, 1>() * local.bottomLeftCorner<1, 2>() / local(2, 2);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(block);
+  const double weak = eigen.eigenvalues()(0), strong = eigen.eigenvalues()(1);
+  c.strong = strong;
+  c.weak_direction = eigen.eigenvectors().col(0);
+  c.ratio = strong > 0.0 ? std::max(0.0, weak) / strong : 0.0;
+  return c;
+}
+
 }  // namespace storey::grid

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <utility>
 #include <vector>
 
 #include "storey/geometry/pose2.h"
@@ -68,5 +69,26 @@ struct PointAlignment {
 // frame) or one floor's scans on another's (points in the floor's frame).
 PointAlignment alignToPoints(const PointMap& map, const std::vector<Eigen::Vector2d>& points,
                              const geometry::Pose2& initial, const PointAlignmentOptions& options);
+
+// A match's information (x, y, θ) less what noisy normals make up: along the weaker
+// translational direction, tilt_stddev² of the stronger one's eigenvalue is taken off
+// (clamped at none) by scaling that direction's row and column, so the result stays
+// positive semi-definite. (Its coupling to the heading goes with it: where all of it is
+// taken off, the heading's marginal information grows by what the coupling cost.)
+Eigen::Matrix3d withoutNormalNoise(const Eigen::Matrix3d& information, double tilt_stddev);
+
+// How well point-to-line information pins a position: the translational block with the
+// heading marginalised out, its eigenvalues weak ≤ strong and the weak eigenvector.
+// ratio = weak / strong (0 when the block is not positive). alignToPoints' information
+// turns the pose about its own translation t; the position that matters is usually where
+// the points are (c): centre_offset = t − c re-expresses it there first (else a heading
+// uncertainty far from the points would read as a translational one).
+struct TranslationConditioning {
+  double ratio = 0.0;
+  double strong = 0.0;
+  Eigen::Vector2d weak_direction = Eigen::Vector2d::UnitX();
+};
+TranslationConditioning translationConditioning(const Eigen::Matrix3d& information,
+                                                const Eigen::Vector2d& centre_offset = Eigen::Vector2d::Zero());
 
 }  // namespace storey::grid

@@ -315,24 +315,6 @@ MatchResult ScanMatcher::correlativeSearch(const MatchTarget& target, const std:
   return result;
 }
 
-Eigen::Matrix3d withoutNormalNoise(const Eigen::Matrix3d& information, double tilt_stddev) {
-  if (tilt_stddev <= 0.0) return information;
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(information.topLeftCorner<2, 2>());
-  const double weak = eigen.eigenvalues()(0), strong = eigen.eigenvalues()(1);
-  if (!(weak > 0.0)) return information;
-  const double kept = std::max(0.0, weak - tilt_stddev * tilt_stddev * strong) / weak;
-  if (kept >= 1.0) return information;
-  // Scale the weak direction (its row and column, so the result stays positive
-  // semi-definite) in the eigenbasis of the translation block.
-  Eigen::Matrix3d basis = Eigen::Matrix3d::Identity();
-  basis.topLeftCorner<2, 2>() = eigen.eigenvectors();
-  Eigen::Matrix3d rotated = basis.transpose() * information * basis;
-  const double f = std::sqrt(kept);
-  rotated.row(0) *= f;
-  rotated.col(0) *= f;
-  return basis * rotated * basis.transpose();
-}
-
 namespace {
 
 double meanScore(const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,

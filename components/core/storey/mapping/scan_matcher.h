@@ -119,12 +119,7 @@ double pointResidual(const grid::LikelihoodField& field, const geometry::Pose2& 
 // `radius` (zero where the neighbourhood is not line-like).
 std::vector<Eigen::Vector2d> pointNormals(const std::vector<Eigen::Vector2d>& points, double radius);
 
-// A match's information (x, y, θ) less what noisy normals make up: along the weaker
-// translational direction, tilt_stddev² of the stronger one's eigenvalue is taken off
-// (clamped at none) by scaling that direction's row and column, so the result stays
-// positive semi-definite. (Its coupling to the heading goes with it: where all of it is
-// taken off, the heading's marginal information grows by what the coupling cost.)
-Eigen::Matrix3d withoutNormalNoise(const Eigen::Matrix3d& information, double tilt_stddev);
+using grid::withoutNormalNoise;  // storey/grid/point_map.h
 
 // Drops points within `distance` of a previously kept point (greedy, order-preserving).
 std::vector<Eigen::Vector2d> filterPoints(const std::vector<Eigen::Vector2d>& points,

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <numeric>
@@ -57,6 +58,8 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
   o.constraint_sigma_xy = node.getDouble("constraint_sigma_xy", o.constraint_sigma_xy, 1e-6, 100.0);
   o.constraint_sigma_theta =
       node.getDouble("constraint_sigma_theta", o.constraint_sigma_theta, 1e-6, M_PI);
+  o.normal_tilt_stddev = node.getDouble("normal_tilt_stddev", o.normal_tilt_stddev, 0.0, 1.0);
+  o.max_weak_sigma = node.getDouble("max_weak_sigma", o.max_weak_sigma, 0.0, 100.0);
   o.self_check = node.get<bool>("self_check", o.self_check);
   o.match_both_directions = node.get<bool>("match_both_directions", o.match_both_directions);
   o.backwards_sequences = node.get<bool>("backwards_sequences", o.backwards_sequences);
@@ -84,6 +87,8 @@ const char* candidateStatusName(CandidateStatus status) {
       return "too_few";
     case CandidateStatus::kAmbiguous:
       return "ambiguous";
+    case CandidateStatus::kUnderconstrained:
+      return "underconstrained";
   }
   return "unknown";
 }
@@ -106,6 +111,13 @@ std::uint64_t mixSeed(std::uint64_t seed, std::uint64_t a, std::uint64_t b) {
   z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
   z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
   return z ^ (z >> 31);
+}
+
+// Whether a candidate got past the likelihood gate, the refinement and the conditioning
+// gate (RANSAC decides the rest).
+bool passedGate(CandidateStatus s) {
+  return s != CandidateStatus::kLowLikelihood && s != CandidateStatus::kPoorFit &&
+         s != CandidateStatus::kUnderconstrained;
 }
 
 double quantile(std::vector<double> values, double q) {
@@ -464,12 +476,36 @@ Candidate makeCandidate(const PreparedFloor& map_floor, const PreparedFloor& sca
   const int q = ref.nearestNodeIndex(x_k.translation());
   c.reference_node_id = ref.nodes[q].id;
   c.measurement = ref.nodes[q].pose.between(x_k);
+  if (!map_floor.points.empty()) {
+    const std::vector<Eigen::Vector2d> points =
+        floor::floorPoints(g, static_cast<std::size_t>(first), static_cast<std::size_t>(last) + 1,
+                           o.map.max_insert_range);
+    grid::PointAlignmentOptions a;
+    a.max_iterations = 0;  // the information where the candidate is
+    a.max_correspondence_distance = o.point_correspondence_distance;
+    a.robust_distance = o.point_robust_distance;
+    const grid::PointAlignment fit = grid::alignToPoints(map_floor.points, points, alignment, a);
+    // Conditioning where the scans are, not at g_i's origin (often tens of metres away).
+    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+    for (const auto& p : points) centre += p;
+    if (!points.empty()) centre = alignment.transformPoint(centre / static_cast<double>(points.size()));
+    const grid::TranslationConditioning cond = grid::translationConditioning(
+        grid::withoutNormalNoise(fit.information, o.normal_tilt_stddev), alignment.translation() - centre);
+    c.information_ratio = cond.ratio;
+    c.weak_direction = std::atan2(cond.weak_direction.y(), cond.weak_direction.x());
+  }
+  const double weak_sigma = c.information_ratio > 0.0 ? o.constraint_sigma_xy / std::sqrt(c.information_ratio)
+                                                      : std::numeric_limits<double>::infinity();
   if (run.lt < l_min) {
     c.status = CandidateStatus::kLowLikelihood;
     c.reason = common::str("l_t ", run.lt, " < l_min ", l_min);
   } else if (c.refine_correction > o.max_refine_correction || c.fit < o.min_fit) {
     c.status = CandidateStatus::kPoorFit;
     c.reason = common::str("refinement moved ", c.refine_correction, " m, fit ", c.fit);
+  } else if (o.max_weak_sigma > 0.0 && c.information_ratio >= 0.0 && weak_sigma > o.max_weak_sigma) {
+    c.status = CandidateStatus::kUnderconstrained;
+    c.reason = common::str("its scans pin one direction to sigma ", weak_sigma, " m > ", o.max_weak_sigma,
+                           " (information ratio ", c.information_ratio, ")");
   } else {
     c.status = CandidateStatus::kOutlier;  // decided by RANSAC
   }
@@ -590,6 +626,13 @@ Candidate reverseCandidate(const Candidate& r, const floor::FloorGraph& ref,
   return c;
 }
 
+// An accepted candidate's weak direction, from the frame of the map its scans were
+// localised in (the other graph's; g_i's when reversed, then turned by the alignment of
+// g_i in the other graph) to the frame of node q of its measurement.
+double weakDirectionAt(const Candidate& c, const Pose2& alignment, const Pose2& q) {
+  return geometry::normalizeAngle(c.weak_direction + (c.reversed ? alignment.theta() : 0.0) - q.theta());
+}
+
 void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& floor_data,
                          const FloorMatcherOptions& o, int count, std::mt19937_64* rng_ptr,
                          PairResult* result_ptr) {
@@ -690,6 +733,7 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
       const int q = ref.nearestNodeIndex(x.translation());
       c.reference_node_id = ref.nodes[q].id;
       c.measurement = ref.nodes[q].pose.between(x);
+      c.weak_direction = weakDirectionAt(c, joint, ref.nodes[q].pose);
     }
   }
 }
@@ -716,8 +760,7 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
     // passed only briefly may be where g_ref's robot spent longer).
     PairResult reverse;
     for (Candidate& c : result.candidates)
-      if (c.status != CandidateStatus::kLowLikelihood && c.status != CandidateStatus::kPoorFit)
-        c.status = CandidateStatus::kOutlier;
+      if (passedGate(c.status)) c.status = CandidateStatus::kOutlier;
     // The first pass's candidates that saw through walls are rechecked now (the recheck
     // is costly, so only a pair that needs more evidence pays for it).
     for (Candidate& c : result.candidates)
@@ -769,8 +812,7 @@ FloorCheck checkSelfSimilarity(const PreparedFloor& floor_data, const FloorMatch
   std::vector<std::size_t> elsewhere;
   for (std::size_t i = 0; i < own.candidates.size(); ++i) {
     const Candidate& c = own.candidates[i];
-    if (c.status == CandidateStatus::kLowLikelihood || c.status == CandidateStatus::kPoorFit)
-      continue;
+    if (!passedGate(c.status)) continue;
     const Pose2& pk = floor_data.graph->nodes[c.node_index].pose;
     if (agrees(Pose2(), c.alignment, pk, o.ransac_translation_tolerance,
                o.ransac_rotation_tolerance))
@@ -848,7 +890,7 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
   std::vector<std::size_t> pool;
   for (std::size_t i = 0; i < out.candidates.size(); ++i) {
     const CandidateStatus s = out.candidates[i].status;
-    if (s != CandidateStatus::kLowLikelihood && s != CandidateStatus::kPoorFit) {
+    if (passedGate(s)) {
       pool.push_back(i);
       out.candidates[i].status = CandidateStatus::kOutlier;
     }
@@ -920,11 +962,26 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
     const int q = other.nearestNodeIndex(x.translation());
     c.reference_node_id = other.nodes[q].id;
     c.measurement = other.nodes[q].pose.between(x);
+    c.weak_direction = weakDirectionAt(c, via_r ? joint_in_r : joint, other.nodes[q].pose);
   }
   return out;
 }
 
 }  // namespace
+
+Eigen::Matrix3d constraintInformation(const Candidate& c, const FloorMatcherOptions& o) {
+  // Never quite zero along the weak direction: a floor held only by corridor constraints
+  // stays solvable (its along-corridor place then rests on its other constraints).
+  constexpr double kMinRatio = 1e-4;
+  const double ratio = c.information_ratio < 0.0 ? 1.0 : std::clamp(c.information_ratio, kMinRatio, 1.0);
+  const Eigen::Vector2d weak(std::cos(c.weak_direction), std::sin(c.weak_direction));
+  const double per_m2 = 1.0 / (o.constraint_sigma_xy * o.constraint_sigma_xy);
+  Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
+  information.topLeftCorner<2, 2>() =
+      per_m2 * (Eigen::Matrix2d::Identity() - (1.0 - ratio) * weak * weak.transpose());
+  information(2, 2) = 1.0 / (o.constraint_sigma_theta * o.constraint_sigma_theta);
+  return information;
+}
 
 MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
                         const FloorMatcherOptions& o) {
@@ -1052,11 +1109,6 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
   for (auto& list : retries)
     for (auto& p : list) result.pairs.push_back(std::move(p));
 
-  const Eigen::Matrix3d information =
-      Eigen::Vector3d(1.0 / (o.constraint_sigma_xy * o.constraint_sigma_xy),
-                      1.0 / (o.constraint_sigma_xy * o.constraint_sigma_xy),
-                      1.0 / (o.constraint_sigma_theta * o.constraint_sigma_theta))
-          .asDiagonal();
   for (const auto& p : result.pairs) {
     result.beam_evaluations += p.beam_evaluations;
     if (!p.accepted) continue;
@@ -1069,7 +1121,7 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
       ic.node_id = c.node_id;
       ic.measurement = c.measurement;
       ic.dz = c.dz;
-      ic.information = information;
+      ic.information = constraintInformation(c, o);
       ic.likelihood = c.likelihood;
       ic.first_index = c.first_index;
       ic.last_index = c.last_index;
@@ -1101,6 +1153,7 @@ void printMatchReport(std::ostream& out, const MatchResult& result) {
           << c.reference_node_id << "  l_t " << std::setprecision(4) << c.likelihood << "  fit "
           << std::setprecision(3) << c.fit
           << (c.see_through >= 0.0 ? common::str("  through ", c.see_through) : std::string())
+          << (c.information_ratio >= 0.0 ? common::str("  ratio ", c.information_ratio) : std::string())
           << "  particles " << c.particles << "  alignment " << c.alignment << "  c "
           << c.measurement << " dz " << c.dz << "  " << candidateStatusName(c.status);
       if (!c.reason.empty()) out << " (" << c.reason << ")";

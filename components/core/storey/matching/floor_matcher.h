@@ -95,9 +95,19 @@ struct FloorMatcherOptions {
   // ...unless the largest set's alignment makes all of g_i's scans fit the reference map
   // better by this much (mean likelihood-field score, in [0, 1]) than the second's.
   double ambiguity_fit_margin = 0.05;
-  // Information of each accepted constraint: diag(1/sigma_xy^2, 1/sigma_xy^2, 1/sigma_theta^2).
+  // Information of each accepted constraint: 1/sigma_xy^2 along the direction its scans
+  // pin best, 1/sigma_theta^2 in heading, and along the weakest direction
+  // ratio/sigma_xy^2, where ratio is the weak/strong eigenvalue ratio of its scans'
+  // point-to-line information on the map they were localised in (heading marginalised,
+  // normal noise discounted by normal_tilt_stddev): a sequence down a bare corridor says
+  // little about where along the corridor it is, and its constraint says so too.
   double constraint_sigma_xy = 0.05;
   double constraint_sigma_theta = 0.01;
+  double normal_tilt_stddev = 0.045;  // rad; see mapping::ScanMatcherOptions
+  // A candidate whose weakest direction's sigma (constraint_sigma_xy / sqrt(ratio)) is
+  // larger is not evidence (status underconstrained): it cannot tell places this far apart
+  // along it. 0 turns the gate off. Needs point_cell_size > 0 (else no ratio is computed).
+  double max_weak_sigma = 0.0;
   // Self-similarity check: every floor's own scans are matched against its own map. A
   // floor where a consistent set of them localises at another alignment, at least
   // max(2, ambiguity_ratio * the set at the identity), is symmetric or periodic: it is
@@ -131,6 +141,7 @@ enum class CandidateStatus {
   kOutlier,        // not in the largest consistent set
   kTooFew,         // the largest consistent set is below min_constraints
   kAmbiguous,      // two disjoint consistent sets (symmetric floor)
+  kUnderconstrained,  // its scans do not pin one direction (max_weak_sigma)
 };
 const char* candidateStatusName(CandidateStatus status);
 
@@ -160,6 +171,12 @@ struct Candidate {
   // Fraction of the sequence's beams that, placed by `alignment`, cross a solid wall of the
   // map they were localised in (solidWalls) before their endpoint.
   double see_through = -1.0;  // -1: not computed (only pairs that need more evidence)
+  // Conditioning of its scans' point-to-line information on the map they were localised
+  // in (grid::translationConditioning after the normal-noise discount): the weak/strong
+  // ratio (-1: not computed) and the weak direction, an angle in that map's frame (after
+  // acceptance: in the frame of the reference node of `measurement`).
+  double information_ratio = -1.0;
+  double weak_direction = 0.0;
   std::size_t particles = 0;  // filter size at convergence
   double mass_within = 0.0;
   CandidateStatus status = CandidateStatus::kOutlier;
@@ -256,6 +273,10 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor,
 // The self-similarity check of one floor (see FloorMatcherOptions::self_check).
 FloorCheck checkSelfSimilarity(const PreparedFloor& floor, const FloorMatcherOptions& options,
                                std::uint64_t seed);
+
+// The information of an accepted candidate's constraint over (dx, dy, dθ) in the frame of
+// its reference node (see FloorMatcherOptions::constraint_sigma_xy).
+Eigen::Matrix3d constraintInformation(const Candidate& c, const FloorMatcherOptions& options);
 
 // All floor graphs: the reference is the graph with most structure among those not
 // self-similar; every other graph is matched to it in parallel. A graph that fails for

@@ -64,8 +64,12 @@ void FloorDetectorComponent::onConfigure() {
       createPublisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>(
           runtime::robotTopic(robot, options_.events_topic), runtime::TopicKind::kGraph);
   // Samples that arrive before activation are dropped: their events could not be sent.
-  auto active = [this] { return state() == runtime::LifecycleState::kActive; };
-  createSubscription<sensor_msgs::msg::FluidPressure, sensor_msgs::msg::FluidPressurePubSubType>(
+  auto active = [this] {
+    if (state() == runtime::LifecycleState::kActive) return true;
+    ++dropped_inactive_;
+    return false;
+  };
+  pressure_subscription_ = createSubscription<sensor_msgs::msg::FluidPressure, sensor_msgs::msg::FluidPressurePubSubType>(
       runtime::robotTopic(robot, "pressure"), runtime::TopicKind::kSensor,
       [this, active](const sensor_msgs::msg::FluidPressure& m) {
         if (!active()) return;
@@ -102,6 +106,17 @@ void FloorDetectorComponent::onConfigure() {
 
 void FloorDetectorComponent::onCleanup() {
   std::lock_guard<std::mutex> lock(mutex_);
+  // What the detector saw: a restarted or silent detector is diagnosed from this line.
+  if (detector_) {
+    const auto& s = detector_->stats();
+    common::logInfo(str(name(), ": ", pressure_subscription_ ? pressure_subscription_->receivedCount() : 0,
+                        " pressure samples received from ",
+                        pressure_subscription_ ? pressure_subscription_->matchedCount() : 0, " writer(s) (", s.pressure_samples, " processed, ", s.rejected_pressure,
+                        " rejected, ", s.before_resume, " before the resumed state), ", dropped_inactive_.load(),
+                        " samples dropped while inactive, ", published_, " floor events published, processed until t=",
+                        detector_->processedUntil()));
+  }
+  pressure_subscription_.reset();
   detector_.reset();
   publisher_.reset();
 }

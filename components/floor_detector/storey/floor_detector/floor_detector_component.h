@@ -7,6 +7,7 @@
 // while active.
 #pragma once
 
+#include <atomic>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -56,6 +57,8 @@ class FloorDetectorComponent : public runtime::Component {
       runtime::Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>>
       publisher_;
   std::uint64_t published_ = 0;
+  std::atomic<std::uint64_t> dropped_inactive_{0};  // sensor samples that came before activation
+  std::shared_ptr<runtime::SubscriptionBase> pressure_subscription_;
   double last_progress_ = -1e300;  // decided_at of the last message sent
   void saveState();                  // with mutex_ held
 };

@@ -1,5 +1,6 @@
 #include "storey/tools/experiments.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -7,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
@@ -135,6 +137,11 @@ std::vector<ConstraintCheck> checkConstraints(const building::BuildingGraph& gra
   for (const auto& c : graph.constraints()) {
     ConstraintCheck check;
     check.id = c.id;
+    {
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(c.information.topLeftCorner<2, 2>());
+      const double weakest = eigen.eigenvalues()(0);
+      check.weak_sigma = weakest > 0.0 ? 1.0 / std::sqrt(weakest) : std::numeric_limits<double>::infinity();
+    }
     const auto from_graph = graph.floorGraphs().find(c.graph_from);
     const auto to_graph = graph.floorGraphs().find(c.graph_to);
     const floor::FloorNode* from =
@@ -155,6 +162,10 @@ std::vector<ConstraintCheck> checkConstraints(const building::BuildingGraph& gra
       check.rotation_error = std::abs(check.signed_rotation_error);
       check.wrong =
           check.translation_error > goals.wrong_translation || check.rotation_error > goals.wrong_rotation;
+      check.from_x = truth_from->pose.x();
+      check.from_y = truth_from->pose.y();
+      check.to_x = truth_to->pose.x();
+      check.to_y = truth_to->pose.y();
     }
     checks.push_back(check);
   }
@@ -552,13 +563,13 @@ std::string toCsv(const std::vector<ExperimentTable>& tables) {
 std::string constraintsCsv(const std::vector<ExperimentTable>& tables) {
   std::ostringstream out;
   out << std::setprecision(9);
-  out << "experiment,seed,constraint,floor_from,floor_to,checked,translation_error_m,rotation_error_deg,wrong\n";
+  out << "experiment,seed,constraint,floor_from,floor_to,checked,translation_error_m,rotation_error_deg,wrong,from_x,from_y,to_x,to_y,weak_sigma_m\n";
   for (const auto& t : tables)
     for (const auto& r : t.runs)
       for (const auto& c : r.constraints)
         out << t.spec.name << "," << r.seed << "," << c.id << "," << c.floor_from << "," << c.floor_to << ","
             << c.checked << "," << c.translation_error << "," << c.signed_rotation_error * kDeg << "," << c.wrong
-            << "\n";
+            << "," << c.from_x << "," << c.from_y << "," << c.to_x << "," << c.to_y << "," << c.weak_sigma << "\n";
   return out.str();
 }
 

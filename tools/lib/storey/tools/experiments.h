@@ -67,6 +67,11 @@ struct ConstraintCheck {
   double rotation_error = 0.0;       // rad, |signed_rotation_error|
   double signed_rotation_error = 0.0;  // rad, implied heading of node_to minus its true one
   bool wrong = false;
+  // True building-frame positions of its two nodes (where it is, for analysis).
+  double from_x = 0.0, from_y = 0.0, to_x = 0.0, to_y = 0.0;
+  // The largest translational sigma its information claims (m): large for a constraint
+  // from scans that see only a corridor's two walls.
+  double weak_sigma = 0.0;
 };
 
 // Checks every inter-floor constraint of `graph` against the true poses of its two nodes
