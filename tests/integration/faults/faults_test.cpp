@@ -248,22 +248,20 @@ class Deployment {
     fs::create_directories(dir_);
     const std::string config = test::sourceDir() + "/config/";
     write("graph_server.yaml", "journal: " + journal() + "\n");
-    // The mapper under test logs its input, so that a restart resumes its graphs. It waits
-    // for a silent detector up to 300 s of scans, not 30: at 10x that is 30 s, not 3 s, of
-    // wall time, and a detector restarted under load took longer than 3 s to catch up on the
-    // sensor history (the mapper then mapped on without its floor events).
+    // Both mappers wait for a silent detector up to 300 s of scans, not 30: at 10x that is
+    // 30 s, not 3 s, of wall time, and a detector restarted under load took longer than 3 s
+    // to catch up on the sensor history (the mapper then mapped on without its floor events).
+    const std::string mapper_parameters = replaceAll(readText(config + "floor_mapper.yaml"),
+                                                     "max_floor_detector_lag: 30.0", "max_floor_detector_lag: 300.0");
+    // The mapper under test logs its input, so that a restart resumes its graphs.
     write("floor_mapper.yaml",
-          replaceAll(replaceAll(readText(config + "floor_mapper.yaml"), "input_log: \"\"",
-                                "input_log: " + dir_ + "/mapper_input.log"),
-                     "max_floor_detector_lag: 30.0", "max_floor_detector_lag: 300.0"));
-    // The witness: the shipped parameters on witness topics (and the same detector lag).
+          replaceAll(mapper_parameters, "input_log: \"\"", "input_log: " + dir_ + "/mapper_input.log"));
+    // The witness: the shipped parameters on witness topics.
     write("witness_floor_detector.yaml", replaceAll(readText(config + "floor_detector.yaml"),
                                                     "events_topic: floor_events", "events_topic: witness_floor_events"));
     write("witness_floor_mapper.yaml",
-          replaceAll(replaceAll(replaceAll(readText(config + "floor_mapper.yaml"), "events_topic: floor_events",
-                                           "events_topic: witness_floor_events"),
-                                "floor_graph_topic: storey/floor_graphs", "floor_graph_topic: witness/floor_graphs"),
-                     "max_floor_detector_lag: 30.0", "max_floor_detector_lag: 300.0"));
+          replaceAll(replaceAll(mapper_parameters, "events_topic: floor_events", "events_topic: witness_floor_events"),
+                     "floor_graph_topic: storey/floor_graphs", "floor_graph_topic: witness/floor_graphs"));
     const std::string graphs = witness == Witness::kPipeline ? "witness/floor_graphs" : "storey/floor_graphs";
     const std::string constraints =
         witness == Witness::kServer ? "storey/inter_floor_constraints" : "witness/inter_floor_constraints";

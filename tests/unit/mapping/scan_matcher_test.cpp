@@ -181,7 +181,7 @@ TEST(NormalNoise, ACorridorsTiltedNormalsGiveNoInformationAlongIt) {
     }
   const Eigen::Matrix3d h = lineInformation(corridor);
   ASSERT_GT(h(0, 0), 0.01);  // the phantom
-  const Eigen::Matrix3d cleaned = withoutNormalNoise(h, 0.045);
+  const Eigen::Matrix3d cleaned = grid::withoutNormalNoise(h, 0.045);
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(cleaned.topLeftCorner<2, 2>());
   EXPECT_NEAR(eigen.eigenvalues()(0), 0.0, 1e-9 * h(1, 1));
   EXPECT_NEAR(cleaned(1, 1), h(1, 1), 1e-3 * h(1, 1));  // across the corridor: kept
@@ -193,10 +193,10 @@ TEST(NormalNoise, ACorridorsTiltedNormalsGiveNoInformationAlongIt) {
   auto with_door = corridor;
   for (int i = 0; i < 10; ++i) with_door.push_back({{3.0, -0.5 + 0.1 * i}, {1.0, 0.0}});
   const Eigen::Matrix3d hd = lineInformation(with_door);
-  const Eigen::Matrix3d cd = withoutNormalNoise(hd, 0.045);
+  const Eigen::Matrix3d cd = grid::withoutNormalNoise(hd, 0.045);
   EXPECT_GT(cd(0, 0), 0.9 * hd(0, 0));
   EXPECT_LT(cd(0, 0), hd(0, 0));
-  EXPECT_EQ(withoutNormalNoise(hd, 0.0), hd);
+  EXPECT_EQ(grid::withoutNormalNoise(hd, 0.0), hd);
 }
 
 }  // namespace

@@ -6,7 +6,6 @@
 #pragma once
 
 #include <Eigen/Core>
-#include <utility>
 #include <vector>
 
 #include "storey/geometry/pose2.h"

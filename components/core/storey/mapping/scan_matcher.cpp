@@ -333,7 +333,7 @@ Eigen::Matrix3d matchCovariance(const Eigen::Matrix3d& h_scan, double weighted_r
                                 const ScanMatcherOptions& o) {
   const double sigma2 =
       std::max(weighted_r2 / std::max(1.0, weight_sum - 3.0), o.min_point_stddev * o.min_point_stddev);
-  Eigen::Matrix3d info = withoutNormalNoise(h_scan, o.normal_tilt_stddev) / sigma2;
+  Eigen::Matrix3d info = grid::withoutNormalNoise(h_scan, o.normal_tilt_stddev) / sigma2;
   info(0, 0) += 1.0 / (o.max_translation_stddev * o.max_translation_stddev);
   info(1, 1) += 1.0 / (o.max_translation_stddev * o.max_translation_stddev);
   info(2, 2) += 1.0 / (o.max_rotation_stddev * o.max_rotation_stddev);

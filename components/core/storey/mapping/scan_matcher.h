@@ -119,8 +119,6 @@ double pointResidual(const grid::LikelihoodField& field, const geometry::Pose2& 
 // `radius` (zero where the neighbourhood is not line-like).
 std::vector<Eigen::Vector2d> pointNormals(const std::vector<Eigen::Vector2d>& points, double radius);
 
-using grid::withoutNormalNoise;  // storey/grid/point_map.h
-
 // Drops points within `distance` of a previously kept point (greedy, order-preserving).
 std::vector<Eigen::Vector2d> filterPoints(const std::vector<Eigen::Vector2d>& points,
                                           double distance);

@@ -69,7 +69,8 @@ void FloorDetectorComponent::onConfigure() {
     ++dropped_inactive_;
     return false;
   };
-  pressure_subscription_ = createSubscription<sensor_msgs::msg::FluidPressure, sensor_msgs::msg::FluidPressurePubSubType>(
+  pressure_subscription_ =
+      createSubscription<sensor_msgs::msg::FluidPressure, sensor_msgs::msg::FluidPressurePubSubType>(
       runtime::robotTopic(robot, "pressure"), runtime::TopicKind::kSensor,
       [this, active](const sensor_msgs::msg::FluidPressure& m) {
         if (!active()) return;
@@ -109,12 +110,13 @@ void FloorDetectorComponent::onCleanup() {
   // What the detector saw: a restarted or silent detector is diagnosed from this line.
   if (detector_) {
     const auto& s = detector_->stats();
-    common::logInfo(str(name(), ": ", pressure_subscription_ ? pressure_subscription_->receivedCount() : 0,
-                        " pressure samples received from ",
-                        pressure_subscription_ ? pressure_subscription_->matchedCount() : 0, " writer(s) (", s.pressure_samples, " processed, ", s.rejected_pressure,
-                        " rejected, ", s.before_resume, " before the resumed state), ", dropped_inactive_.load(),
-                        " samples dropped while inactive, ", published_, " floor events published, processed until t=",
-                        detector_->processedUntil()));
+    const std::uint64_t received = pressure_subscription_ ? pressure_subscription_->receivedCount() : 0;
+    const int writers = pressure_subscription_ ? pressure_subscription_->matchedCount() : 0;
+    common::logInfo(str(name(), ": ", received, " pressure samples received from ", writers, " writer(s) (",
+                        s.pressure_samples, " processed, ", s.rejected_pressure, " rejected, ", s.before_resume,
+                        " before the resumed state), ", dropped_inactive_.load(),
+                        " samples dropped while inactive, ", published_,
+                        " floor events published, processed until t=", detector_->processedUntil()));
   }
   pressure_subscription_.reset();
   detector_.reset();
