@@ -51,15 +51,17 @@ bool endsWith(const std::string& s, const std::string& suffix) {
 
 void printErrors(const matching::MatchResult& result, const matching::SimulatedFloors& floors) {
   std::cout << "errors against the truth:\n";
-  int wrong = 0;
+  int wrong = 0, off = 0;
   for (const auto& c : result.constraints) {
     const auto e = matching::constraintError(c, floors);
-    const bool bad = e.translation > 0.3 || e.rotation > 2.0 * M_PI / 180.0;
-    wrong += bad;
+    wrong += e.wrong;
+    off += e.off;
     std::cout << "  graph " << c.graph_id << " node " << c.node_id << " -> graph "
               << c.reference_graph_id << " node " << c.reference_node_id << ": " << std::fixed
-              << std::setprecision(3) << e.translation << " m, " << e.rotation * 180.0 / M_PI
-              << " deg" << (bad ? "  WRONG" : "") << "\n";
+              << std::setprecision(3) << e.translation << " m (" << e.along_weak
+              << " along its weak direction, claimed sigma " << e.weak_sigma << "), "
+              << e.rotation * 180.0 / M_PI << " deg"
+              << (e.wrong ? "  WRONG" : e.off ? "  off along its weak direction" : "") << "\n";
   }
   for (const auto& p : result.pairs) {
     if (!p.accepted) continue;
@@ -68,7 +70,8 @@ void printErrors(const matching::MatchResult& result, const matching::SimulatedF
               << ": " << std::fixed << std::setprecision(3) << e.translation << " m, "
               << e.rotation * 180.0 / M_PI << " deg\n";
   }
-  std::cout << wrong << " wrong constraints (more than 0.3 m or 2 deg off)\n";
+  std::cout << wrong << " wrong constraints (more than 0.3 m or 2 deg off, or 3 claimed sigmas "
+            << "along a weak direction); " << off << " more than 0.3 m or 2 deg off in any direction\n";
 }
 
 // Every candidate that passed the gate, against the truth, with where its scans were (the

@@ -63,6 +63,7 @@ TEST(Experiments, ConstraintsAreCheckedAgainstTruth) {
   right.graph_to = 2;
   right.node_to = 0;
   right.relative = a1.inverse() * b0;
+  right.information.diagonal() << 400.0, 400.0, 1e4;  // 0.05 m, 0.01 rad
   building::InterGraphConstraint wrong = right;
   wrong.id = 2;
   wrong.relative = right.relative * Pose2(0.5, 0.0, 0.0);
@@ -72,10 +73,20 @@ TEST(Experiments, ConstraintsAreCheckedAgainstTruth) {
   building::InterGraphConstraint unknown = right;
   unknown.id = 4;
   unknown.node_to = 1;  // no true pose at its stamp
-  for (const auto& c : {right, wrong, turned, unknown}) graph.addConstraint(c);
+  // A corridor's constraint: it claims sigma 0.5 m along x of node_from's frame, and is
+  // 0.5 m off along it (not wrong) or across it (wrong).
+  building::InterGraphConstraint along = right;
+  along.id = 5;
+  along.information.setZero();
+  along.information.diagonal() << 4.0, 400.0, 1e4;
+  along.relative = Pose2(0.5, 0.0, 0.0) * right.relative;
+  building::InterGraphConstraint across = along;
+  across.id = 6;
+  across.relative = Pose2(0.0, 0.5, 0.0) * right.relative;
+  for (const auto& c : {right, wrong, turned, unknown, along, across}) graph.addConstraint(c);
 
   const auto checks = checkConstraints(graph, truth, ExperimentGoals{});
-  ASSERT_EQ(checks.size(), 4u);
+  ASSERT_EQ(checks.size(), 6u);
   EXPECT_TRUE(checks[0].checked);
   EXPECT_EQ(checks[0].floor_from, "F0");
   EXPECT_EQ(checks[0].floor_to, "F1");
@@ -87,6 +98,13 @@ TEST(Experiments, ConstraintsAreCheckedAgainstTruth) {
   EXPECT_TRUE(checks[2].wrong);  // 2.9 degrees
   EXPECT_FALSE(checks[3].checked);
   EXPECT_FALSE(checks[3].wrong);
+  EXPECT_NEAR(checks[4].translation_error, 0.5, 1e-9);
+  EXPECT_NEAR(checks[4].along_weak, 0.5, 1e-9);
+  EXPECT_NEAR(checks[4].weak_sigma, 0.5, 1e-9);
+  EXPECT_TRUE(checks[4].off);
+  EXPECT_FALSE(checks[4].wrong);
+  EXPECT_NEAR(checks[5].along_weak, 0.0, 1e-9);
+  EXPECT_TRUE(checks[5].wrong);
 }
 
 TEST(Experiments, OdometryChainPlacesTheNextFloorWhereOdometrySays) {

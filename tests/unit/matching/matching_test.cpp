@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "storey/common/config.h"
+#include "storey/matching/constraint_judgement.h"
 #include "storey/matching/floor_matcher.h"
 #include "storey/matching/particle_filter.h"
 #include "synthetic_floor.h"
@@ -411,6 +412,46 @@ TEST(FloorMatcher, ConstraintInformationIsWeakAlongTheUnpinnedDirection) {
   EXPECT_GT(floor_only.determinant(), 0.0);
   c.information_ratio = -1.0;  // not computed
   EXPECT_NEAR(constraintInformation(c, o)(1, 1), 400.0, 1e-9);
+}
+
+TEST(ConstraintJudgement, AnErrorAlongAClaimedWeakDirectionIsNotWrongAcrossItIs) {
+  FloorMatcherOptions o;
+  Candidate c;
+  c.information_ratio = 0.01;   // sigma 0.5 m along the weak direction
+  c.weak_direction = M_PI / 2;  // y in the reference node's frame
+  const Eigen::Matrix3d corridor = constraintInformation(c, o);
+  const Pose2 truth(2.0, 1.0, 0.3);
+  // 0.9 m along y: within 3 x 0.5 m, off by the fixed limit only.
+  ConstraintJudgement j = judgeConstraint(Pose2(2.0, 1.9, 0.3), truth, corridor);
+  EXPECT_NEAR(j.translation, 0.9, 1e-12);
+  EXPECT_NEAR(j.along_weak, 0.9, 1e-12);
+  EXPECT_NEAR(j.across_weak, 0.0, 1e-12);
+  EXPECT_NEAR(j.weak_sigma, 0.5, 1e-9);
+  EXPECT_TRUE(j.off);
+  EXPECT_FALSE(j.wrong);
+  // 1.6 m along it: beyond 3 claimed sigmas.
+  EXPECT_TRUE(judgeConstraint(Pose2(2.0, 2.6, 0.3), truth, corridor).wrong);
+  // 0.35 m across it: the constraint claims 0.05 m there.
+  j = judgeConstraint(Pose2(2.35, 1.0, 0.3), truth, corridor);
+  EXPECT_NEAR(j.across_weak, 0.35, 1e-12);
+  EXPECT_TRUE(j.wrong);
+  // Both: 0.25 m across and 1.2 m along (0.24 of the 1.5 m limit, scaled to 0.3 m) is
+  // over the limit together though each part is under it.
+  EXPECT_TRUE(judgeConstraint(Pose2(2.25, 2.2, 0.3), truth, corridor).wrong);
+  EXPECT_FALSE(judgeConstraint(Pose2(2.1, 2.2, 0.3), truth, corridor).wrong);
+  // Heading: 2 degrees whatever the translation claims.
+  EXPECT_TRUE(judgeConstraint(Pose2(2.0, 1.0, 0.3 + 0.04), truth, corridor).wrong);
+  // An isotropic claim is judged by the fixed limits alone: 0.29 m is right, 0.31 wrong,
+  // in any direction.
+  c.information_ratio = -1.0;
+  const Eigen::Matrix3d room = constraintInformation(c, o);
+  for (double angle : {0.0, 1.0, 2.5}) {
+    const Eigen::Vector2d d(std::cos(angle), std::sin(angle));
+    const auto at = [&](double m) { return Pose2(2.0 + m * d.x(), 1.0 + m * d.y(), 0.3); };
+    EXPECT_FALSE(judgeConstraint(at(0.29), truth, room).wrong) << angle;
+    EXPECT_TRUE(judgeConstraint(at(0.31), truth, room).wrong) << angle;
+    EXPECT_TRUE(judgeConstraint(at(0.31), truth, room).off) << angle;
+  }
 }
 
 TEST(FloorMatcherOptions, ReadsValuesAndRejectsUnknownKeys) {

@@ -103,18 +103,17 @@ SimulatedFloors floorGraphsFromSimulation(const sim::Simulation& simulation,
   return out;
 }
 
-ConstraintError constraintError(const InterFloorConstraint& c, const SimulatedFloors& floors) {
+ConstraintJudgement constraintError(const InterFloorConstraint& c, const SimulatedFloors& floors,
+                                    const WrongConstraintLimits& limits) {
   std::size_t ri = 0, gi = 0;
   const floor::FloorGraph* ref = findGraph(floors, c.reference_graph_id, &ri);
   const floor::FloorGraph* g = findGraph(floors, c.graph_id, &gi);
   const floor::FloorNode* q = ref->findNode(c.reference_node_id);
   const floor::FloorNode* k = g->findNode(c.node_id);
   if (!q || !k) throw std::invalid_argument("constraint names a node that does not exist");
-  const Pose2 implied = q->pose * c.measurement * k->pose.inverse();
-  const Pose2 truth = floors.frames[ri].inverse() * floors.frames[gi];
-  const Pose2 a = implied * k->pose, b = truth * k->pose;
-  return {(a.translation() - b.translation()).norm(),
-          std::abs(geometry::angleDiff(a.theta(), b.theta()))};
+  // The node poses are true poses in each graph's random frame.
+  const Pose2 truth = q->pose.inverse() * floors.frames[ri].inverse() * floors.frames[gi] * k->pose;
+  return judgeConstraint(c.measurement, truth, c.information, limits);
 }
 
 ConstraintError alignmentError(const Pose2& alignment, int reference_graph_id, int graph_id,

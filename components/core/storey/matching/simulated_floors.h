@@ -12,6 +12,7 @@
 
 #include "storey/floor/floor_graph.h"
 #include "storey/geometry/pose2.h"
+#include "storey/matching/constraint_judgement.h"
 #include "storey/matching/floor_matcher.h"
 #include "storey/sim/simulator.h"
 
@@ -34,16 +35,19 @@ struct SimulatedFloors {
 SimulatedFloors floorGraphsFromSimulation(const sim::Simulation& simulation,
                                           const SimulatedFloorsOptions& options);
 
-// How far an accepted constraint is from the truth: the alignment it implies
-// (q * c * p_k^-1) against the true one (frame_ref^-1 * frame_i), compared where node k is.
+// How far an accepted constraint is from the truth, and whether that is wrong for what
+// its information claims: node k as the constraint places it in the frame of node q,
+// against where the true frames (frame_ref^-1 * frame_i) put it.
+ConstraintJudgement constraintError(const InterFloorConstraint& constraint,
+                                    const SimulatedFloors& floors,
+                                    const WrongConstraintLimits& limits = {});
+
+// How far an alignment of graph `graph_id` in graph `reference_graph_id` is from the
+// truth, at the centroid of the graph's nodes.
 struct ConstraintError {
   double translation = 0.0;  // metres
   double rotation = 0.0;     // radians
 };
-ConstraintError constraintError(const InterFloorConstraint& constraint,
-                                const SimulatedFloors& floors);
-// The same for an alignment of graph `graph_id` in graph `reference_graph_id`, at the
-// centroid of the graph's nodes.
 ConstraintError alignmentError(const geometry::Pose2& alignment, int reference_graph_id,
                                int graph_id, const SimulatedFloors& floors);
 
