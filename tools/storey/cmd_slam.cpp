@@ -180,7 +180,8 @@ int run_slam(Args& args) {
          << "scans: " << scans.size() << "  nodes: " << st.nodes << "  skipped: " << st.skipped
          << "  rejected: " << st.rejected << "  matched: " << st.matched << "  match failures: " << st.match_failures
          << "\nloop closures: " << st.loop_closures << " of " << st.loop_attempts << " attempts ("
-         << st.loop_rejected_inconsistent << " rejected as inconsistent), optimisations: " << st.optimizations << "\n";
+         << st.loop_rejected_inconsistent << " rejected as inconsistent, " << st.loop_ambiguous
+         << " ambiguous), optimisations: " << st.optimizations << "\n";
   report << std::fixed << std::setprecision(2) << "processing: " << run.seconds << " s";
   if (duration > 0.0) report << "  log duration: " << duration << " s  real-time factor: " << duration / run.seconds;
   else report << "  log duration: unknown (bad stamps)  scans/s: " << scans.size() / run.seconds;

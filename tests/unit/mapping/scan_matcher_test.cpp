@@ -109,6 +109,43 @@ TEST(ScanMatcher, CorridorGivesWeakInformationAlongTheAxis) {
   EXPECT_GT(sx / sy, 20.0);
 }
 
+TEST(ScanMatcher, BestElsewhereTellsRepeatingDoorsFromAUniquePlace) {
+  // A corridor with a door recess every 3 m: a scan seeing 8 m fits nearly as well
+  // elsewhere along it.
+  test::World doors = test::corridorWorld();
+  for (double x = -30; x <= 30; x += 3.0) doors.addBox(x, 1.0, x + 0.9, 1.4);
+  std::vector<Pose2> poses;
+  for (double x = -20; x <= 20; x += 0.5) poses.emplace_back(x, 0.0, 0.0);
+  const MatchTarget corridor = targetFrom(doors, poses);
+  ScanMatcher matcher;
+  const Pose2 truth(0.3, 0.1, 0.02);
+  const auto corridor_points = filterPoints(doors.scan(truth, 0.0, 361, 8.0).pointsInRobotFrame(), 0.05);
+  const MatchResult best = matcher.correlativeSearch(corridor, corridor_points, truth, 4.0, 0.2);
+  ASSERT_TRUE(best.success) << best.problem;
+  EXPECT_NEAR(best.pose.y(), truth.y(), 0.05);
+  EXPECT_LT((best.pose.translation() - truth.translation()).norm(), 0.25);
+  const MatchResult other =
+      matcher.bestElsewhere(corridor, corridor_points, truth, 4.0, 0.2, best.pose.translation(), 1.0);
+  ASSERT_TRUE(other.success) << other.problem;
+  EXPECT_GT((other.pose.translation() - best.pose.translation()).norm(), 1.0);  // left out
+  EXPECT_NEAR(other.pose.y(), best.pose.y(), 0.1);  // along the corridor
+  EXPECT_GT(other.correlative_score, 0.9 * best.correlative_score);
+
+  // The office: nothing more than 1 m away fits nearly as well.
+  const test::World office = test::officeWorld();
+  const MatchTarget room = targetFrom(office, {Pose2(4, 4, 0), Pose2(8, 3, 1.0), Pose2(6, 6.5, -2.0)});
+  const Pose2 at(6, 4, 0.3);
+  const auto room_points = filterPoints(office.scan(at, 0.0).pointsInRobotFrame(), 0.05);
+  const MatchResult unique = matcher.correlativeSearch(room, room_points, at, 4.0, 0.2);
+  ASSERT_TRUE(unique.success) << unique.problem;
+  const MatchResult elsewhere =
+      matcher.bestElsewhere(room, room_points, at, 4.0, 0.2, unique.pose.translation(), 1.0);
+  if (elsewhere.success) {
+    EXPECT_GT((elsewhere.pose.translation() - unique.pose.translation()).norm(), 1.0);
+    EXPECT_LT(elsewhere.correlative_score, 0.9 * unique.correlative_score);
+  }
+}
+
 TEST(ScanMatcher, FailsCleanlyWithoutMapOrPoints) {
   ScanMatcher matcher;
   const MatchTarget empty;

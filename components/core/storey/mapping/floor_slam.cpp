@@ -92,6 +92,8 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
     l.submap_half_nodes = n.getInt("submap_half_nodes", l.submap_half_nodes, 0, 10000);
     l.min_score = n.getDouble("min_score", l.min_score, 0.0, 1.0);
     l.max_chi2 = n.getDouble("max_chi2", l.max_chi2, 0.0, 1e12);
+    l.ambiguity_distance = n.getDouble("ambiguity_distance", l.ambiguity_distance, 0.0, 100.0);
+    l.ambiguity_ratio = n.getDouble("ambiguity_ratio", l.ambiguity_ratio, 0.0, 1.0);
     l.matcher = readMatcherOrDefault(n, "scan_matcher", l.matcher);
     n.finish();
   }
@@ -457,9 +459,22 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   const MatchResult match = s.loop_matcher.match(target, points, current.pose, linear, angular);
   if (!match.success || match.score < o.min_score) return false;
 
+  Eigen::Matrix3d covariance = match.covariance;
+  if (o.ambiguity_distance > 0.0) {
+    const MatchResult elsewhere = s.loop_matcher.bestElsewhere(target, points, current.pose, linear, angular,
+                                                               match.pose.translation(), o.ambiguity_distance);
+    if (elsewhere.success && elsewhere.correlative_score >= o.ambiguity_ratio * match.correlative_score) {
+      ++stats_.loop_ambiguous;
+      const Eigen::Vector2d along = (elsewhere.pose.translation() - match.pose.translation()).normalized();
+      const double sigma = s.loop_matcher.options().max_translation_stddev;
+      covariance.topLeftCorner<2, 2>() += sigma * sigma * along * along.transpose();
+      common::logDebug(str("floor_slam: loop closure at node ", current.id, " ambiguous: score ",
+                           elsewhere.correlative_score, " elsewhere against ", match.correlative_score));
+    }
+  }
   const floor::FloorNode& candidate = floor_graph_.nodes[best];
   const Pose2 z = candidate.pose.between(match.pose);
-  const Eigen::Matrix3d info = safeInformation(rotateCovariance(match.covariance, candidate.pose.theta()));
+  const Eigen::Matrix3d info = safeInformation(rotateCovariance(covariance, candidate.pose.theta()));
   std::vector<Pose2> backup;
   backup.reserve(pose_graph_.numNodes());
   for (const auto& node : pose_graph_.nodes()) backup.push_back(node.pose);

@@ -73,6 +73,12 @@ struct LoopClosureOptions {
   int submap_half_nodes = 10;    // the candidate's map: nodes within this index distance
   double min_score = 0.6;        // refined mean score a closure needs
   double max_chi2 = 25.0;        // after optimisation, a closure with larger χ² is disabled
+  // A closure whose scan fits as well (ambiguity_ratio of its correlative score) at a place
+  // more than ambiguity_distance away in the search window is ambiguous along the line
+  // between the two (a corridor's repeating doors): it keeps its information across that
+  // line and in heading, none along it. 0: no check.
+  double ambiguity_distance = 0.0;  // m
+  double ambiguity_ratio = 0.9;
   // For closures (windows from the options above). They refine on the likelihood field
   // (ScanMatcherOptions::point_refinement false): on the points, closures in the ring
   // corridor of FloorSlam.LoopClosureCorrectsDrift landed 1.5-1.9 m wrong.
@@ -143,6 +149,7 @@ struct FloorSlamStats {
   std::size_t scans = 0, nodes = 0, skipped = 0, rejected = 0;
   std::size_t matched = 0, match_failures = 0, odometry_jumps = 0;
   std::size_t loop_attempts = 0, loop_closures = 0, loop_rejected_inconsistent = 0;
+  std::size_t loop_ambiguous = 0;  // attempts whose scan fit as well elsewhere
   std::size_t optimizations = 0;
   std::size_t relocalizations = 0, relocalization_failures = 0;
 };

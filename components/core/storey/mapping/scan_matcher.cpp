@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <unordered_map>
 #include "storey/common/log.h"
 
@@ -178,6 +179,17 @@ std::vector<Eigen::Vector2d> pointNormals(const std::vector<Eigen::Vector2d>& po
 
 ScanMatcher::ScanMatcher(ScanMatcherOptions options) : options_(options) {}
 
+// A disc of positions left out of the search, in cells relative to the prediction.
+struct ScanMatcher::Exclusion {
+  double x = 0.0, y = 0.0, radius = 0.0;
+  // Whether the block of cell offsets [x0, x1] x [y0, y1] lies wholly inside.
+  bool covers(int x0, int x1, int y0, int y1) const {
+    const double dx = std::max(std::abs(x0 - x), std::abs(x1 - x));
+    const double dy = std::max(std::abs(y0 - y), std::abs(y1 - y));
+    return dx * dx + dy * dy < radius * radius;
+  }
+};
+
 namespace {
 
 struct Candidate {
@@ -197,8 +209,10 @@ double rectDistance(int x0, int x1, int y0, int y1) {
 class BranchAndBound {
  public:
   BranchAndBound(const MatchTarget& target, const std::vector<std::vector<Eigen::Vector2i>>& cells,
-                 const std::vector<double>& angle_offsets, int window, const ScanMatcherOptions& o)
-      : target_(target), cells_(cells), angle_offsets_(angle_offsets), window_(window), o_(o) {
+                 const std::vector<double>& angle_offsets, int window, const ScanMatcherOptions& o,
+                 std::function<bool(int, int, int, int)> excluded)
+      : target_(target), cells_(cells), angle_offsets_(angle_offsets), window_(window), o_(o),
+        excluded_(std::move(excluded)) {
     res_ = target.field().frame().resolution;
   }
 
@@ -218,6 +232,10 @@ class BranchAndBound {
     std::sort(nodes.begin(), nodes.end(), [](const Candidate& a, const Candidate& b) { return a.bound > b.bound; });
     for (const auto& n : nodes) {
       if (n.bound <= best_score_) break;  // sorted: nothing after can beat the best
+      if (excluded_) {
+        const int size = (1 << n.level) - 1;
+        if (excluded_(n.x, std::min(n.x + size, window_), n.y, std::min(n.y + size, window_))) continue;
+      }
       if (n.level == 0) {
         best_score_ = n.bound;
         best_ = n;
@@ -248,6 +266,7 @@ class BranchAndBound {
   const std::vector<double>& angle_offsets_;
   int window_;
   const ScanMatcherOptions& o_;
+  std::function<bool(int, int, int, int)> excluded_;  // blocks wholly left out (none when empty)
   double res_ = 0.05;
 };
 
@@ -256,6 +275,24 @@ class BranchAndBound {
 MatchResult ScanMatcher::correlativeSearch(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
                                            const Pose2& prediction, double linear_window,
                                            double angular_window) const {
+  return search(target, points, prediction, linear_window, angular_window, nullptr);
+}
+
+MatchResult ScanMatcher::bestElsewhere(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
+                                       const Pose2& prediction, double linear_window, double angular_window,
+                                       const Eigen::Vector2d& excluded, double radius) const {
+  if (target.empty()) return search(target, points, prediction, linear_window, angular_window, nullptr);
+  const double res = target.field().frame().resolution;
+  Exclusion exclusion;
+  exclusion.x = (excluded.x() - prediction.x()) / res;
+  exclusion.y = (excluded.y() - prediction.y()) / res;
+  exclusion.radius = radius / res;
+  return search(target, points, prediction, linear_window, angular_window, &exclusion);
+}
+
+MatchResult ScanMatcher::search(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
+                                const Pose2& prediction, double linear_window, double angular_window,
+                                const Exclusion* exclusion) const {
   MatchResult result;
   result.points = static_cast<int>(points.size());
   result.pose = prediction;
@@ -295,7 +332,9 @@ MatchResult ScanMatcher::correlativeSearch(const MatchTarget& target, const std:
   while ((1 << level) < 2 * window + 1 && level < max_level) ++level;
   const int top = 1 << level;
 
-  BranchAndBound bb(target, cells, offsets, window, options_);
+  std::function<bool(int, int, int, int)> excluded;
+  if (exclusion) excluded = [exclusion](int x0, int x1, int y0, int y1) { return exclusion->covers(x0, x1, y0, y1); };
+  BranchAndBound bb(target, cells, offsets, window, options_, std::move(excluded));
   bb.best_score_ = options_.min_score;
   std::vector<Candidate> nodes;
   for (std::size_t a = 0; a < offsets.size(); ++a)

@@ -138,6 +138,13 @@ class ScanMatcher {
   MatchResult correlativeSearch(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
                                 const geometry::Pose2& prediction, double linear_window,
                                 double angular_window) const;
+  // The same search with every position within `radius` of `excluded` left out: the best
+  // match elsewhere in the window, which tells a unique match from one of several alike
+  // (a corridor's repeating doors). success false when nothing there reaches min_score.
+  MatchResult bestElsewhere(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
+                            const geometry::Pose2& prediction, double linear_window,
+                            double angular_window, const Eigen::Vector2d& excluded,
+                            double radius) const;
   // The refinement alone, from `initial`; fills pose, score and covariance.
   MatchResult refine(const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,
                      const geometry::Pose2& initial) const;
@@ -147,6 +154,10 @@ class ScanMatcher {
                              const geometry::Pose2& initial) const;
 
  private:
+  struct Exclusion;
+  MatchResult search(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
+                     const geometry::Pose2& prediction, double linear_window, double angular_window,
+                     const Exclusion* exclusion) const;
   ScanMatcherOptions options_;
 };
 

@@ -725,10 +725,20 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
     result.alignment = joint;
     // Each accepted constraint is re-expressed through the joint alignment, which fits
     // every inlier's scans at once: one candidate's own refinement may be off by a few
-    // tenths of a degree more than RANSAC's tolerance lets through.
+    // tenths of a degree more than RANSAC's tolerance lets through. Not a reversed one:
+    // its node of g_i is where g_ref's scans were localised in g_i's map, a local
+    // measurement, while the joint alignment places that node by g_i's whole graph (a
+    // graph bent by 0.7 degrees along featureless's 127 m corridor put such constraints
+    // 0.3-0.4 m off across it).
     const floor::FloorGraph& ref = *reference.graph;
     for (std::size_t i : best) {
       Candidate& c = result.candidates[i];
+      if (c.reversed) {
+        int q = 0;
+        while (ref.nodes[q].id != c.reference_node_id) ++q;
+        c.weak_direction = weakDirectionAt(c, c.alignment, ref.nodes[q].pose);
+        continue;
+      }
       const Pose2 x = joint * g.nodes[c.node_index].pose;
       const int q = ref.nearestNodeIndex(x.translation());
       c.reference_node_id = ref.nodes[q].id;
