@@ -130,6 +130,10 @@ TEST(ScanMatcher, BestElsewhereTellsRepeatingDoorsFromAUniquePlace) {
   EXPECT_GT((other.pose.translation() - best.pose.translation()).norm(), 1.0);  // left out
   EXPECT_NEAR(other.pose.y(), best.pose.y(), 0.1);  // along the corridor
   EXPECT_GT(other.correlative_score, 0.9 * best.correlative_score);
+  // Asked only for places scoring above the best, there is none.
+  EXPECT_FALSE(matcher.bestElsewhere(corridor, corridor_points, truth, 4.0, 0.2, best.pose.translation(), 1.0,
+                                     best.correlative_score)
+                   .success);
 
   // The office: nothing more than 1 m away fits nearly as well.
   const test::World office = test::officeWorld();

@@ -461,9 +461,10 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
 
   Eigen::Matrix3d covariance = match.covariance;
   if (o.ambiguity_distance > 0.0) {
-    const MatchResult elsewhere = s.loop_matcher.bestElsewhere(target, points, current.pose, linear, angular,
-                                                               match.pose.translation(), o.ambiguity_distance);
-    if (elsewhere.success && elsewhere.correlative_score >= o.ambiguity_ratio * match.correlative_score) {
+    const MatchResult elsewhere =
+        s.loop_matcher.bestElsewhere(target, points, current.pose, linear, angular, match.pose.translation(),
+                                     o.ambiguity_distance, o.ambiguity_ratio * match.correlative_score);
+    if (elsewhere.success) {
       ++stats_.loop_ambiguous;
       const Eigen::Vector2d along = (elsewhere.pose.translation() - match.pose.translation()).normalized();
       const double sigma = s.loop_matcher.options().max_translation_stddev;

@@ -182,6 +182,7 @@ ScanMatcher::ScanMatcher(ScanMatcherOptions options) : options_(options) {}
 // A disc of positions left out of the search, in cells relative to the prediction.
 struct ScanMatcher::Exclusion {
   double x = 0.0, y = 0.0, radius = 0.0;
+  double min_score = 0.0;
   // Whether the block of cell offsets [x0, x1] x [y0, y1] lies wholly inside.
   bool covers(int x0, int x1, int y0, int y1) const {
     const double dx = std::max(std::abs(x0 - x), std::abs(x1 - x));
@@ -280,13 +281,15 @@ MatchResult ScanMatcher::correlativeSearch(const MatchTarget& target, const std:
 
 MatchResult ScanMatcher::bestElsewhere(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
                                        const Pose2& prediction, double linear_window, double angular_window,
-                                       const Eigen::Vector2d& excluded, double radius) const {
+                                       const Eigen::Vector2d& excluded, double radius,
+                                       double min_score) const {
   if (target.empty()) return search(target, points, prediction, linear_window, angular_window, nullptr);
   const double res = target.field().frame().resolution;
   Exclusion exclusion;
   exclusion.x = (excluded.x() - prediction.x()) / res;
   exclusion.y = (excluded.y() - prediction.y()) / res;
   exclusion.radius = radius / res;
+  exclusion.min_score = min_score;
   return search(target, points, prediction, linear_window, angular_window, &exclusion);
 }
 
@@ -335,7 +338,7 @@ MatchResult ScanMatcher::search(const MatchTarget& target, const std::vector<Eig
   std::function<bool(int, int, int, int)> excluded;
   if (exclusion) excluded = [exclusion](int x0, int x1, int y0, int y1) { return exclusion->covers(x0, x1, y0, y1); };
   BranchAndBound bb(target, cells, offsets, window, options_, std::move(excluded));
-  bb.best_score_ = options_.min_score;
+  bb.best_score_ = exclusion ? std::max(options_.min_score, exclusion->min_score) : options_.min_score;
   std::vector<Candidate> nodes;
   for (std::size_t a = 0; a < offsets.size(); ++a)
     for (int y = -window; y <= window; y += top)
@@ -343,7 +346,7 @@ MatchResult ScanMatcher::search(const MatchTarget& target, const std::vector<Eig
   bb.search(nodes);
   result.candidates_scored = bb.evaluated_;
   if (!bb.found_) {
-    result.problem = common::str("no candidate scored above ", options_.min_score);
+    result.problem = common::str("no candidate scored above ", bb.best_score_);
     return result;
   }
   const Candidate& best = bb.best_;

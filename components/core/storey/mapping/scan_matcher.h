@@ -139,12 +139,13 @@ class ScanMatcher {
                                 const geometry::Pose2& prediction, double linear_window,
                                 double angular_window) const;
   // The same search with every position within `radius` of `excluded` left out: the best
-  // match elsewhere in the window, which tells a unique match from one of several alike
-  // (a corridor's repeating doors). success false when nothing there reaches min_score.
+  // match elsewhere in the window scoring above `min_score` (and the options' min_score),
+  // which tells a unique match from one of several alike (a corridor's repeating doors).
+  // success false when there is none; a high min_score lets the search prune early.
   MatchResult bestElsewhere(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
                             const geometry::Pose2& prediction, double linear_window,
-                            double angular_window, const Eigen::Vector2d& excluded,
-                            double radius) const;
+                            double angular_window, const Eigen::Vector2d& excluded, double radius,
+                            double min_score = 0.0) const;
   // The refinement alone, from `initial`; fills pose, score and covariance.
   MatchResult refine(const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,
                      const geometry::Pose2& initial) const;
