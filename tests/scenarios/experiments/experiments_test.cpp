@@ -90,21 +90,21 @@ TEST(Experiments, ConstraintsAreCheckedAgainstTruth) {
   EXPECT_TRUE(checks[0].checked);
   EXPECT_EQ(checks[0].floor_from, "F0");
   EXPECT_EQ(checks[0].floor_to, "F1");
-  EXPECT_NEAR(checks[0].translation_error, 0.0, 1e-9);
-  EXPECT_FALSE(checks[0].wrong);
-  EXPECT_NEAR(checks[1].translation_error, 0.5, 1e-9);
-  EXPECT_TRUE(checks[1].wrong);
-  EXPECT_NEAR(checks[2].rotation_error, 0.05, 1e-9);
-  EXPECT_TRUE(checks[2].wrong);  // 2.9 degrees
+  EXPECT_NEAR(checks[0].judgement.translation, 0.0, 1e-9);
+  EXPECT_FALSE(checks[0].judgement.wrong);
+  EXPECT_NEAR(checks[1].judgement.translation, 0.5, 1e-9);
+  EXPECT_TRUE(checks[1].judgement.wrong);
+  EXPECT_NEAR(checks[2].judgement.rotation, 0.05, 1e-9);
+  EXPECT_TRUE(checks[2].judgement.wrong);  // 2.9 degrees
   EXPECT_FALSE(checks[3].checked);
-  EXPECT_FALSE(checks[3].wrong);
-  EXPECT_NEAR(checks[4].translation_error, 0.5, 1e-9);
-  EXPECT_NEAR(checks[4].along_weak, 0.5, 1e-9);
-  EXPECT_NEAR(checks[4].weak_sigma, 0.5, 1e-9);
-  EXPECT_TRUE(checks[4].off);
-  EXPECT_FALSE(checks[4].wrong);
-  EXPECT_NEAR(checks[5].along_weak, 0.0, 1e-9);
-  EXPECT_TRUE(checks[5].wrong);
+  EXPECT_FALSE(checks[3].judgement.wrong);
+  EXPECT_NEAR(checks[4].judgement.translation, 0.5, 1e-9);
+  EXPECT_NEAR(checks[4].judgement.along_weak, 0.5, 1e-9);
+  EXPECT_NEAR(checks[4].judgement.weak_sigma, 0.5, 1e-9);
+  EXPECT_TRUE(checks[4].judgement.off);
+  EXPECT_FALSE(checks[4].judgement.wrong);
+  EXPECT_NEAR(checks[5].judgement.along_weak, 0.0, 1e-9);
+  EXPECT_TRUE(checks[5].judgement.wrong);
 }
 
 TEST(Experiments, OdometryChainPlacesTheNextFloorWhereOdometrySays) {

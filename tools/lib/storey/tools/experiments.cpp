@@ -150,16 +150,8 @@ std::vector<ConstraintCheck> checkConstraints(const building::BuildingGraph& gra
       check.checked = true;
       check.floor_from = truth_from->floor;
       check.floor_to = truth_to->floor;
-      // node_to as the constraint places it in node_from's frame, against the truth.
-      const matching::ConstraintJudgement j =
+      check.judgement =
           matching::judgeConstraint(c.relative, truth_from->pose.between(truth_to->pose), c.information, goals.wrong);
-      check.translation_error = j.translation;
-      check.along_weak = j.along_weak;
-      check.signed_rotation_error = j.signed_rotation;
-      check.rotation_error = j.rotation;
-      check.weak_sigma = j.weak_sigma;
-      check.off = j.off;
-      check.wrong = j.wrong;
       check.from_x = truth_from->pose.x();
       check.from_y = truth_from->pose.y();
       check.to_x = truth_to->pose.x();
@@ -253,8 +245,8 @@ ExperimentTable summariseExperiment(const ExperimentSpec& spec, const Experiment
           corridors.push_back(c.name);
     for (const auto& c : run.constraints) {
       ++table.constraints;
-      table.wrong += c.wrong;
-      table.off_weak += c.off && !c.wrong;
+      table.wrong += c.judgement.wrong;
+      table.off_weak += c.judgement.off && !c.judgement.wrong;
       table.unchecked += !c.checked;
     }
   }
@@ -278,8 +270,8 @@ ExperimentTable summariseExperiment(const ExperimentSpec& spec, const Experiment
       for (const auto& c : run.constraints) {
         if (c.floor_from != name && c.floor_to != name) continue;
         ++count;
-        row.wrong += c.wrong;
-        if (c.checked) constraint_rotation.push_back(c.signed_rotation_error);
+        row.wrong += c.judgement.wrong;
+        if (c.checked) constraint_rotation.push_back(c.judgement.signed_rotation);
       }
       counts.push_back(count);
     }
@@ -446,7 +438,7 @@ std::vector<ExperimentTable> runExperiments(const ExperimentOptions& options) {
         ++done;
         if (options.progress) {
           std::size_t wrong = 0;
-          for (const auto& c : figures.constraints) wrong += c.wrong;
+          for (const auto& c : figures.constraints) wrong += c.judgement.wrong;
           options.progress("[" + std::to_string(done) + "/" + std::to_string(tasks.size()) + "] " +
                            figures.experiment + " seed " + std::to_string(figures.seed) + ": " +
                            fixed(figures.seconds, 1) + " s, " + std::to_string(figures.constraints.size()) +
@@ -539,7 +531,7 @@ std::string toCsv(const std::vector<ExperimentTable>& tables) {
         for (const auto& c : r.constraints)
           if (c.floor_from == f.floor || c.floor_to == f.floor) {
             ++count;
-            wrong += c.wrong;
+            wrong += c.judgement.wrong;
           }
         out << t.spec.name << "," << r.seed << ",floor," << f.floor << ",";
         if (without) out << without->residual_translation << "," << without->residual_rotation * kDeg;
@@ -571,8 +563,9 @@ std::string constraintsCsv(const std::vector<ExperimentTable>& tables) {
     for (const auto& r : t.runs)
       for (const auto& c : r.constraints)
         out << t.spec.name << "," << r.seed << "," << c.id << "," << c.floor_from << "," << c.floor_to << ","
-            << c.checked << "," << c.translation_error << "," << c.signed_rotation_error * kDeg << "," << c.wrong
-            << "," << c.from_x << "," << c.from_y << "," << c.to_x << "," << c.to_y << "," << c.weak_sigma << "," << c.along_weak << "," << c.off << "\n";
+            << c.checked << "," << c.judgement.translation << "," << c.judgement.signed_rotation * kDeg << ","
+            << c.judgement.wrong << "," << c.from_x << "," << c.from_y << "," << c.to_x << "," << c.to_y << ","
+            << c.judgement.weak_sigma << "," << c.judgement.along_weak << "," << c.judgement.off << "\n";
   return out.str();
 }
 

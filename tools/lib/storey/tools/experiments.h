@@ -63,17 +63,11 @@ struct ConstraintCheck {
   int id = 0;
   std::string floor_from, floor_to;  // true floors of its two nodes
   bool checked = false;              // false when a node has no ground-truth pose
-  double translation_error = 0.0;    // m
-  double rotation_error = 0.0;       // rad, |signed_rotation_error|
-  double signed_rotation_error = 0.0;  // rad, implied heading of node_to minus its true one
-  double along_weak = 0.0;             // m, the part of translation_error along weak_sigma's direction
-  bool off = false;    // more than 0.3 m or 2 deg off in some direction, whatever it claims
-  bool wrong = false;  // off beyond what it claims (matching::judgeConstraint)
+  // node_to as the constraint places it in node_from's frame against the truth, and
+  // whether that is wrong for what it claims (all zero and false when not checked).
+  matching::ConstraintJudgement judgement;
   // True building-frame positions of its two nodes (where it is, for analysis).
   double from_x = 0.0, from_y = 0.0, to_x = 0.0, to_y = 0.0;
-  // The largest translational sigma its information claims (m): large for a constraint
-  // from scans that see only a corridor's two walls.
-  double weak_sigma = 0.0;
 };
 
 // Checks every inter-floor constraint of `graph` against the true poses of its two nodes
