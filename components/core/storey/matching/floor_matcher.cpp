@@ -734,9 +734,7 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
     for (std::size_t i : best) {
       Candidate& c = result.candidates[i];
       if (c.reversed) {
-        int q = 0;
-        while (ref.nodes[q].id != c.reference_node_id) ++q;
-        c.weak_direction = weakDirectionAt(c, c.alignment, ref.nodes[q].pose);
+        c.weak_direction = weakDirectionAt(c, c.alignment, ref.findNode(c.reference_node_id)->pose);
         continue;
       }
       const Pose2 x = joint * g.nodes[c.node_index].pose;
@@ -968,6 +966,10 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
     Candidate& c = out.candidates[i];
     const bool via_r = i >= first_via;
     const floor::FloorGraph& other = via_r ? *aligned.graph : *reference.graph;
+    if (c.reversed) {  // its own, local measurement (as in decideConsistentSet)
+      c.weak_direction = weakDirectionAt(c, c.alignment, other.findNode(c.reference_node_id)->pose);
+      continue;
+    }
     const Pose2 x = (via_r ? joint_in_r : joint) * g.nodes[c.node_index].pose;
     const int q = other.nearestNodeIndex(x.translation());
     c.reference_node_id = other.nodes[q].id;
