@@ -70,8 +70,9 @@ void printErrors(const matching::MatchResult& result, const matching::SimulatedF
               << ": " << std::fixed << std::setprecision(3) << e.translation << " m, "
               << e.rotation * 180.0 / M_PI << " deg\n";
   }
-  std::cout << wrong << " wrong constraints (more than 0.3 m or 2 deg off, or 3 claimed sigmas "
-            << "along a weak direction); " << off << " more than 0.3 m or 2 deg off in any direction\n";
+  std::cout << wrong << " wrong constraints (more than 2 deg, or 0.3 m across their weak direction, or "
+            << "max(0.3 m, 3 claimed sigmas) along it); " << off
+            << " more than 0.3 m or 2 deg off in some direction\n";
 }
 
 // Every candidate that passed the gate, against the truth, with where its scans were (the
