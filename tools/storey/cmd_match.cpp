@@ -53,7 +53,7 @@ void printErrors(const matching::MatchResult& result, const matching::SimulatedF
   std::cout << "errors against the truth:\n";
   int wrong = 0, off = 0;
   for (const auto& c : result.constraints) {
-    const auto e = matching::constraintError(c, floors);
+    const auto e = matching::judgeConstraint(c, floors);
     wrong += e.wrong;
     off += e.off;
     std::cout << "  graph " << c.graph_id << " node " << c.node_id << " -> graph "
@@ -70,9 +70,11 @@ void printErrors(const matching::MatchResult& result, const matching::SimulatedF
               << ": " << std::fixed << std::setprecision(3) << e.translation << " m, "
               << e.rotation * 180.0 / M_PI << " deg\n";
   }
-  std::cout << wrong << " wrong constraints (more than 2 deg, or 0.3 m across their weak direction, or "
-            << "max(0.3 m, 3 claimed sigmas) along it); " << off
-            << " more than 0.3 m or 2 deg off in some direction\n";
+  const matching::WrongConstraintLimits limits;  // the ones judgeConstraint used
+  std::cout << std::defaultfloat << wrong << " wrong constraints (more than " << limits.rotation * 180.0 / M_PI << " deg, or "
+            << limits.translation << " m across their weak direction, or max(" << limits.translation << " m, "
+            << limits.weak_sigmas << " claimed sigmas) along it); " << off << " more than "
+            << limits.translation << " m or " << limits.rotation * 180.0 / M_PI << " deg off in some direction\n";
 }
 
 // Every candidate that passed the gate, against the truth, with where its scans were (the

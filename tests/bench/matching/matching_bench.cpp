@@ -78,7 +78,7 @@ void BM_MatchBuilding(benchmark::State& state, const std::string& name) {
   matching::MatchResult result;
   for (auto _ : state) result = matching::matchFloors(floors.graphs, o);
   int wrong = 0;
-  for (const auto& c : result.constraints) wrong += matching::constraintError(c, floors).wrong;
+  for (const auto& c : result.constraints) wrong += matching::judgeConstraint(c, floors).wrong;
   state.counters["floor_graphs"] = static_cast<double>(floors.graphs.size());
   state.counters["constraints"] = static_cast<double>(result.constraints.size());
   state.counters["wrong"] = wrong;

@@ -96,7 +96,7 @@ TEST(FloorMatcherComponent, PublishesCorrectConstraintsForTwoFloors) {
     c.graph_id = static_cast<int>(m.to_floor_graph());
     c.node_id = static_cast<int>(m.to_node());
     c.measurement = geometry::Pose2(m.dx(), m.dy(), m.dtheta());
-    const auto e = matching::constraintError(c, floors);
+    const auto e = matching::judgeConstraint(c, floors);
     EXPECT_LT(e.translation, 0.3);
     EXPECT_LT(e.rotation, 2.0 * M_PI / 180.0);
     EXPECT_NEAR(std::abs(m.dz()), 3.5, 1e-9);

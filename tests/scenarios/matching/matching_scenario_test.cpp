@@ -51,7 +51,7 @@ TEST_P(SimulatedScenario, NoWrongConstraintAndEnoughRightOnes) {
   std::cout << expect.scenario << " seed " << seed << ": " << result.constraints.size()
             << " constraints, " << result.seconds << " s\n";
   for (const auto& c : result.constraints) {
-    const ConstraintJudgement e = constraintError(c, floors);
+    const ConstraintJudgement e = judgeConstraint(c, floors);
     EXPECT_FALSE(e.wrong) << "wrong constraint graph " << c.graph_id << " node " << c.node_id
                           << ": " << e.along_weak << " m along its weak direction (claimed sigma "
                           << e.weak_sigma << " m), " << e.across_weak << " m across, "
@@ -111,7 +111,7 @@ TEST(RealLogs, FreiburgHalvesRecoverTheKnownOffset) {
   printMatchReport(report, result);
   ASSERT_GE(result.constraints.size(), 3u) << report.str();
   for (const auto& c : result.constraints) {
-    EXPECT_FALSE(constraintError(c, floors).wrong) << report.str();
+    EXPECT_FALSE(judgeConstraint(c, floors).wrong) << report.str();
     EXPECT_DOUBLE_EQ(std::abs(c.dz), 3.0);
   }
   const PairResult* pair = result.pairFor(result.reference_graph_id == 0 ? 1 : 0);

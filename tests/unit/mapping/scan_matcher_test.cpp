@@ -23,6 +23,13 @@ MatchTarget targetFrom(const test::World& world, const std::vector<Pose2>& poses
   return MatchTarget(grid, grid::LikelihoodFieldOptions{}, 7);
 }
 
+// Poses every `step` metres along the x axis, heading along it.
+std::vector<Pose2> posesAlongX(double from, double to, double step) {
+  std::vector<Pose2> poses;
+  for (double x = from; x <= to; x += step) poses.emplace_back(x, 0.0, 0.0);
+  return poses;
+}
+
 TEST(ScanMatcher, PointResidualJacobianMatchesNumeric) {
   const test::World world = test::officeWorld();
   const MatchTarget target = targetFrom(world, {Pose2(4, 4, 0), Pose2(8, 3, 1.0)});
@@ -88,9 +95,7 @@ TEST(ScanMatcher, CorridorGivesWeakInformationAlongTheAxis) {
   const test::World world = test::corridorWorld();
   // The map covers more corridor than the scan sees, so no wall end gives information.
   // Many scans, as a robot driving along it would take (grazing beams erase wall cells).
-  std::vector<Pose2> poses;
-  for (double x = -15; x <= 15; x += 0.5) poses.emplace_back(x, 0.0, 0.0);
-  const MatchTarget target = targetFrom(world, poses);
+  const MatchTarget target = targetFrom(world, posesAlongX(-15, 15, 0.5));
   ScanMatcher matcher;
   const Pose2 truth(0.5, 0.1, 0.05);
   const auto points = filterPoints(world.scan(truth, 0.0, 361, 10.0).pointsInRobotFrame(), 0.05);
@@ -114,9 +119,7 @@ TEST(ScanMatcher, BestElsewhereTellsRepeatingDoorsFromAUniquePlace) {
   // elsewhere along it.
   test::World doors = test::corridorWorld();
   for (double x = -30; x <= 30; x += 3.0) doors.addBox(x, 1.0, x + 0.9, 1.4);
-  std::vector<Pose2> poses;
-  for (double x = -20; x <= 20; x += 0.5) poses.emplace_back(x, 0.0, 0.0);
-  const MatchTarget corridor = targetFrom(doors, poses);
+  const MatchTarget corridor = targetFrom(doors, posesAlongX(-20, 20, 0.5));
   ScanMatcher matcher;
   const Pose2 truth(0.3, 0.1, 0.02);
   const auto corridor_points = filterPoints(doors.scan(truth, 0.0, 361, 8.0).pointsInRobotFrame(), 0.05);

@@ -5,7 +5,6 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <unordered_map>
 #include "storey/common/log.h"
 
@@ -179,10 +178,11 @@ std::vector<Eigen::Vector2d> pointNormals(const std::vector<Eigen::Vector2d>& po
 
 ScanMatcher::ScanMatcher(ScanMatcherOptions options) : options_(options) {}
 
+namespace {
+
 // A disc of positions left out of the search, in cells relative to the prediction.
-struct ScanMatcher::Exclusion {
+struct ExcludedDisc {
   double x = 0.0, y = 0.0, radius = 0.0;
-  double min_score = 0.0;
   // Whether the block of cell offsets [x0, x1] x [y0, y1] lies wholly inside.
   bool covers(int x0, int x1, int y0, int y1) const {
     const double dx = std::max(std::abs(x0 - x), std::abs(x1 - x));
@@ -190,8 +190,6 @@ struct ScanMatcher::Exclusion {
     return dx * dx + dy * dy < radius * radius;
   }
 };
-
-namespace {
 
 struct Candidate {
   int angle = 0;  // index into the angle list
@@ -211,9 +209,9 @@ class BranchAndBound {
  public:
   BranchAndBound(const MatchTarget& target, const std::vector<std::vector<Eigen::Vector2i>>& cells,
                  const std::vector<double>& angle_offsets, int window, const ScanMatcherOptions& o,
-                 std::function<bool(int, int, int, int)> excluded)
+                 const ExcludedDisc* excluded)
       : target_(target), cells_(cells), angle_offsets_(angle_offsets), window_(window), o_(o),
-        excluded_(std::move(excluded)) {
+        excluded_(excluded) {
     res_ = target.field().frame().resolution;
   }
 
@@ -235,7 +233,7 @@ class BranchAndBound {
       if (n.bound <= best_score_) break;  // sorted: nothing after can beat the best
       if (excluded_) {
         const int size = (1 << n.level) - 1;
-        if (excluded_(n.x, std::min(n.x + size, window_), n.y, std::min(n.y + size, window_))) continue;
+        if (excluded_->covers(n.x, std::min(n.x + size, window_), n.y, std::min(n.y + size, window_))) continue;
       }
       if (n.level == 0) {
         best_score_ = n.bound;
@@ -267,35 +265,17 @@ class BranchAndBound {
   const std::vector<double>& angle_offsets_;
   int window_;
   const ScanMatcherOptions& o_;
-  std::function<bool(int, int, int, int)> excluded_;  // blocks wholly left out (none when empty)
+  const ExcludedDisc* excluded_;  // blocks wholly inside are left out (none when null)
   double res_ = 0.05;
 };
 
-}  // namespace
 
-MatchResult ScanMatcher::correlativeSearch(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
-                                           const Pose2& prediction, double linear_window,
-                                           double angular_window) const {
-  return search(target, points, prediction, linear_window, angular_window, nullptr);
-}
-
-MatchResult ScanMatcher::bestElsewhere(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
-                                       const Pose2& prediction, double linear_window, double angular_window,
-                                       const Eigen::Vector2d& excluded, double radius,
-                                       double min_score) const {
-  if (target.empty()) return search(target, points, prediction, linear_window, angular_window, nullptr);
-  const double res = target.field().frame().resolution;
-  Exclusion exclusion;
-  exclusion.x = (excluded.x() - prediction.x()) / res;
-  exclusion.y = (excluded.y() - prediction.y()) / res;
-  exclusion.radius = radius / res;
-  exclusion.min_score = min_score;
-  return search(target, points, prediction, linear_window, angular_window, &exclusion);
-}
-
-MatchResult ScanMatcher::search(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
-                                const Pose2& prediction, double linear_window, double angular_window,
-                                const Exclusion* exclusion) const {
+// The correlative search (branch and bound over the pyramid): the best candidate scoring
+// above min_score, positions inside `excluded` left out.
+MatchResult correlative(const ScanMatcherOptions& options, const MatchTarget& target,
+                        const std::vector<Eigen::Vector2d>& points, const Pose2& prediction,
+                        double linear_window, double angular_window, double min_score,
+                        const ExcludedDisc* excluded) {
   MatchResult result;
   result.points = static_cast<int>(points.size());
   result.pose = prediction;
@@ -303,19 +283,19 @@ MatchResult ScanMatcher::search(const MatchTarget& target, const std::vector<Eig
     result.problem = "empty map";
     return result;
   }
-  if (static_cast<int>(points.size()) < options_.min_points) {
-    result.problem = common::str("too few points (", points.size(), " < ", options_.min_points, ")");
+  if (static_cast<int>(points.size()) < options.min_points) {
+    result.problem = common::str("too few points (", points.size(), " < ", options.min_points, ")");
     return result;
   }
   const grid::GridFrame& frame = target.field().frame();
   const double res = frame.resolution;
   double max_range = 0.0;
   for (const auto& p : points) max_range = std::max(max_range, p.norm());
-  double step = options_.angular_step;
+  double step = options.angular_step;
   if (step <= 0.0) {
     // The angle that moves the farthest point by one cell.
     step = std::acos(std::clamp(1.0 - res * res / (2.0 * max_range * max_range), -1.0, 1.0));
-    step = std::max(step, options_.min_angular_step);
+    step = std::max(step, options.min_angular_step);
   }
   const int num_angles = static_cast<int>(std::ceil(angular_window / step));
   std::vector<double> offsets;
@@ -335,10 +315,8 @@ MatchResult ScanMatcher::search(const MatchTarget& target, const std::vector<Eig
   while ((1 << level) < 2 * window + 1 && level < max_level) ++level;
   const int top = 1 << level;
 
-  std::function<bool(int, int, int, int)> excluded;
-  if (exclusion) excluded = [exclusion](int x0, int x1, int y0, int y1) { return exclusion->covers(x0, x1, y0, y1); };
-  BranchAndBound bb(target, cells, offsets, window, options_, std::move(excluded));
-  bb.best_score_ = exclusion ? std::max(options_.min_score, exclusion->min_score) : options_.min_score;
+  BranchAndBound bb(target, cells, offsets, window, options, excluded);
+  bb.best_score_ = min_score;
   std::vector<Candidate> nodes;
   for (std::size_t a = 0; a < offsets.size(); ++a)
     for (int y = -window; y <= window; y += top)
@@ -356,6 +334,28 @@ MatchResult ScanMatcher::search(const MatchTarget& target, const std::vector<Eig
   result.success = true;
   return result;
 }
+}  // namespace
+
+MatchResult ScanMatcher::correlativeSearch(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
+                                           const Pose2& prediction, double linear_window,
+                                           double angular_window) const {
+  return correlative(options_, target, points, prediction, linear_window, angular_window, options_.min_score,
+                     nullptr);
+}
+
+MatchResult ScanMatcher::bestElsewhere(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
+                                       const Pose2& prediction, double linear_window, double angular_window,
+                                       const Eigen::Vector2d& excluded, double radius,
+                                       double min_score) const {
+  ExcludedDisc disc;
+  if (!target.empty()) {
+    const double res = target.field().frame().resolution;
+    disc = {(excluded.x() - prediction.x()) / res, (excluded.y() - prediction.y()) / res, radius / res};
+  }
+  return correlative(options_, target, points, prediction, linear_window, angular_window,
+                     std::max(options_.min_score, min_score), &disc);
+}
+
 
 namespace {
 

@@ -155,10 +155,6 @@ class ScanMatcher {
                              const geometry::Pose2& initial) const;
 
  private:
-  struct Exclusion;
-  MatchResult search(const MatchTarget& target, const std::vector<Eigen::Vector2d>& points,
-                     const geometry::Pose2& prediction, double linear_window, double angular_window,
-                     const Exclusion* exclusion) const;
   ScanMatcherOptions options_;
 };
 

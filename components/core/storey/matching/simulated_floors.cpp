@@ -103,7 +103,7 @@ SimulatedFloors floorGraphsFromSimulation(const sim::Simulation& simulation,
   return out;
 }
 
-ConstraintJudgement constraintError(const InterFloorConstraint& c, const SimulatedFloors& floors,
+ConstraintJudgement judgeConstraint(const InterFloorConstraint& c, const SimulatedFloors& floors,
                                     const WrongConstraintLimits& limits) {
   std::size_t ri = 0, gi = 0;
   const floor::FloorGraph* ref = findGraph(floors, c.reference_graph_id, &ri);

@@ -38,7 +38,7 @@ SimulatedFloors floorGraphsFromSimulation(const sim::Simulation& simulation,
 // How far an accepted constraint is from the truth, and whether that is wrong for what
 // its information claims: node k as the constraint places it in the frame of node q,
 // against where the true frames (frame_ref^-1 * frame_i) put it.
-ConstraintJudgement constraintError(const InterFloorConstraint& constraint,
+ConstraintJudgement judgeConstraint(const InterFloorConstraint& constraint,
                                     const SimulatedFloors& floors,
                                     const WrongConstraintLimits& limits = {});
 
