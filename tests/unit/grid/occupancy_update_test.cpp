@@ -94,5 +94,39 @@ TEST(OccupancyUpdate, RuleHoldsWhenTheScanTagsWrapAround) {
   EXPECT_NEAR(logOddsAtWorld(grid, 0.55, 0.05), -kScans * 0.001, 0.05);
 }
 
+TEST(OccupancyUpdate, InsertingScansTogetherEqualsOneByOne) {
+  OccupancyGridOptions roomy;
+  roomy.resolution = 0.1;
+  OccupancyGridOptions tight = roomy;
+  tight.growth_margin = 0.3;
+  // Scans that overlap (the later ones clear and re-hit cells of the earlier ones) and
+  // reach beyond each other's boxes (one by one, the grid grows twice).
+  const sensor::LaserScan near_scan = beams({1.0f, 1.5f, 2.0f, 0.0f}, -0.5, 0.3);
+  const sensor::LaserScan far_scan = beams({3.0f, 3.0f, 6.0f}, 0.2, 0.2);
+  const std::vector<OccupancyGrid::PosedScan> scans = {{&near_scan, geometry::Pose2(0.05, 0.05, 0.0)},
+                                                       {&far_scan, geometry::Pose2(0.35, 0.15, 0.4)},
+                                                       {&near_scan, geometry::Pose2(12.0, -3.0, 2.0)},
+                                                       {&far_scan, geometry::Pose2(0.05, 0.05, 0.1)}};
+  OccupancyGrid one_by_one(roomy), together(tight);
+  for (const auto& s : scans) one_by_one.insertScan(*s.scan, s.robot_pose);
+  together.insertScans(scans);
+  // Every cell either grid holds has the same log-odds in both (0 where unobserved).
+  int observed = 0;
+  for (const OccupancyGrid* g : {&one_by_one, &together}) {
+    const GridFrame& f = g->frame();
+    for (int cy = 0; cy < f.height; ++cy)
+      for (int cx = 0; cx < f.width; ++cx) {
+        const Eigen::Vector2d centre(f.origin_x + (cx + 0.5) * f.resolution, f.origin_y + (cy + 0.5) * f.resolution);
+        const float value = g->logOddsAt(cx, cy);
+        observed += value != 0.0f;
+        ASSERT_EQ(logOddsAtWorld(one_by_one, centre.x(), centre.y()), value) << centre.transpose();
+        ASSERT_EQ(logOddsAtWorld(together, centre.x(), centre.y()), value) << centre.transpose();
+      }
+  }
+  EXPECT_GT(observed, 100);
+  // The tight grid ends 0.3 m (3 cells, rounded out to the cell) beyond the scans.
+  EXPECT_LT(together.frame().cellCount(), one_by_one.frame().cellCount() / 4);
+}
+
 }  // namespace
 }  // namespace storey::grid

@@ -15,11 +15,16 @@ namespace {
 using geometry::Pose2;
 
 MatchTarget targetFrom(const test::World& world, const std::vector<Pose2>& poses,
-                       double resolution = 0.05) {
+                       double resolution = 0.05, double growth_margin = 8.0) {
   grid::OccupancyGridOptions options;
   options.resolution = resolution;
+  options.growth_margin = growth_margin;
   grid::OccupancyGrid grid(options);
-  for (const auto& p : poses) grid.insertScan(world.scan(p, 0.0), p);
+  std::vector<sensor::LaserScan> scans;
+  for (const auto& p : poses) scans.push_back(world.scan(p, 0.0));
+  std::vector<grid::OccupancyGrid::PosedScan> posed;
+  for (std::size_t i = 0; i < poses.size(); ++i) posed.push_back({&scans[i], poses[i]});
+  grid.insertScans(posed);
   return MatchTarget(grid, grid::LikelihoodFieldOptions{}, 7);
 }
 
@@ -210,6 +215,35 @@ Eigen::Matrix3d lineInformation(const std::vector<std::pair<Eigen::Vector2d, Eig
     h += j.transpose() * j;
   }
   return h;
+}
+
+TEST(MatchTarget, AGridEndingWhereTheSearchStopsLookingMatchesLikeARoomyOne) {
+  // A wide search's coarsest blocks (64 cells) start up to 3.2 m outside the returns; the
+  // grid must reach that far plus the field's cap, or a block outside reads 0 and hides the
+  // walls it covers (FloorSlam's targets are this tight).
+  const test::World world = test::officeWorld();
+  const std::vector<Pose2> poses = {Pose2(2, 2, 0), Pose2(4, 4, 0), Pose2(8, 3, 1.0)};
+  const double tight_margin = grid::LikelihoodFieldOptions{}.max_distance + (64 + 1) * 0.05;
+  const MatchTarget roomy = targetFrom(world, poses, 0.05, 8.0);
+  const MatchTarget tight = targetFrom(world, poses, 0.05, tight_margin);
+  ASSERT_LT(tight.field().frame().cellCount(), roomy.field().frame().cellCount() * 3 / 5);
+  ScanMatcher matcher;
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> offset(-1.5, 1.5), turn(-0.4, 0.4);
+  for (const Pose2 truth : {Pose2(2.5, 2, 0.3), Pose2(4, 4.5, -1.2), Pose2(7.5, 3, 2.5), Pose2(1.2, 1.2, 0.8)}) {
+    const auto points = filterPoints(world.scan(truth, 0.0).pointsInRobotFrame(), 0.05);
+    const Pose2 prediction = truth * Pose2(offset(rng), offset(rng), turn(rng));
+    const MatchResult a = matcher.correlativeSearch(roomy, points, prediction, 2.0, 0.5);
+    const MatchResult b = matcher.correlativeSearch(tight, points, prediction, 2.0, 0.5);
+    ASSERT_TRUE(a.success) << a.problem;
+    ASSERT_TRUE(b.success) << b.problem;
+    EXPECT_LT((a.pose.translation() - b.pose.translation()).norm(), 1e-9) << a.pose << " vs " << b.pose;
+    EXPECT_LT(std::abs(a.pose.theta() - b.pose.theta()), 1e-12);
+    // Not to the last bit: the two grids' origins are different multiples of the cell size
+    // in floating point, so a return exactly on a cell border (the simulated walls) can
+    // fall in the neighbouring cell.
+    EXPECT_NEAR(a.correlative_score, b.correlative_score, 0.005);
+  }
 }
 
 TEST(NormalNoise, ACorridorsTiltedNormalsGiveNoInformationAlongIt) {

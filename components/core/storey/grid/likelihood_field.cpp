@@ -24,10 +24,12 @@ LikelihoodFieldOptions readLikelihoodFieldOptions(const common::ConfigNode& node
 
 std::vector<std::uint8_t> obstacleMask(const OccupancyGrid& grid, double occupied_threshold) {
   const GridFrame& f = grid.frame();
+  // p > threshold exactly where the log-odds exceed logit(threshold): a comparison per
+  // cell instead of an exp. An unobserved cell (log-odds exactly 0) is never occupied.
+  const float logit = static_cast<float>(std::log(occupied_threshold / (1.0 - occupied_threshold)));
+  const std::vector<float>& log_odds = grid.logOdds().data;
   std::vector<std::uint8_t> mask(f.cellCount(), 0);
-  for (int cy = 0; cy < f.height; ++cy)
-    for (int cx = 0; cx < f.width; ++cx)
-      mask[f.index(cx, cy)] = grid.stateAt(cx, cy, occupied_threshold, 0.0) == CellState::kOccupied;
+  for (std::size_t i = 0; i < mask.size(); ++i) mask[i] = log_odds[i] != 0.0f && log_odds[i] > logit;
   return mask;
 }
 

@@ -11,9 +11,6 @@
 
 namespace storey::grid {
 namespace {
-// Extra room added whenever the grid grows, so growth happens rarely.
-constexpr double kGrowMargin = 8.0;
-
 double probabilityFromLogOdds(double l) { return 1.0 - 1.0 / (1.0 + std::exp(l)); }
 }  // namespace
 
@@ -27,6 +24,7 @@ OccupancyGridOptions readOccupancyGridOptions(const common::ConfigNode& node) {
   o.free_space_for_no_return = node.get<bool>("free_space_for_no_return", o.free_space_for_no_return);
   o.no_return_free_range = node.getDouble("no_return_free_range", o.no_return_free_range, 0.0, 1000.0);
   o.max_insert_range = node.getDouble("max_insert_range", o.max_insert_range, 0.0, 1000.0);
+  o.growth_margin = node.getDouble("growth_margin", o.growth_margin, 0.0, 1000.0);
   node.finish();
   return o;
 }
@@ -62,6 +60,7 @@ void OccupancyGrid::ensureContains(const Eigen::Vector2d& min_corner,
                                    const Eigen::Vector2d& max_corner) {
   GridFrame& f = log_odds_.frame;
   const double res = f.resolution;
+  const double kGrowMargin = options_.growth_margin;
   if (f.width == 0) {
     GridFrame fresh = f;
     fresh.origin_x = std::floor((min_corner.x() - kGrowMargin) / res) * res;
@@ -132,39 +131,69 @@ void OccupancyGrid::traceRay(const Eigen::Vector2d& from, const Eigen::Vector2d&
   }
 }
 
-void OccupancyGrid::insertScan(const sensor::LaserScan& scan, const geometry::Pose2& robot_pose) {
-  if (!scan.validate().empty() || !robot_pose.isFinite()) return;
+bool OccupancyGrid::collectBeams(const sensor::LaserScan& scan, const geometry::Pose2& robot_pose,
+                                Eigen::Vector2d* origin_out, std::vector<Beam>* beams) const {
+  beams->clear();
+  if (!scan.validate().empty() || !robot_pose.isFinite()) return false;
   const geometry::Pose2 sensor_pose = robot_pose * scan.sensor_offset;
   const Eigen::Vector2d origin = sensor_pose.translation();
+  *origin_out = origin;
   const double insert_max =
       options_.max_insert_range > 0.0 ? std::min(options_.max_insert_range, scan.range_max) : scan.range_max;
-  struct Beam {
-    Eigen::Vector2d end;
-    bool hit;
-  };
-  std::vector<Beam> beams;
-  beams.reserve(scan.size());
-  Eigen::Vector2d lo = origin, hi = origin;
+  beams->reserve(scan.size());
   for (std::size_t i = 0; i < scan.size(); ++i) {
     const double angle = sensor_pose.theta() + scan.angle(i);
     const Eigen::Vector2d dir(std::cos(angle), std::sin(angle));
     if (scan.isReturn(i) && scan.ranges[i] < insert_max) {
-      beams.push_back({origin + dir * scan.ranges[i], true});
+      beams->push_back({origin + dir * scan.ranges[i], true});
     } else if (options_.free_space_for_no_return) {
       const float r = scan.ranges[i];
       // A beam that ended on something beyond the insert range still proves free space.
       const bool beyond = scan.isReturn(i) || (std::isfinite(r) && r >= scan.range_max) ||
                           std::isinf(r);
       if (!beyond) continue;
-      beams.push_back({origin + dir * std::min(options_.no_return_free_range, insert_max), false});
-    } else {
-      continue;
+      beams->push_back({origin + dir * std::min(options_.no_return_free_range, insert_max), false});
     }
-    lo = lo.cwiseMin(beams.back().end);
-    hi = hi.cwiseMax(beams.back().end);
   }
-  if (beams.empty()) return;
+  return !beams->empty();
+}
+
+namespace {
+template <typename Beams>
+void extendBox(const Eigen::Vector2d& origin, const Beams& beams, Eigen::Vector2d* lo, Eigen::Vector2d* hi) {
+  *lo = lo->cwiseMin(origin);
+  *hi = hi->cwiseMax(origin);
+  for (const auto& beam : beams) {
+    *lo = lo->cwiseMin(beam.end);
+    *hi = hi->cwiseMax(beam.end);
+  }
+}
+}  // namespace
+
+void OccupancyGrid::insertScan(const sensor::LaserScan& scan, const geometry::Pose2& robot_pose) {
+  Eigen::Vector2d origin;
+  if (!collectBeams(scan, robot_pose, &origin, &beams_)) return;
+  Eigen::Vector2d lo = origin, hi = origin;
+  extendBox(origin, beams_, &lo, &hi);
   ensureContains(lo, hi);
+  applyBeams(origin, beams_);
+}
+
+void OccupancyGrid::insertScans(const std::vector<PosedScan>& scans) {
+  std::vector<std::vector<Beam>> beams(scans.size());
+  std::vector<Eigen::Vector2d> origins(scans.size());
+  const double inf = std::numeric_limits<double>::infinity();
+  Eigen::Vector2d lo(inf, inf), hi(-inf, -inf);
+  for (std::size_t k = 0; k < scans.size(); ++k)
+    if (collectBeams(*scans[k].scan, scans[k].robot_pose, &origins[k], &beams[k]))
+      extendBox(origins[k], beams[k], &lo, &hi);
+  if (!(lo.x() <= hi.x())) return;  // no scan has a beam
+  ensureContains(lo, hi);
+  for (std::size_t k = 0; k < scans.size(); ++k)
+    if (!beams[k].empty()) applyBeams(origins[k], beams[k]);
+}
+
+void OccupancyGrid::applyBeams(const Eigen::Vector2d& origin, const std::vector<Beam>& beams) {
   // Each cell gets at most one update per scan, and a cell that holds an endpoint in this
   // scan is never cleared by a neighbouring beam passing through it: endpoints are marked
   // with this scan's hit tag first, then traversed cells not yet tagged get the miss.

@@ -24,6 +24,7 @@ struct OccupancyGridOptions {
   bool free_space_for_no_return = false;  // clear along beams that saw nothing...
   double no_return_free_range = 10.0;     // ...up to this range (metres)
   double max_insert_range = 0.0;  // returns beyond this are treated as no return (0: range_max)
+  double growth_margin = 8.0;     // m of room added around new scans whenever the grid grows
 };
 OccupancyGridOptions readOccupancyGridOptions(const common::ConfigNode& node);
 
@@ -34,6 +35,13 @@ class OccupancyGrid {
   explicit OccupancyGrid(const OccupancyGridOptions& options = {});
 
   void insertScan(const sensor::LaserScan& scan, const geometry::Pose2& robot_pose);
+  struct PosedScan {
+    const sensor::LaserScan* scan;
+    geometry::Pose2 robot_pose;
+  };
+  // The same as insertScan on each in turn, but the grid grows once, to all of them (no
+  // copies of a grid growing scan by scan; with a small growth_margin, a tight grid).
+  void insertScans(const std::vector<PosedScan>& scans);
   // Grows the grid (if needed) so that the axis-aligned box is inside it.
   void ensureContains(const Eigen::Vector2d& min_corner, const Eigen::Vector2d& max_corner);
 
@@ -53,6 +61,15 @@ class OccupancyGrid {
   void traceRay(const Eigen::Vector2d& from, const Eigen::Vector2d& to,
                 std::vector<std::size_t>* cells) const;
   void addLogOdds(std::size_t index, double delta);
+  struct Beam {
+    Eigen::Vector2d end;
+    bool hit;  // false: a beam that proves free space only
+  };
+  // The scan's beams from its sensor's origin; false when there are none.
+  bool collectBeams(const sensor::LaserScan& scan, const geometry::Pose2& robot_pose, Eigen::Vector2d* origin,
+                    std::vector<Beam>* beams) const;
+  // Updates the cells of one scan's beams (the grid must contain them).
+  void applyBeams(const Eigen::Vector2d& origin, const std::vector<Beam>& beams);
 
   OccupancyGridOptions options_;
   Grid2<float> log_odds_;
@@ -61,6 +78,7 @@ class OccupancyGrid {
   std::vector<std::uint16_t> marks_;  // 16 bits: cleared once every 32767 scans
   std::uint16_t last_tag_ = 0;
   std::vector<std::size_t> ray_cells_;  // scratch, reused across scans
+  std::vector<Beam> beams_;             // scratch, reused across scans
 };
 
 // nav2 map_server format: <stem>.pgm (trinary: 0 occupied, 254 free, 205 unknown; top row

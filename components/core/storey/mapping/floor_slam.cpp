@@ -211,9 +211,16 @@ MatchTarget buildTarget(const floor::FloorGraph& graph, std::size_t first, std::
   grid::OccupancyGridOptions go;
   go.resolution = o.resolution;
   go.max_insert_range = o.max_insert_range;
+  // The grid reaches as far beyond the returns as the search can look: the field's cap
+  // (beyond it the score is ~0, as outside the grid), plus the pyramid's widest block (a
+  // block starting outside the grid reads 0 there, which must not hide the cells it covers
+  // inside). Fields and pyramid then cost a fraction of the default room to grow.
+  go.growth_margin = o.field.max_distance + ((1 << (std::max(1, pyramid_levels) - 1)) + 1) * o.resolution;
   grid::OccupancyGrid map(go);
+  std::vector<grid::OccupancyGrid::PosedScan> scans;
   for (std::size_t i = first; i < last && i < graph.nodes.size(); ++i)
-    map.insertScan(graph.nodes[i].scan, graph.nodes[i].pose);
+    scans.push_back({&graph.nodes[i].scan, graph.nodes[i].pose});
+  map.insertScans(scans);
   MatchTarget target(map, o.field, pyramid_levels);
   if (matcher.options().point_refinement && o.point_cell_size > 0.0)
     target.setPoints(grid::PointMap(floor::floorPoints(graph, first, last, o.max_insert_range),

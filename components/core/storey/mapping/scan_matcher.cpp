@@ -205,52 +205,85 @@ double rectDistance(int x0, int x1, int y0, int y1) {
   return std::sqrt(dx * dx + dy * dy);
 }
 
+// The scan's cells at one rotation, split by where the search's shifts can take them:
+// cells inside the grid at every shift are summed by offset without a bounds check; cells
+// outside at every shift score 0 and are left out; the rest are checked per shift.
+struct RotatedCells {
+  std::vector<std::ptrdiff_t> inside;  // cy * width + cx
+  std::vector<Eigen::Vector2i> border;
+  std::size_t count = 0;  // all the scan's cells, for the mean
+};
+
+// `shift_min` / `shift_max`: the smallest and largest cell offset the search reads at, in x
+// and y (a node's lower corner: the pyramid holds the max over its block).
+RotatedCells rotatedCells(const std::vector<Eigen::Vector2i>& cells, const grid::GridFrame& f, int shift_min,
+                          int shift_max) {
+  RotatedCells r;
+  r.count = cells.size();
+  for (const Eigen::Vector2i& c : cells) {
+    if (c.x() + shift_min >= 0 && c.x() + shift_max < f.width && c.y() + shift_min >= 0 &&
+        c.y() + shift_max < f.height)
+      r.inside.push_back(static_cast<std::ptrdiff_t>(c.y()) * f.width + c.x());
+    else if (c.x() + shift_max >= 0 && c.x() + shift_min < f.width && c.y() + shift_max >= 0 &&
+             c.y() + shift_min < f.height)
+      r.border.push_back(c);
+  }
+  return r;
+}
+
 class BranchAndBound {
  public:
-  BranchAndBound(const MatchTarget& target, const std::vector<std::vector<Eigen::Vector2i>>& cells,
+  BranchAndBound(const MatchTarget& target, const std::vector<RotatedCells>& rotations,
                  const std::vector<double>& angle_offsets, int window, const ScanMatcherOptions& o,
                  const ExcludedDisc* excluded)
-      : target_(target), cells_(cells), angle_offsets_(angle_offsets), window_(window), o_(o),
+      : target_(target), rotations_(rotations), angle_offsets_(angle_offsets), window_(window), o_(o),
         excluded_(excluded) {
-    res_ = target.field().frame().resolution;
+    const grid::GridFrame& f = target.field().frame();
+    res_ = f.resolution;
+    width_ = f.width;
+    height_ = f.height;
   }
 
   double bound(const Candidate& c) const {
     const grid::Grid2<float>& level = target_.pyramid()[c.level];
+    const RotatedCells& r = rotations_[c.angle];
+    const float* base = level.data.data() + (static_cast<std::ptrdiff_t>(c.y) * width_ + c.x);
     double sum = 0.0;
-    for (const auto& cell : cells_[c.angle]) sum += level.valueOr(cell.x() + c.x, cell.y() + c.y, 0.0f);
+    for (const std::ptrdiff_t offset : r.inside) sum += base[offset];
+    for (const auto& cell : r.border) sum += level.valueOr(cell.x() + c.x, cell.y() + c.y, 0.0f);
     const int size = (1 << c.level) - 1;
     const double dist = rectDistance(c.x, std::min(c.x + size, window_), c.y, std::min(c.y + size, window_));
     ++evaluated_;
-    return sum / static_cast<double>(cells_[c.angle].size()) - o_.translation_penalty * dist * res_ -
+    return sum / static_cast<double>(r.count) - o_.translation_penalty * dist * res_ -
            o_.rotation_penalty * std::abs(angle_offsets_[c.angle]);
   }
 
-  void search(std::vector<Candidate>& nodes) {
-    for (auto& n : nodes) n.bound = bound(n);
-    std::sort(nodes.begin(), nodes.end(), [](const Candidate& a, const Candidate& b) { return a.bound > b.bound; });
-    for (const auto& n : nodes) {
-      if (n.bound <= best_score_) break;  // sorted: nothing after can beat the best
+  // Depth first, best bound first, over nodes [begin, end).
+  void search(Candidate* begin, Candidate* end) {
+    for (Candidate* n = begin; n != end; ++n) n->bound = bound(*n);
+    std::sort(begin, end, [](const Candidate& a, const Candidate& b) { return a.bound > b.bound; });
+    for (const Candidate* n = begin; n != end; ++n) {
+      if (n->bound <= best_score_) break;  // sorted: nothing after can beat the best
       if (excluded_) {
-        const int size = (1 << n.level) - 1;
-        if (excluded_->covers(n.x, std::min(n.x + size, window_), n.y, std::min(n.y + size, window_))) continue;
+        const int size = (1 << n->level) - 1;
+        if (excluded_->covers(n->x, std::min(n->x + size, window_), n->y, std::min(n->y + size, window_))) continue;
       }
-      if (n.level == 0) {
-        best_score_ = n.bound;
-        best_ = n;
+      if (n->level == 0) {
+        best_score_ = n->bound;
+        best_ = *n;
         found_ = true;
         continue;
       }
-      const int half = 1 << (n.level - 1);
-      std::vector<Candidate> children;
-      children.reserve(4);
+      const int half = 1 << (n->level - 1);
+      Candidate children[4];
+      int count = 0;
       for (int dy = 0; dy < 2; ++dy)
         for (int dx = 0; dx < 2; ++dx) {
-          Candidate c{n.angle, n.x + dx * half, n.y + dy * half, n.level - 1, 0.0};
+          const Candidate c{n->angle, n->x + dx * half, n->y + dy * half, n->level - 1, 0.0};
           if (c.x > window_ || c.y > window_) continue;
-          children.push_back(c);
+          children[count++] = c;
         }
-      search(children);
+      search(children, children + count);
     }
   }
 
@@ -261,12 +294,13 @@ class BranchAndBound {
 
  private:
   const MatchTarget& target_;
-  const std::vector<std::vector<Eigen::Vector2i>>& cells_;
+  const std::vector<RotatedCells>& rotations_;
   const std::vector<double>& angle_offsets_;
   int window_;
   const ScanMatcherOptions& o_;
   const ExcludedDisc* excluded_;  // blocks wholly inside are left out (none when null)
   double res_ = 0.05;
+  int width_ = 0, height_ = 0;
 };
 
 
@@ -298,30 +332,29 @@ MatchResult correlative(const ScanMatcherOptions& options, const MatchTarget& ta
     step = std::max(step, options.min_angular_step);
   }
   const int num_angles = static_cast<int>(std::ceil(angular_window / step));
-  std::vector<double> offsets;
-  std::vector<std::vector<Eigen::Vector2i>> cells;
-  for (int a = -num_angles; a <= num_angles; ++a) {
-    const double offset = a * step;
-    offsets.push_back(offset);
-    const Pose2 rotated(prediction.x(), prediction.y(), prediction.theta() + offset);
-    std::vector<Eigen::Vector2i> c;
-    c.reserve(points.size());
-    for (const auto& p : points) c.push_back(frame.cellOf(rotated.transformPoint(p)));
-    cells.push_back(std::move(c));
-  }
   const int window = static_cast<int>(std::ceil(linear_window / res));
   const int max_level = static_cast<int>(target.pyramid().size()) - 1;
   int level = 0;
   while ((1 << level) < 2 * window + 1 && level < max_level) ++level;
   const int top = 1 << level;
+  std::vector<double> offsets;
+  std::vector<RotatedCells> rotations;
+  std::vector<Eigen::Vector2i> cells(points.size());
+  for (int a = -num_angles; a <= num_angles; ++a) {
+    const double offset = a * step;
+    offsets.push_back(offset);
+    const Pose2 rotated(prediction.x(), prediction.y(), prediction.theta() + offset);
+    for (std::size_t i = 0; i < points.size(); ++i) cells[i] = frame.cellOf(rotated.transformPoint(points[i]));
+    rotations.push_back(rotatedCells(cells, frame, -window, window));
+  }
 
-  BranchAndBound bb(target, cells, offsets, window, options, excluded);
+  BranchAndBound bb(target, rotations, offsets, window, options, excluded);
   bb.best_score_ = min_score;
   std::vector<Candidate> nodes;
   for (std::size_t a = 0; a < offsets.size(); ++a)
     for (int y = -window; y <= window; y += top)
       for (int x = -window; x <= window; x += top) nodes.push_back({static_cast<int>(a), x, y, level, 0.0});
-  bb.search(nodes);
+  bb.search(nodes.data(), nodes.data() + nodes.size());
   result.candidates_scored = bb.evaluated_;
   if (!bb.found_) {
     result.problem = common::str("no candidate scored above ", bb.best_score_);
