@@ -189,11 +189,18 @@ TEST(FloorSlam, LoopClosureCorrectsDrift) {
   OdometryNoise noise;
   noise.rotation_per_meter = 3.0 * M_PI / 180;
   FloorSlamOptions with;
+  FloorSlamOptions rebuilding = with;  // a fresh candidate map for every attempt
+  rebuilding.loop_closure.submap_reuse_nodes = 0;
   FloorSlamOptions without;
   without.loop_closure.enabled = false;
   const WorldRun closed = runWorld(world, truth, with, 11, noise);
+  const WorldRun closed_rebuilding = runWorld(world, truth, rebuilding, 11, noise);
   const WorldRun open = runWorld(world, truth, without, 11, noise);
   EXPECT_GE(closed.stats.loop_closures, 1u);
+  EXPECT_GE(closed_rebuilding.stats.loop_closures, 1u);
+  // Reusing the last candidate map saves most builds along the second lap.
+  EXPECT_LT(closed.stats.loop_maps_built * 2, closed.stats.loop_attempts);
+  EXPECT_GT(closed_rebuilding.stats.loop_maps_built, closed.stats.loop_maps_built * 3 / 2);
   if (std::getenv("STOREY_DEBUG_LOOP")) {
     for (std::size_t i = 0; i < closed.truth.size(); i += 5)
       std::printf("%zu truth %.2f %.2f est %.2f %.2f open %.2f %.2f\n", i, closed.truth[i].x(), closed.truth[i].y(),
@@ -212,6 +219,7 @@ TEST(FloorSlam, LoopClosureCorrectsDrift) {
     return e.translation().norm();
   };
   EXPECT_LT(loopError(closed), 0.1);
+  EXPECT_LT(loopError(closed_rebuilding), 0.1);
   EXPECT_GT(loopError(open), 0.3);
   // Known weakness (docs/floor_mapper.md): in this long, nearly featureless ring only
   // odometry constrains the corridors' axes, and the optimiser spreads the closure's

@@ -90,6 +90,7 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
     l.angular_window = n.getDouble("angular_window", l.angular_window, 0.0, M_PI);
     l.max_angular_window = n.getDouble("max_angular_window", l.max_angular_window, 0.0, M_PI);
     l.submap_half_nodes = n.getInt("submap_half_nodes", l.submap_half_nodes, 0, 10000);
+    l.submap_reuse_nodes = n.getInt("submap_reuse_nodes", l.submap_reuse_nodes, 0, 10000);
     l.min_score = n.getDouble("min_score", l.min_score, 0.0, 1.0);
     l.max_chi2 = n.getDouble("max_chi2", l.max_chi2, 0.0, 1e12);
     l.ambiguity_distance = n.getDouble("ambiguity_distance", l.ambiguity_distance, 0.0, 100.0);
@@ -168,6 +169,14 @@ struct FloorSlam::Impl {
   int nodes_since_rebuild = 0;
   MatchTarget floor_target;  // whole floor, for relocalisation
   bool floor_target_valid = false;
+  // The last loop-closure attempt's candidate map: nodes [first, end) around `centre`, at
+  // the poses they had when it was built.
+  struct LoopTarget {
+    MatchTarget target;
+    std::size_t first = 0, end = 0;
+    int centre = -1;
+    std::vector<Pose2> poses;
+  } loop_target;
 
   bool have_last = false;
   bool have_odometry = false;
@@ -457,10 +466,7 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   }
   if (best < 0 || best_d > radius) return false;
   ++stats_.loop_attempts;
-  const std::size_t first = best > o.submap_half_nodes ? best - o.submap_half_nodes : 0;
-  const std::size_t end = std::min(last_candidate + 1, static_cast<std::size_t>(best + o.submap_half_nodes + 1));
-  const MatchTarget target =
-      buildTarget(floor_graph_, first, end, options_.local_map, kWideSearchLevels, s.loop_matcher);
+  const MatchTarget& target = loopTarget(best, last_candidate);
   const double linear = std::min(o.max_linear_window, o.linear_window + o.sigma_factor * sigma_xy);
   const double angular = std::min(o.max_angular_window, o.angular_window + o.sigma_factor * sigma_theta);
   const MatchResult match = s.loop_matcher.match(target, points, current.pose, linear, angular);
@@ -528,6 +534,32 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
     common::logDebug(str("floor_slam: no marginal covariance: ", ex.what()));
   }
   return true;
+}
+
+const MatchTarget& FloorSlam::loopTarget(int candidate, std::size_t last_candidate) {
+  Impl::LoopTarget& cached = impl_->loop_target;
+  const LoopClosureOptions& o = options_.loop_closure;
+  auto unmoved = [&] {
+    if (cached.end > floor_graph_.nodes.size()) return false;
+    for (std::size_t i = cached.first; i < cached.end; ++i)
+    {
+      const Pose2& now = floor_graph_.nodes[i].pose;
+      const Pose2& then = cached.poses[i - cached.first];
+      if (now.x() != then.x() || now.y() != then.y() || now.theta() != then.theta()) return false;
+    }
+    return true;
+  };
+  if (cached.centre >= 0 && std::abs(candidate - cached.centre) <= o.submap_reuse_nodes && unmoved())
+    return cached.target;
+  cached.first = candidate > o.submap_half_nodes ? candidate - o.submap_half_nodes : 0;
+  cached.end = std::min(last_candidate + 1, static_cast<std::size_t>(candidate + o.submap_half_nodes + 1));
+  cached.centre = candidate;
+  cached.poses.clear();
+  for (std::size_t i = cached.first; i < cached.end; ++i) cached.poses.push_back(floor_graph_.nodes[i].pose);
+  cached.target =
+      buildTarget(floor_graph_, cached.first, cached.end, options_.local_map, kWideSearchLevels, impl_->loop_matcher);
+  ++stats_.loop_maps_built;
+  return cached.target;
 }
 
 int FloorSlam::resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& scans, const Pose2& pose,

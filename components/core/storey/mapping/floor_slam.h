@@ -71,6 +71,10 @@ struct LoopClosureOptions {
   double angular_window = 0.35;  // rad, plus sigma_factor standard deviations...
   double max_angular_window = 1.2;  // ...up to this
   int submap_half_nodes = 10;    // the candidate's map: nodes within this index distance
+  // The last attempt's candidate map is reused while none of its nodes has moved and the new
+  // candidate is at most this many nodes from its centre (building it costs more than the
+  // match); 0: only for the same candidate.
+  int submap_reuse_nodes = 5;
   double min_score = 0.6;        // refined mean score a closure needs
   double max_chi2 = 25.0;        // after optimisation, a closure with larger χ² is disabled
   // A closure whose scan fits as well (ambiguity_ratio of its correlative score) at a place
@@ -150,6 +154,7 @@ struct FloorSlamStats {
   std::size_t matched = 0, match_failures = 0, odometry_jumps = 0;
   std::size_t loop_attempts = 0, loop_closures = 0, loop_rejected_inconsistent = 0;
   std::size_t loop_ambiguous = 0;  // attempts whose scan fit as well elsewhere
+  std::size_t loop_maps_built = 0;  // candidate maps built (the others were reused)
   std::size_t optimizations = 0;
   std::size_t relocalizations = 0, relocalization_failures = 0;
 };
@@ -200,6 +205,8 @@ class FloorSlam {
   ScanResult relocalizeWith(const sensor::LaserScan& scan, const geometry::Pose2& odometry,
                             const std::vector<Eigen::Vector2d>& points);
   bool tryLoopClosure(const std::vector<Eigen::Vector2d>& points);
+  // The map of the nodes around `candidate` (up to last_candidate) for a closure attempt.
+  const MatchTarget& loopTarget(int candidate, std::size_t last_candidate);
 
   std::unique_ptr<Impl> impl_;
   FloorSlamOptions options_;
