@@ -55,5 +55,29 @@ TEST(LaserScan, ValidateAndSubsample) {
   EXPECT_DOUBLE_EQ(sub.angle(1), scan.angle(2));
 }
 
+TEST(LaserScan, BeamDirectionsFollowEachScansOwnAngles) {
+  LaserScan a = makeScan();
+  const auto first = a.beamDirections();
+  ASSERT_EQ(first->size(), a.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ((*first)[i].x(), std::cos(a.angle(i)));
+    EXPECT_EQ((*first)[i].y(), std::sin(a.angle(i)));
+  }
+  EXPECT_EQ(a.beamDirections(), first);  // the same sensor: the same table
+  // Another sensor's scans (another start, increment or count) get their own.
+  LaserScan b = makeScan();
+  b.angle_min = 0.3;
+  b.ranges.push_back(4.0f);
+  const auto second = b.beamDirections();
+  ASSERT_EQ(second->size(), 4u);
+  EXPECT_EQ((*second)[3].x(), std::cos(b.angle(3)));
+  EXPECT_EQ((*second)[3].y(), std::sin(b.angle(3)));
+  // The first table stays valid for whoever still holds it.
+  EXPECT_EQ((*first)[0].y(), std::sin(a.angle(0)));
+  LaserScan c = makeScan();
+  c.angle_increment = 0.1;
+  EXPECT_EQ((*c.beamDirections())[2].y(), std::sin(c.angle(2)));
+}
+
 }  // namespace
 }  // namespace storey::sensor

@@ -141,9 +141,11 @@ bool OccupancyGrid::collectBeams(const sensor::LaserScan& scan, const geometry::
   const double insert_max =
       options_.max_insert_range > 0.0 ? std::min(options_.max_insert_range, scan.range_max) : scan.range_max;
   beams->reserve(scan.size());
+  // Directions in the sensor frame (computed once per sensor) turned by the sensor's heading.
+  const auto directions = scan.beamDirections();
+  const Eigen::Matrix2d turn = sensor_pose.rotation();
   for (std::size_t i = 0; i < scan.size(); ++i) {
-    const double angle = sensor_pose.theta() + scan.angle(i);
-    const Eigen::Vector2d dir(std::cos(angle), std::sin(angle));
+    const Eigen::Vector2d dir = turn * (*directions)[i];
     if (scan.isReturn(i) && scan.ranges[i] < insert_max) {
       beams->push_back({origin + dir * scan.ranges[i], true});
     } else if (options_.free_space_for_no_return) {

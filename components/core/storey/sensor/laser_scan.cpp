@@ -16,13 +16,32 @@ std::size_t LaserScan::countReturns() const {
   return n;
 }
 
+std::shared_ptr<const std::vector<Eigen::Vector2d>> LaserScan::beamDirections() const {
+  struct Cached {
+    double angle_min = 0.0, angle_increment = 0.0;
+    std::size_t size = 0;
+    std::shared_ptr<const std::vector<Eigen::Vector2d>> directions;
+  };
+  thread_local Cached cached;
+  if (!cached.directions || cached.angle_min != angle_min || cached.angle_increment != angle_increment ||
+      cached.size != ranges.size()) {
+    auto directions = std::make_shared<std::vector<Eigen::Vector2d>>(ranges.size());
+    for (std::size_t i = 0; i < ranges.size(); ++i) {
+      const double a = angle(i);
+      (*directions)[i] = Eigen::Vector2d(std::cos(a), std::sin(a));
+    }
+    cached = {angle_min, angle_increment, ranges.size(), std::move(directions)};
+  }
+  return cached.directions;
+}
+
 std::vector<Eigen::Vector2d> LaserScan::pointsInRobotFrame() const {
   std::vector<Eigen::Vector2d> points;
   points.reserve(ranges.size());
+  const auto directions = beamDirections();
   for (std::size_t i = 0; i < ranges.size(); ++i) {
     if (!isReturn(i)) continue;
-    const double a = angle(i);
-    points.push_back(sensor_offset.transformPoint({ranges[i] * std::cos(a), ranges[i] * std::sin(a)}));
+    points.push_back(sensor_offset.transformPoint(static_cast<double>(ranges[i]) * (*directions)[i]));
   }
   return points;
 }

@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,10 @@ struct LaserScan {
   double angle(std::size_t i) const { return angle_min + static_cast<double>(i) * angle_increment; }
   bool isReturn(std::size_t i) const;
   std::size_t countReturns() const;
+  // Unit vectors (cos, sin) of every beam's angle in the sensor frame. Scans of one sensor
+  // share them: the last geometry asked for on this thread is kept, so a log's scans
+  // compute them once instead of a sine and cosine per beam per use.
+  std::shared_ptr<const std::vector<Eigen::Vector2d>> beamDirections() const;
   // Endpoints of valid returns in the robot frame (sensor offset applied).
   std::vector<Eigen::Vector2d> pointsInRobotFrame() const;
   // Endpoints of valid returns in the world, for a robot at `robot_pose`.
