@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "storey/common/config.h"
 #include "storey/grid/occupancy_grid.h"
 
 namespace storey::grid {
@@ -126,6 +127,16 @@ TEST(OccupancyUpdate, InsertingScansTogetherEqualsOneByOne) {
   EXPECT_GT(observed, 100);
   // The tight grid ends 0.3 m (3 cells, rounded out to the cell) beyond the scans.
   EXPECT_LT(together.frame().cellCount(), one_by_one.frame().cellCount() / 4);
+}
+
+TEST(OccupancyGridOptions, GrowthMarginIsReadAndChecked) {
+  const auto read = [](const std::string& text) {
+    return readOccupancyGridOptions(common::ConfigNode::loadString(text));
+  };
+  EXPECT_DOUBLE_EQ(read("resolution: 0.1\n").growth_margin, 8.0);
+  EXPECT_DOUBLE_EQ(read("resolution: 0.1\ngrowth_margin: 2.5\n").growth_margin, 2.5);
+  EXPECT_THROW(read("resolution: 0.1\ngrowth_margin: -1\n"), common::ConfigError);
+  EXPECT_THROW(read("resolution: 0.1\ngrowth_margn: 1\n"), common::ConfigError);
 }
 
 }  // namespace

@@ -60,13 +60,13 @@ void OccupancyGrid::ensureContains(const Eigen::Vector2d& min_corner,
                                    const Eigen::Vector2d& max_corner) {
   GridFrame& f = log_odds_.frame;
   const double res = f.resolution;
-  const double kGrowMargin = options_.growth_margin;
+  const double margin = options_.growth_margin;  // room added, so growth happens rarely
   if (f.width == 0) {
     GridFrame fresh = f;
-    fresh.origin_x = std::floor((min_corner.x() - kGrowMargin) / res) * res;
-    fresh.origin_y = std::floor((min_corner.y() - kGrowMargin) / res) * res;
-    fresh.width = static_cast<int>(std::ceil((max_corner.x() + kGrowMargin - fresh.origin_x) / res));
-    fresh.height = static_cast<int>(std::ceil((max_corner.y() + kGrowMargin - fresh.origin_y) / res));
+    fresh.origin_x = std::floor((min_corner.x() - margin) / res) * res;
+    fresh.origin_y = std::floor((min_corner.y() - margin) / res) * res;
+    fresh.width = static_cast<int>(std::ceil((max_corner.x() + margin - fresh.origin_x) / res));
+    fresh.height = static_cast<int>(std::ceil((max_corner.y() + margin - fresh.origin_y) / res));
     log_odds_ = Grid2<float>(fresh, 0.0f);
     return;
   }
@@ -75,16 +75,16 @@ void OccupancyGrid::ensureContains(const Eigen::Vector2d& min_corner,
     return;
   // Grow by whole cells so existing cells keep their world position.
   const int add_left = min_corner.x() < f.origin_x
-                           ? static_cast<int>(std::ceil((f.origin_x - min_corner.x() + kGrowMargin) / res))
+                           ? static_cast<int>(std::ceil((f.origin_x - min_corner.x() + margin) / res))
                            : 0;
   const int add_bottom = min_corner.y() < f.origin_y
-                             ? static_cast<int>(std::ceil((f.origin_y - min_corner.y() + kGrowMargin) / res))
+                             ? static_cast<int>(std::ceil((f.origin_y - min_corner.y() + margin) / res))
                              : 0;
   const int add_right = max_corner.x() >= f.maxX()
-                            ? static_cast<int>(std::ceil((max_corner.x() - f.maxX() + kGrowMargin) / res))
+                            ? static_cast<int>(std::ceil((max_corner.x() - f.maxX() + margin) / res))
                             : 0;
   const int add_top = max_corner.y() >= f.maxY()
-                          ? static_cast<int>(std::ceil((max_corner.y() - f.maxY() + kGrowMargin) / res))
+                          ? static_cast<int>(std::ceil((max_corner.y() - f.maxY() + margin) / res))
                           : 0;
   GridFrame grown = f;
   grown.origin_x -= add_left * res;

@@ -541,8 +541,7 @@ const MatchTarget& FloorSlam::loopTarget(int candidate, std::size_t last_candida
   const LoopClosureOptions& o = options_.loop_closure;
   auto unmoved = [&] {
     if (cached.end > floor_graph_.nodes.size()) return false;
-    for (std::size_t i = cached.first; i < cached.end; ++i)
-    {
+    for (std::size_t i = cached.first; i < cached.end; ++i) {
       const Pose2& now = floor_graph_.nodes[i].pose;
       const Pose2& then = cached.poses[i - cached.first];
       if (now.x() != then.x() || now.y() != then.y() || now.theta() != then.theta()) return false;
