@@ -121,5 +121,17 @@ TEST(Pose2, CovariancePropagationMatchesSampling) {
   EXPECT_TRUE(sampled.isApprox(predicted, 0.05)) << sampled << "\n\n" << predicted;
 }
 
+TEST(Pose2, TransformPointsEqualsEachPointTransformed) {
+  const Pose2 pose(1.5, -2.0, 2.7);
+  const std::vector<Eigen::Vector2d> points = {{0.0, 0.0}, {1.0, 0.0}, {-3.25, 7.5}, {1e3, -1e-3}};
+  const std::vector<Eigen::Vector2d> moved = pose.transformPoints(points);
+  ASSERT_EQ(moved.size(), points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    EXPECT_EQ(moved[i].x(), pose.transformPoint(points[i]).x());  // the same bits: one formula
+    EXPECT_EQ(moved[i].y(), pose.transformPoint(points[i]).y());
+  }
+  EXPECT_TRUE(pose.transformPoints({}).empty());
+}
+
 }  // namespace
 }  // namespace storey::geometry

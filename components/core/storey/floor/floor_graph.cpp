@@ -47,8 +47,10 @@ std::vector<Eigen::Vector2d> floorPoints(const FloorGraph& graph, std::size_t fi
     const double range_max = static_cast<double>(node.scan.range_max);
     const double limit = max_range > 0.0 ? std::min(max_range, range_max) : range_max;
     const Eigen::Vector2d sensor = node.scan.sensor_offset.translation();
+    std::vector<Eigen::Vector2d> near;
     for (const auto& p : node.scan.pointsInRobotFrame())
-      if ((p - sensor).norm() < limit) points.push_back(node.pose.transformPoint(p));
+      if ((p - sensor).norm() < limit) near.push_back(p);
+    for (const auto& p : node.pose.transformPoints(near)) points.push_back(p);
   }
   return points;
 }

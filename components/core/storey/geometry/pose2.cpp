@@ -43,6 +43,14 @@ Eigen::Vector2d Pose2::transformPoint(const Eigen::Vector2d& p) const {
   return {x_ + c * p.x() - s * p.y(), y_ + s * p.x() + c * p.y()};
 }
 
+std::vector<Eigen::Vector2d> Pose2::transformPoints(const std::vector<Eigen::Vector2d>& points) const {
+  const double c = std::cos(theta_), s = std::sin(theta_);
+  std::vector<Eigen::Vector2d> out;
+  out.reserve(points.size());
+  for (const auto& p : points) out.emplace_back(x_ + c * p.x() - s * p.y(), y_ + s * p.x() + c * p.y());
+  return out;
+}
+
 Eigen::Vector2d Pose2::inverseTransformPoint(const Eigen::Vector2d& p) const {
   const double c = std::cos(theta_), s = std::sin(theta_);
   const double dx = p.x() - x_, dy = p.y() - y_;

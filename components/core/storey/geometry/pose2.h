@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <vector>
 #include <cmath>
 #include <iosfwd>
 
@@ -32,6 +33,8 @@ class Pose2 {
   // this^-1 * other: other expressed in this pose's frame.
   Pose2 between(const Pose2& other) const { return inverse() * other; }
   Eigen::Vector2d transformPoint(const Eigen::Vector2d& p) const;
+  // transformPoint of each, with one sine and cosine for all (the same results).
+  std::vector<Eigen::Vector2d> transformPoints(const std::vector<Eigen::Vector2d>& points) const;
   Eigen::Vector2d inverseTransformPoint(const Eigen::Vector2d& p) const;
 
   bool isFinite() const { return std::isfinite(x_) && std::isfinite(y_) && std::isfinite(theta_); }

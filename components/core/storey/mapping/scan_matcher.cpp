@@ -344,7 +344,8 @@ MatchResult correlative(const ScanMatcherOptions& options, const MatchTarget& ta
     const double offset = a * step;
     offsets.push_back(offset);
     const Pose2 rotated(prediction.x(), prediction.y(), prediction.theta() + offset);
-    for (std::size_t i = 0; i < points.size(); ++i) cells[i] = frame.cellOf(rotated.transformPoint(points[i]));
+    const std::vector<Eigen::Vector2d> placed = rotated.transformPoints(points);
+    for (std::size_t i = 0; i < points.size(); ++i) cells[i] = frame.cellOf(placed[i]);
     rotations.push_back(rotatedCells(cells, frame, -window, window));
   }
 

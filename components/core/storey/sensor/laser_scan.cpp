@@ -39,17 +39,13 @@ std::vector<Eigen::Vector2d> LaserScan::pointsInRobotFrame() const {
   std::vector<Eigen::Vector2d> points;
   points.reserve(ranges.size());
   const auto directions = beamDirections();
-  for (std::size_t i = 0; i < ranges.size(); ++i) {
-    if (!isReturn(i)) continue;
-    points.push_back(sensor_offset.transformPoint(static_cast<double>(ranges[i]) * (*directions)[i]));
-  }
-  return points;
+  for (std::size_t i = 0; i < ranges.size(); ++i)
+    if (isReturn(i)) points.push_back(static_cast<double>(ranges[i]) * (*directions)[i]);
+  return sensor_offset.transformPoints(points);
 }
 
 std::vector<Eigen::Vector2d> LaserScan::pointsInWorld(const geometry::Pose2& robot_pose) const {
-  std::vector<Eigen::Vector2d> points = pointsInRobotFrame();
-  for (auto& p : points) p = robot_pose.transformPoint(p);
-  return points;
+  return robot_pose.transformPoints(pointsInRobotFrame());
 }
 
 std::string LaserScan::validate() const {
