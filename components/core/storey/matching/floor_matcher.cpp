@@ -218,15 +218,14 @@ double refineAlignment(const grid::LikelihoodField& field, const floor::FloorGra
   for (const auto& [first, last] : ranges) {
     for (int n = first; n <= last; ++n) {
       const auto& node = graph.nodes[n];
-      for (const auto& p : selectBeams(node.scan, beams))
-        points.push_back(node.pose.transformPoint(p));
+      for (const auto& p : node.pose.transformPoints(selectBeams(node.scan, beams))) points.push_back(p);
     }
   }
   if (points.empty()) return 0.0;
   Pose2 t = *alignment;
   auto meanScore = [&](const Pose2& a) {
     double s = 0.0;
-    for (const auto& p : points) s += field.interpolatedScore(a.transformPoint(p));
+    for (const auto& w : a.transformPoints(points)) s += field.interpolatedScore(w);
     return s / static_cast<double>(points.size());
   };
   double current = meanScore(t);
@@ -234,8 +233,7 @@ double refineAlignment(const grid::LikelihoodField& field, const floor::FloorGra
   for (int it = 0; it < iterations; ++it) {
     Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
     Eigen::Vector3d g = Eigen::Vector3d::Zero();
-    for (const auto& p : points) {
-      const Eigen::Vector2d w = t.transformPoint(p);
+    for (const Eigen::Vector2d& w : t.transformPoints(points)) {
       Eigen::Vector2d grad;
       const double s = field.interpolatedScore(w, &grad);
       const double r = 1.0 - s;
@@ -307,8 +305,8 @@ std::vector<std::uint8_t> solidWalls(const grid::LikelihoodField& field,
   const double step = 0.5 * f.resolution, spare = 2.0 * f.resolution;
   for (const auto& node : graph.nodes) {
     const Eigen::Vector2d origin = (node.pose * node.scan.sensor_offset).translation();
-    for (const auto& p : selectBeams(node.scan, beams)) {
-      const Eigen::Vector2d d = node.pose.transformPoint(p) - origin;
+    for (const auto& end : node.pose.transformPoints(selectBeams(node.scan, beams))) {
+      const Eigen::Vector2d d = end - origin;
       const double length = d.norm();
       if (length <= spare) continue;
       const Eigen::Vector2d u = d / length;
@@ -333,8 +331,7 @@ double seeThroughFraction(const grid::GridFrame& f, const std::vector<std::uint8
       const auto& node = graph.nodes[n];
       const Pose2 robot = alignment * node.pose;
       const Eigen::Vector2d origin = (robot * node.scan.sensor_offset).translation();
-      for (const auto& p : selectBeams(node.scan, beams)) {
-        const Eigen::Vector2d end = robot.transformPoint(p);
+      for (const Eigen::Vector2d& end : robot.transformPoints(selectBeams(node.scan, beams))) {
         const Eigen::Vector2d d = end - origin;
         const double length = d.norm() - margin;
         ++total;

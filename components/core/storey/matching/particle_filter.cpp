@@ -305,7 +305,7 @@ double ParticleFilter::update(const sensor::LaserScan& scan) {
       const Pose2 pose(x_[j], y_[j], theta_[j]);
       const Eigen::Vector2d origin = pose.transformPoint(sensor);
       int crossed = 0;
-      for (const auto& e : stop) crossed += walls_->crosses(origin, pose.transformPoint(e));
+      for (const auto& end : pose.transformPoints(stop)) crossed += walls_->crosses(origin, end);
       log_w_[j] += scale * crossed;
       max_log = std::max(max_log, log_w_[j]);
     }
