@@ -97,15 +97,15 @@ void OccupancyGrid::ensureContains(const Eigen::Vector2d& min_corner,
   log_odds_ = std::move(next);
 }
 
-void OccupancyGrid::addLogOdds(std::size_t index, double delta) {
+inline void OccupancyGrid::addLogOdds(std::size_t index, double delta) {
   float& cell = log_odds_.data[index];
   cell = static_cast<float>(std::clamp(cell + delta, options_.min_log_odds, options_.max_log_odds));
   // Exactly zero means "never observed"; keep observed cells distinguishable.
   if (cell == 0.0f) cell = delta > 0 ? 1e-6f : -1e-6f;
 }
 
-void OccupancyGrid::traceRay(const Eigen::Vector2d& from, const Eigen::Vector2d& to,
-                             std::vector<std::size_t>* cells) const {
+template <typename Visit>
+void OccupancyGrid::traceRay(const Eigen::Vector2d& from, const Eigen::Vector2d& to, Visit&& visit) const {
   const GridFrame& f = log_odds_.frame;
   const Eigen::Vector2d a = f.continuousCellOf(from), b = f.continuousCellOf(to);
   int cx = floorToInt(a.x()), cy = floorToInt(a.y());
@@ -120,7 +120,7 @@ void OccupancyGrid::traceRay(const Eigen::Vector2d& from, const Eigen::Vector2d&
   const double t_delta_y = d.y() != 0 ? 1.0 / std::abs(d.y()) : inf;
   const int max_steps = std::abs(end_x - cx) + std::abs(end_y - cy);
   for (int i = 0; i < max_steps; ++i) {
-    cells->push_back(f.index(cx, cy));
+    visit(f.index(cx, cy));
     if (t_max_x < t_max_y) {
       t_max_x += t_delta_x;
       cx += step_x;
@@ -221,9 +221,7 @@ void OccupancyGrid::applyBeams(const Eigen::Vector2d& origin, const std::vector<
     addLogOdds(index, options_.miss_log_odds);
   };
   for (const Beam& beam : beams) {
-    ray_cells_.clear();
-    traceRay(origin, beam.end, &ray_cells_);
-    for (std::size_t index : ray_cells_) miss(index);
+    traceRay(origin, beam.end, miss);
     if (!beam.hit) {
       const Eigen::Vector2i end = f.cellOf(beam.end);
       miss(f.index(end.x(), end.y()));

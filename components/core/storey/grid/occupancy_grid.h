@@ -57,9 +57,9 @@ class OccupancyGrid {
   std::array<std::size_t, 3> countStates() const;
 
  private:
-  // Appends the indices of the cells a ray passes through, excluding its end cell.
-  void traceRay(const Eigen::Vector2d& from, const Eigen::Vector2d& to,
-                std::vector<std::size_t>* cells) const;
+  // Calls visit(index) for each cell a ray passes through, excluding its end cell.
+  template <typename Visit>
+  void traceRay(const Eigen::Vector2d& from, const Eigen::Vector2d& to, Visit&& visit) const;
   void addLogOdds(std::size_t index, double delta);
   struct Beam {
     Eigen::Vector2d end;
@@ -77,7 +77,6 @@ class OccupancyGrid {
   // updates a cell at most once without sorting the traversed cells.
   std::vector<std::uint16_t> marks_;  // 16 bits: cleared once every 32767 scans
   std::uint16_t last_tag_ = 0;
-  std::vector<std::size_t> ray_cells_;  // scratch, reused across scans
   std::vector<Beam> beams_;             // scratch, reused across scans
 };
 
