@@ -131,6 +131,10 @@ TEST(Pose2, TransformPointsEqualsEachPointTransformed) {
     EXPECT_EQ(moved[i].y(), pose.transformPoint(points[i]).y());
   }
   EXPECT_TRUE(pose.transformPoints({}).empty());
+  // Into a buffer, and in place.
+  std::vector<Eigen::Vector2d> in_place = points;
+  pose.transformPoints(in_place, &in_place);
+  EXPECT_EQ(in_place, moved);
 }
 
 }  // namespace

@@ -50,7 +50,8 @@ std::vector<Eigen::Vector2d> floorPoints(const FloorGraph& graph, std::size_t fi
     std::vector<Eigen::Vector2d> near;
     for (const auto& p : node.scan.pointsInRobotFrame())
       if ((p - sensor).norm() < limit) near.push_back(p);
-    for (const auto& p : node.pose.transformPoints(near)) points.push_back(p);
+    node.pose.transformPoints(near, &near);
+    points.insert(points.end(), near.begin(), near.end());
   }
   return points;
 }

@@ -44,11 +44,18 @@ Eigen::Vector2d Pose2::transformPoint(const Eigen::Vector2d& p) const {
 }
 
 std::vector<Eigen::Vector2d> Pose2::transformPoints(const std::vector<Eigen::Vector2d>& points) const {
-  const double c = std::cos(theta_), s = std::sin(theta_);
   std::vector<Eigen::Vector2d> out;
-  out.reserve(points.size());
-  for (const auto& p : points) out.emplace_back(x_ + c * p.x() - s * p.y(), y_ + s * p.x() + c * p.y());
+  transformPoints(points, &out);
   return out;
+}
+
+void Pose2::transformPoints(const std::vector<Eigen::Vector2d>& points, std::vector<Eigen::Vector2d>* out) const {
+  const double c = std::cos(theta_), s = std::sin(theta_);
+  out->resize(points.size());  // a no-op when out is points
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector2d p = points[i];
+    (*out)[i] = Eigen::Vector2d(x_ + c * p.x() - s * p.y(), y_ + s * p.x() + c * p.y());
+  }
 }
 
 Eigen::Vector2d Pose2::inverseTransformPoint(const Eigen::Vector2d& p) const {

@@ -3,9 +3,9 @@
 #pragma once
 
 #include <Eigen/Core>
-#include <vector>
 #include <cmath>
 #include <iosfwd>
+#include <vector>
 
 namespace storey::geometry {
 
@@ -35,6 +35,8 @@ class Pose2 {
   Eigen::Vector2d transformPoint(const Eigen::Vector2d& p) const;
   // transformPoint of each, with one sine and cosine for all (the same results).
   std::vector<Eigen::Vector2d> transformPoints(const std::vector<Eigen::Vector2d>& points) const;
+  // The same into `out` (resized; may be `points` itself), for callers reusing a buffer.
+  void transformPoints(const std::vector<Eigen::Vector2d>& points, std::vector<Eigen::Vector2d>* out) const;
   Eigen::Vector2d inverseTransformPoint(const Eigen::Vector2d& p) const;
 
   bool isFinite() const { return std::isfinite(x_) && std::isfinite(y_) && std::isfinite(theta_); }

@@ -160,25 +160,8 @@ bool OccupancyGrid::collectBeams(const sensor::LaserScan& scan, const geometry::
   return !beams->empty();
 }
 
-namespace {
-template <typename Beams>
-void extendBox(const Eigen::Vector2d& origin, const Beams& beams, Eigen::Vector2d* lo, Eigen::Vector2d* hi) {
-  *lo = lo->cwiseMin(origin);
-  *hi = hi->cwiseMax(origin);
-  for (const auto& beam : beams) {
-    *lo = lo->cwiseMin(beam.end);
-    *hi = hi->cwiseMax(beam.end);
-  }
-}
-}  // namespace
-
 void OccupancyGrid::insertScan(const sensor::LaserScan& scan, const geometry::Pose2& robot_pose) {
-  Eigen::Vector2d origin;
-  if (!collectBeams(scan, robot_pose, &origin, &beams_)) return;
-  Eigen::Vector2d lo = origin, hi = origin;
-  extendBox(origin, beams_, &lo, &hi);
-  ensureContains(lo, hi);
-  applyBeams(origin, beams_);
+  insertScans({{&scan, robot_pose}});
 }
 
 void OccupancyGrid::insertScans(const std::vector<PosedScan>& scans) {
@@ -186,9 +169,15 @@ void OccupancyGrid::insertScans(const std::vector<PosedScan>& scans) {
   std::vector<Eigen::Vector2d> origins(scans.size());
   const double inf = std::numeric_limits<double>::infinity();
   Eigen::Vector2d lo(inf, inf), hi(-inf, -inf);
-  for (std::size_t k = 0; k < scans.size(); ++k)
-    if (collectBeams(*scans[k].scan, scans[k].robot_pose, &origins[k], &beams[k]))
-      extendBox(origins[k], beams[k], &lo, &hi);
+  for (std::size_t k = 0; k < scans.size(); ++k) {
+    if (!collectBeams(*scans[k].scan, scans[k].robot_pose, &origins[k], &beams[k])) continue;
+    lo = lo.cwiseMin(origins[k]);
+    hi = hi.cwiseMax(origins[k]);
+    for (const Beam& beam : beams[k]) {
+      lo = lo.cwiseMin(beam.end);
+      hi = hi.cwiseMax(beam.end);
+    }
+  }
   if (!(lo.x() <= hi.x())) return;  // no scan has a beam
   ensureContains(lo, hi);
   for (std::size_t k = 0; k < scans.size(); ++k)

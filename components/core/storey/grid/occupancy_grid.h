@@ -77,7 +77,6 @@ class OccupancyGrid {
   // updates a cell at most once without sorting the traversed cells.
   std::vector<std::uint16_t> marks_;  // 16 bits: cleared once every 32767 scans
   std::uint16_t last_tag_ = 0;
-  std::vector<Beam> beams_;             // scratch, reused across scans
 };
 
 // nav2 map_server format: <stem>.pgm (trinary: 0 occupied, 254 free, 205 unknown; top row

@@ -214,18 +214,15 @@ struct RotatedCells {
   std::size_t count = 0;  // all the scan's cells, for the mean
 };
 
-// `shift_min` / `shift_max`: the smallest and largest cell offset the search reads at, in x
-// and y (a node's lower corner: the pyramid holds the max over its block).
-RotatedCells rotatedCells(const std::vector<Eigen::Vector2i>& cells, const grid::GridFrame& f, int shift_min,
-                          int shift_max) {
+// The search reads each cell shifted by -window to +window in x and y (a node's lower
+// corner: the pyramid holds the max over its block).
+RotatedCells rotatedCells(const std::vector<Eigen::Vector2i>& cells, const grid::GridFrame& f, int window) {
   RotatedCells r;
   r.count = cells.size();
   for (const Eigen::Vector2i& c : cells) {
-    if (c.x() + shift_min >= 0 && c.x() + shift_max < f.width && c.y() + shift_min >= 0 &&
-        c.y() + shift_max < f.height)
+    if (c.x() - window >= 0 && c.x() + window < f.width && c.y() - window >= 0 && c.y() + window < f.height)
       r.inside.push_back(static_cast<std::ptrdiff_t>(c.y()) * f.width + c.x());
-    else if (c.x() + shift_max >= 0 && c.x() + shift_min < f.width && c.y() + shift_max >= 0 &&
-             c.y() + shift_min < f.height)
+    else if (c.x() + window >= 0 && c.x() - window < f.width && c.y() + window >= 0 && c.y() - window < f.height)
       r.border.push_back(c);
   }
   return r;
@@ -339,14 +336,14 @@ MatchResult correlative(const ScanMatcherOptions& options, const MatchTarget& ta
   const int top = 1 << level;
   std::vector<double> offsets;
   std::vector<RotatedCells> rotations;
+  std::vector<Eigen::Vector2d> placed;
   std::vector<Eigen::Vector2i> cells(points.size());
   for (int a = -num_angles; a <= num_angles; ++a) {
     const double offset = a * step;
     offsets.push_back(offset);
-    const Pose2 rotated(prediction.x(), prediction.y(), prediction.theta() + offset);
-    const std::vector<Eigen::Vector2d> placed = rotated.transformPoints(points);
+    Pose2(prediction.x(), prediction.y(), prediction.theta() + offset).transformPoints(points, &placed);
     for (std::size_t i = 0; i < points.size(); ++i) cells[i] = frame.cellOf(placed[i]);
-    rotations.push_back(rotatedCells(cells, frame, -window, window));
+    rotations.push_back(rotatedCells(cells, frame, window));
   }
 
   BranchAndBound bb(target, rotations, offsets, window, options, excluded);

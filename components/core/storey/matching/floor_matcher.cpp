@@ -223,9 +223,11 @@ double refineAlignment(const grid::LikelihoodField& field, const floor::FloorGra
   }
   if (points.empty()) return 0.0;
   Pose2 t = *alignment;
+  std::vector<Eigen::Vector2d> placed;  // the points at the pose being scored, reused
   auto meanScore = [&](const Pose2& a) {
+    a.transformPoints(points, &placed);
     double s = 0.0;
-    for (const auto& w : a.transformPoints(points)) s += field.interpolatedScore(w);
+    for (const auto& w : placed) s += field.interpolatedScore(w);
     return s / static_cast<double>(points.size());
   };
   double current = meanScore(t);
@@ -233,7 +235,8 @@ double refineAlignment(const grid::LikelihoodField& field, const floor::FloorGra
   for (int it = 0; it < iterations; ++it) {
     Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
     Eigen::Vector3d g = Eigen::Vector3d::Zero();
-    for (const Eigen::Vector2d& w : t.transformPoints(points)) {
+    t.transformPoints(points, &placed);
+    for (const Eigen::Vector2d& w : placed) {
       Eigen::Vector2d grad;
       const double s = field.interpolatedScore(w, &grad);
       const double r = 1.0 - s;

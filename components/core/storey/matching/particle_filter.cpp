@@ -301,11 +301,13 @@ double ParticleFilter::update(const sensor::LaserScan& scan) {
     const double scale = options_.effective_beams * wall_log_p_ /
                          static_cast<double>(std::max<std::size_t>(1, traced.size()));
     max_log = -std::numeric_limits<double>::infinity();
+    std::vector<Eigen::Vector2d> stop_ends;  // one particle's, reused
     for (std::size_t j = 0; j < n; ++j) {
       const Pose2 pose(x_[j], y_[j], theta_[j]);
       const Eigen::Vector2d origin = pose.transformPoint(sensor);
       int crossed = 0;
-      for (const auto& end : pose.transformPoints(stop)) crossed += walls_->crosses(origin, end);
+      pose.transformPoints(stop, &stop_ends);
+      for (const auto& end : stop_ends) crossed += walls_->crosses(origin, end);
       log_w_[j] += scale * crossed;
       max_log = std::max(max_log, log_w_[j]);
     }

@@ -41,11 +41,14 @@ std::vector<Eigen::Vector2d> LaserScan::pointsInRobotFrame() const {
   const auto directions = beamDirections();
   for (std::size_t i = 0; i < ranges.size(); ++i)
     if (isReturn(i)) points.push_back(static_cast<double>(ranges[i]) * (*directions)[i]);
-  return sensor_offset.transformPoints(points);
+  sensor_offset.transformPoints(points, &points);
+  return points;
 }
 
 std::vector<Eigen::Vector2d> LaserScan::pointsInWorld(const geometry::Pose2& robot_pose) const {
-  return robot_pose.transformPoints(pointsInRobotFrame());
+  std::vector<Eigen::Vector2d> points = pointsInRobotFrame();
+  robot_pose.transformPoints(points, &points);
+  return points;
 }
 
 std::string LaserScan::validate() const {
