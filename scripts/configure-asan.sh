@@ -12,6 +12,6 @@ rm -rf build-asan
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 cmake -S . -B build-asan -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
-  "${launcher[@]}" -DCMAKE_BUILD_TYPE=Sanitize -DSTOREY_BUILD_BENCHMARKS=OFF \
+  "${launcher[@]}" -DCMAKE_UNITY_BUILD=ON -DCMAKE_BUILD_TYPE=Sanitize -DSTOREY_BUILD_BENCHMARKS=OFF \
   -DSTOREY_BUILD_FUZZERS=ON "-DSTOREY_SANITIZE=address;undefined" \
   -DCMAKE_CXX_FLAGS=-fsanitize=fuzzer-no-link >/dev/null

@@ -2,7 +2,7 @@
 # Builds and runs the tests under sanitizers (STOREY_SANITIZE, build type Sanitize):
 #   asan: build-asan, clang with ASan + UBSan (errors abort) and libFuzzer's coverage
 #         instrumentation, so the same build holds the fuzz targets (scripts/fuzz.sh):
-#         every unit test executable, run with ctest -L unit.
+#         every unit test executable, run with ctest -L unit (less two heavy tests, below).
 #   tsan: build-tsan, gcc with TSan: the runtime's and security's integration tests.
 # Usage: scripts/sanitize.sh [asan] [tsan]   (default: both). Installs clang when missing,
 # prints the time of each phase. Builds take the shared build lock (scripts/dev-build.sh).
@@ -51,13 +51,17 @@ for mode in "${modes[@]}"; do
       export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
       mapfile -t targets < <(unit_targets)
       phase "asan build (${#targets[@]} unit test executables)" build build-asan "${targets[@]}"
+      # Two unit tests repeat code paths the others cover, many times over: under ASan
+      # they took 190 of the 400 test seconds (CI must stay under 30 minutes). They run in
+      # the plain unit run as always.
       phase "asan unit tests" ctest --test-dir build-asan -L '^unit$' --output-on-failure \
-        --parallel "$(nproc)"
+        --parallel "$(nproc)" \
+        -E '^(FloorSessions\.SymmetricFloorGivesANewGraphNotAWrongTie|FloorSlam\.LoopClosureCorrectsDrift)$'
       ;;
     tsan)
       ensure_packages g++ cmake ninja-build
       if [ ! -f build-tsan/build.ninja ]; then
-        cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=Sanitize \
+        cmake -S . -B build-tsan -G Ninja -DCMAKE_UNITY_BUILD=ON -DCMAKE_BUILD_TYPE=Sanitize \
           -DSTOREY_BUILD_BENCHMARKS=OFF -DSTOREY_SANITIZE=thread >/dev/null
       fi
       # Fast DDS, Fast CDR and OpenSSL's libcrypto (DDS Security) are not built with TSan

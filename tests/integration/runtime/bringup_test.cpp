@@ -14,11 +14,7 @@
 namespace storey::runtime {
 namespace {
 
-ComponentRegistry testRegistry() {
-  ComponentRegistry registry;
-  test::registerTestComponents(registry);
-  return registry;
-}
+using test::testRegistry;
 
 class BringupTest : public ::testing::Test {
  protected:

@@ -33,18 +33,9 @@ std::string writeFile(const std::string& dir, const std::string& name, const std
   return path;
 }
 
-std::vector<int> readInts(const std::string& path) {
-  std::ifstream in(path);
-  std::vector<int> values;
-  for (int v; in >> v;) values.push_back(v);
-  return values;
-}
+using test::readInts;
 
-ComponentRegistry testRegistry() {
-  ComponentRegistry registry;
-  test::registerTestComponents(registry);
-  return registry;
-}
+using test::testRegistry;
 
 TEST(RuntimeComponent, LifecycleRunsInOrderAndStopsInReverse) {
   test::clearLifecycleLog();

@@ -23,18 +23,9 @@
 namespace storey::runtime {
 namespace {
 
-ComponentRegistry testRegistry() {
-  ComponentRegistry registry;
-  test::registerTestComponents(registry);
-  return registry;
-}
+using test::testRegistry;
 
-std::vector<int> readInts(const std::string& path) {
-  std::ifstream in(path);
-  std::vector<int> values;
-  for (int v; in >> v;) values.push_back(v);
-  return values;
-}
+using test::readInts;
 
 class LaunchTest : public ::testing::Test {
  protected:

@@ -136,6 +136,19 @@ class Recorder : public Component {
 
 }  // namespace
 
+ComponentRegistry testRegistry() {
+  ComponentRegistry registry;
+  registerTestComponents(registry);
+  return registry;
+}
+
+std::vector<int> readInts(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<int> values;
+  for (int v; in >> v;) values.push_back(v);
+  return values;
+}
+
 void registerTestComponents(ComponentRegistry& registry) {
   registry.add<Talker>("test_talker", "publishes FloorEvents at a rate");
   registry.add<Listener>("test_listener", "counts FloorEvents");

@@ -16,6 +16,10 @@
 namespace storey::runtime::test {
 
 void registerTestComponents(ComponentRegistry& registry);
+// A registry holding only the test components above.
+ComponentRegistry testRegistry();
+// The whitespace-separated integers of a file (what test_listener wrote).
+std::vector<int> readInts(const std::string& path);
 
 // Hooks called on test_recorder components, as "name:hook".
 std::vector<std::string> lifecycleLog();

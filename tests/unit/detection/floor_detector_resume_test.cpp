@@ -13,9 +13,7 @@
 namespace storey::detection {
 namespace {
 
-FloorDetectorOptions shippedOptions() {
-  return loadFloorDetectorOptions(storey::test::sourceDir() + "/config/floor_detector.yaml");
-}
+using test::shippedOptions;
 
 // Up 3.5 m at 32 s (the cabin moves 32-37.5 s), down again at 89.5 s.
 test::Script twoRides() {

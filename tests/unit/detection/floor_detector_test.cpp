@@ -17,10 +17,7 @@ namespace {
 using test::ended;
 using test::Script;
 using test::SensorSetup;
-
-FloorDetectorOptions shippedOptions() {
-  return loadFloorDetectorOptions(storey::test::sourceDir() + "/config/floor_detector.yaml");
-}
+using test::shippedOptions;
 
 SensorSetup barometerOnly(unsigned seed = 1) {
   SensorSetup s;

@@ -64,7 +64,7 @@ TEST(FloorEvaluation, MissedSpuriousAndWrongFloors) {
 }
 
 TEST(FloorEvaluation, ReadsGroundTruthByColumnNameAndRejectsBadRows) {
-  const std::string dir = test::makeTempDir("fd_truth");
+  const std::string dir = storey::test::makeTempDir("fd_truth");
   {
     std::ofstream f(dir + "/floors.yaml");
     f << "building: b\nfloors:\n  - {id: F0, height: 0.0, frame: [0, 0, 0]}\n"

@@ -11,8 +11,13 @@
 
 #include "storey/detection/barometer.h"
 #include "storey/detection/floor_detector.h"
+#include "test_support.h"
 
 namespace storey::detection::test {
+
+inline FloorDetectorOptions shippedOptions() {
+  return loadFloorDetectorOptions(storey::test::sourceDir() + "/config/floor_detector.yaml");
+}
 
 struct SensorSetup {
   double pressure_rate = 10.0;  // Hz

@@ -25,7 +25,7 @@ sensor::LaserScan scanAt(double stamp) {
 }
 
 TEST(InputLog, ReplaysWhatWasAppendedInOrder) {
-  const std::string path = test::makeTempDir("input_log") + "/mapper.log";
+  const std::string path = storey::test::makeTempDir("input_log") + "/mapper.log";
   {
     InputLog log(path, [](const LoggedInput&) { FAIL() << "a new log has no inputs"; });
     log.appendScan(scanAt(1.0), geometry::Pose2(1.0, 2.0, 0.3));
@@ -57,7 +57,7 @@ TEST(InputLog, ReplaysWhatWasAppendedInOrder) {
 }
 
 TEST(InputLog, ATornLastRecordIsDroppedAndCutOff) {
-  const std::string path = test::makeTempDir("input_log_torn") + "/mapper.log";
+  const std::string path = storey::test::makeTempDir("input_log_torn") + "/mapper.log";
   {
     InputLog log(path, [](const LoggedInput&) {});
     log.appendScan(scanAt(1.0), geometry::Pose2());
@@ -76,7 +76,7 @@ TEST(InputLog, ATornLastRecordIsDroppedAndCutOff) {
 }
 
 TEST(InputLog, AnotherFileIsRefusedByName) {
-  const std::string path = test::makeTempDir("input_log_other") + "/journal.bin";
+  const std::string path = storey::test::makeTempDir("input_log_other") + "/journal.bin";
   std::ofstream(path) << "STOREYJ1 not an input log";
   try {
     InputLog log(path, [](const LoggedInput&) {});

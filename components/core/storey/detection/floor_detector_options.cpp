@@ -5,7 +5,7 @@
 namespace storey::detection {
 
 namespace {
-constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kUnbounded = std::numeric_limits<double>::infinity();
 }
 
 FloorDetectorOptions readFloorDetectorOptions(const common::ConfigNode& node) {
@@ -15,8 +15,8 @@ FloorDetectorOptions readFloorDetectorOptions(const common::ConfigNode& node) {
     o.barometer.temperature_kelvin = b.getDouble("temperature_kelvin", 150.0, 350.0);
     o.barometer.temperature_uncertainty_kelvin =
         b.getDouble("temperature_uncertainty_kelvin", 0.0, 100.0);
-    o.barometer.min_pressure = b.getDouble("min_pressure", 0.0, kInf);
-    o.barometer.max_pressure = b.getDouble("max_pressure", 0.0, kInf);
+    o.barometer.min_pressure = b.getDouble("min_pressure", 0.0, kUnbounded);
+    o.barometer.max_pressure = b.getDouble("max_pressure", 0.0, kUnbounded);
     if (o.barometer.max_pressure <= o.barometer.min_pressure) {
       b.fail("max_pressure", "must exceed min_pressure");
     }

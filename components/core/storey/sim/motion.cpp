@@ -7,7 +7,6 @@
 namespace storey::sim {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 std::string point(const Eigen::Vector2d& p) {
   std::ostringstream out;

@@ -1,7 +1,10 @@
 #include "storey/runtime/executor.h"
 
 #include <algorithm>
-#include <future>
+#include <condition_variable>
+#include <exception>
+#include <memory>
+#include <mutex>
 #include <stdexcept>
 
 #include "storey/common/log.h"
@@ -31,22 +34,71 @@ bool Executor::post(Task task) {
   return true;
 }
 
+namespace {
+
+// The hand-over between invoke() and the worker that runs its task. The worker moves
+// a failure in here and keeps no reference to it, so the exception is destroyed on
+// the calling thread. (With std::promise the worker could drop the last reference; the
+// reference count lives in the uninstrumented libstdc++ and ThreadSanitizer then
+// reports the exception's message being freed under the caller's reads.)
+struct Invocation {
+  std::mutex mutex;
+  std::condition_variable cv;
+  bool finished = false;
+  bool ran = false;
+  std::exception_ptr failure;
+};
+
+// Owned by the queued task. If shutdown() drops the task unrun, the destructor tells
+// the caller, which would otherwise wait forever.
+class InvocationTicket {
+ public:
+  explicit InvocationTicket(std::shared_ptr<Invocation> invocation)
+      : invocation_(std::move(invocation)) {}
+  InvocationTicket(const InvocationTicket&) = delete;
+  InvocationTicket& operator=(const InvocationTicket&) = delete;
+  ~InvocationTicket() { finish(false, nullptr); }
+
+  void finish(bool ran, std::exception_ptr failure) {
+    std::lock_guard<std::mutex> lock(invocation_->mutex);
+    if (invocation_->finished) return;
+    invocation_->finished = true;
+    invocation_->ran = ran;
+    invocation_->failure = std::move(failure);
+    invocation_->cv.notify_all();
+  }
+
+ private:
+  std::shared_ptr<Invocation> invocation_;
+};
+
+}  // namespace
+
 void Executor::invoke(const Task& task) {
   if (onWorkerThread()) return task();
-  // The queued task owns the promise: if shutdown() drops it, the future reports
-  // broken_promise instead of waiting forever.
-  auto done = std::make_shared<std::promise<void>>();
-  std::future<void> result = done->get_future();
-  const bool queued = post([&task, done] {
+  auto invocation = std::make_shared<Invocation>();
+  auto ticket = std::make_shared<InvocationTicket>(invocation);
+  const bool queued = post([&task, ticket] {
+    std::exception_ptr failure;
     try {
       task();
-      done->set_value();
     } catch (...) {
-      done->set_exception(std::current_exception());
+      failure = std::current_exception();
     }
+    ticket->finish(true, std::move(failure));
   });
+  ticket.reset();
   if (!queued) return task();
-  result.get();
+  std::exception_ptr failure;
+  {
+    std::unique_lock<std::mutex> lock(invocation->mutex);
+    invocation->cv.wait(lock, [&] { return invocation->finished; });
+    if (!invocation->ran) {
+      throw std::runtime_error("executor: shut down before an invoked task could run");
+    }
+    failure = std::move(invocation->failure);
+  }
+  if (failure) std::rethrow_exception(std::move(failure));
 }
 
 Executor::TimerId Executor::addTimer(double period_s, Task callback) {
