@@ -21,7 +21,7 @@ void BM_BuildMatchTarget(benchmark::State& state) {
   const grid::OccupancyGrid grid = officeMap();
   for (auto _ : state) {
     MatchTarget target(grid, grid::LikelihoodFieldOptions{}, static_cast<int>(state.range(0)));
-    benchmark::DoNotOptimize(target.pyramid().size());
+    benchmark::DoNotOptimize(target.pyramidLevels());
   }
   state.counters["cells"] = static_cast<double>(grid.frame().cellCount());
 }

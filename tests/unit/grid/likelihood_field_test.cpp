@@ -46,5 +46,23 @@ TEST(LikelihoodFieldTables, MatchThePerCellFormulas) {
   expectMatchesFormula(0.05, 1.0, 0.0);    // no obstacle: every cell at the cap
 }
 
+TEST(LikelihoodFieldTables, SkippingTheLogLikelihoodLeavesDistanceAndScoreAsTheyWere) {
+  GridFrame f;
+  f.width = 47;
+  f.height = 39;
+  std::mt19937_64 rng(9);
+  std::bernoulli_distribution pick(0.03);
+  std::vector<std::uint8_t> obstacles(f.cellCount(), 0);
+  for (auto& o : obstacles) o = pick(rng);
+  const LikelihoodFieldOptions options;
+  const LikelihoodField all(f, obstacles, options);
+  const LikelihoodField lean(f, obstacles, options, LikelihoodField::LogLikelihoodTable::kSkip);
+  EXPECT_EQ(lean.distance().data, all.distance().data);
+  EXPECT_EQ(lean.score().data, all.score().data);
+  EXPECT_TRUE(lean.logLikelihood().data.empty());
+  EXPECT_THROW(lean.logLikelihoodAt({0.5, 0.5}), std::logic_error);
+  EXPECT_NO_THROW(all.logLikelihoodAt({0.5, 0.5}));
+}
+
 }  // namespace
 }  // namespace storey::grid

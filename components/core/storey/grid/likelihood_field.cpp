@@ -4,6 +4,7 @@
 #include <cmath>
 #include <deque>
 #include <limits>
+#include <stdexcept>
 
 #include "storey/grid/distance_transform.h"
 
@@ -33,20 +34,21 @@ std::vector<std::uint8_t> obstacleMask(const OccupancyGrid& grid, double occupie
   return mask;
 }
 
-LikelihoodField::LikelihoodField(const OccupancyGrid& grid, const LikelihoodFieldOptions& options)
+LikelihoodField::LikelihoodField(const OccupancyGrid& grid, const LikelihoodFieldOptions& options,
+                                 LogLikelihoodTable table)
     : options_(options) {
   distance_.frame = grid.frame();
-  build(obstacleMask(grid, options.occupied_threshold));
+  build(obstacleMask(grid, options.occupied_threshold), table);
 }
 
 LikelihoodField::LikelihoodField(const GridFrame& frame, const std::vector<std::uint8_t>& obstacles,
-                                 const LikelihoodFieldOptions& options)
+                                 const LikelihoodFieldOptions& options, LogLikelihoodTable table)
     : options_(options) {
   distance_.frame = frame;
-  build(obstacles);
+  build(obstacles, table);
 }
 
-void LikelihoodField::build(const std::vector<std::uint8_t>& obstacles) {
+void LikelihoodField::build(const std::vector<std::uint8_t>& obstacles, LogLikelihoodTable log_table) {
   const GridFrame frame = distance_.frame;
   const double norm = 1.0 / (std::sqrt(2.0 * M_PI) * options_.sigma_hit);
   const double inv_two_sigma2 = 1.0 / (2.0 * options_.sigma_hit * options_.sigma_hit);
@@ -77,18 +79,33 @@ void LikelihoodField::build(const std::vector<std::uint8_t>& obstacles) {
   for (std::size_t k = 0; k < table.size(); ++k) table[k] = entry(static_cast<float>(k));
   const Entry beyond = entry(std::numeric_limits<float>::infinity());
 
-  const Grid2<float> squared = squaredDistanceTransform(frame, obstacles);
-  distance_ = Grid2<float>(frame, 0.0f);
-  log_likelihood_ = Grid2<float>(frame, 0.0f);
+  // The squared distances are overwritten by the distances in place (one grid less).
+  distance_ = squaredDistanceTransform(frame, obstacles);
   score_ = Grid2<float>(frame, 0.0f);
-  for (std::size_t i = 0; i < squared.data.size(); ++i) {
-    const float k = squared.data[i];
-    const Entry e = !tabulate                            ? entry(k)
-                    : k < static_cast<float>(table_size) ? table[static_cast<std::size_t>(k)]
-                                                         : beyond;
-    distance_.data[i] = e.distance;
-    log_likelihood_.data[i] = e.log_likelihood;
-    score_.data[i] = e.score;
+  const bool with_log = log_table == LogLikelihoodTable::kBuild;
+  log_likelihood_ = with_log ? Grid2<float>(frame, 0.0f) : Grid2<float>();
+  auto lookup = [&](float k) {
+    return !tabulate                            ? entry(k)
+           : k < static_cast<float>(table_size) ? table[static_cast<std::size_t>(k)]
+                                                : beyond;
+  };
+  float* distance = distance_.data.data();
+  float* score = score_.data.data();
+  const std::size_t n = distance_.data.size();
+  if (with_log) {
+    float* log_likelihood = log_likelihood_.data.data();
+    for (std::size_t i = 0; i < n; ++i) {
+      const Entry e = lookup(distance[i]);
+      distance[i] = e.distance;
+      log_likelihood[i] = e.log_likelihood;
+      score[i] = e.score;
+    }
+  } else {
+    for (std::size_t i = 0; i < n; ++i) {
+      const Entry e = lookup(distance[i]);
+      distance[i] = e.distance;
+      score[i] = e.score;
+    }
   }
   const double d = options_.max_distance;
   outside_log_likelihood_ =
@@ -97,6 +114,8 @@ void LikelihoodField::build(const std::vector<std::uint8_t>& obstacles) {
 
 float LikelihoodField::logLikelihoodAt(const Eigen::Vector2d& p) const {
   const Eigen::Vector2i c = frame().cellOf(p);
+  if (log_likelihood_.data.size() != frame().cellCount())
+    throw std::logic_error("likelihood field: built without its log-likelihood table");
   return log_likelihood_.valueOr(c.x(), c.y(), outside_log_likelihood_);
 }
 

@@ -24,28 +24,35 @@ LikelihoodFieldOptions readLikelihoodFieldOptions(const common::ConfigNode& node
 
 class LikelihoodField {
  public:
+  // The scan matcher reads distance and score only; particle weighting reads the
+  // log-likelihood. Leaving a table out saves a third of the field's time and memory.
+  enum class LogLikelihoodTable { kBuild, kSkip };
+
   LikelihoodField() = default;
-  LikelihoodField(const OccupancyGrid& grid, const LikelihoodFieldOptions& options);
+  LikelihoodField(const OccupancyGrid& grid, const LikelihoodFieldOptions& options,
+                  LogLikelihoodTable table = LogLikelihoodTable::kBuild);
   // From an explicit obstacle mask (1 = obstacle) over `frame`.
   LikelihoodField(const GridFrame& frame, const std::vector<std::uint8_t>& obstacles,
-                  const LikelihoodFieldOptions& options);
+                  const LikelihoodFieldOptions& options,
+                  LogLikelihoodTable table = LogLikelihoodTable::kBuild);
 
   const GridFrame& frame() const { return distance_.frame; }
   const Grid2<float>& distance() const { return distance_; }
-  // log p(endpoint) per cell, for particle weighting by table lookup.
+  // log p(endpoint) per cell, for particle weighting by table lookup (empty when skipped).
   const Grid2<float>& logLikelihood() const { return log_likelihood_; }
   // Smooth score exp(-d^2 / 2 sigma^2) in [0, 1] per cell, for gradient-based matching.
   const Grid2<float>& score() const { return score_; }
   const LikelihoodFieldOptions& options() const { return options_; }
 
   // log p of an endpoint at a world point (nearest cell); outside the map: max distance.
+  // Needs the log-likelihood table.
   float logLikelihoodAt(const Eigen::Vector2d& p) const;
   // Bilinearly interpolated score and its gradient (per metre) at a world point.
   double interpolatedScore(const Eigen::Vector2d& p, Eigen::Vector2d* gradient = nullptr) const;
   float outsideLogLikelihood() const { return outside_log_likelihood_; }
 
  private:
-  void build(const std::vector<std::uint8_t>& obstacles);
+  void build(const std::vector<std::uint8_t>& obstacles, LogLikelihoodTable table);
 
   LikelihoodFieldOptions options_;
   Grid2<float> distance_;

@@ -54,35 +54,31 @@ ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node, const 
 
 MatchTarget::MatchTarget(const grid::OccupancyGrid& grid, const grid::LikelihoodFieldOptions& options,
                          int pyramid_levels)
-    : field_(grid, options) {
-  // Same content as grid::maxPyramid, built by doubling: level k's window is two of level
-  // k-1's side by side, so each level costs two passes of plain max (no deques).
-  const grid::Grid2<float>& base = field_.score();
-  const grid::GridFrame& f = base.frame;
-  pyramid_.push_back(base);
-  grid::Grid2<float> rows(f, 0.0f);
+    : field_(grid, options, grid::LikelihoodField::LogLikelihoodTable::kSkip) {
+  // Same content as grid::maxPyramid, built by doubling: level k's window is four of level
+  // k-1's (two by two), so each level is one pass of plain max (no deques). Beyond the
+  // grid the score is 0, the least it can be, so blocks there simply leave it out.
+  const grid::GridFrame& f = field_.score().frame;
+  coarse_levels_.reserve(static_cast<std::size_t>(std::max(0, pyramid_levels - 1)));
   for (int level = 1; level < std::max(1, pyramid_levels); ++level) {
-    const grid::Grid2<float>& prev = pyramid_.back();
+    const grid::Grid2<float>& prev = pyramidLevel(level - 1);
     const int half = 1 << (level - 1);
-    for (int y = 0; y < f.height; ++y) {
-      const float* in = &prev.data[f.index(0, y)];
-      float* out = &rows.data[f.index(0, y)];
-      const int split = std::max(0, f.width - half);
-      for (int x = 0; x < split; ++x) out[x] = std::max(in[x], in[x + half]);
-      for (int x = split; x < f.width; ++x) out[x] = std::max(in[x], 0.0f);
-    }
+    const int split = std::max(0, f.width - half);  // x + half is inside below this
     grid::Grid2<float> next(f, 0.0f);
     for (int y = 0; y < f.height; ++y) {
-      const float* a = &rows.data[f.index(0, y)];
+      const float* a = &prev.data[f.index(0, y)];
       float* out = &next.data[f.index(0, y)];
       if (y + half < f.height) {
-        const float* b = &rows.data[f.index(0, y + half)];
-        for (int x = 0; x < f.width; ++x) out[x] = std::max(a[x], b[x]);
+        const float* b = &prev.data[f.index(0, y + half)];
+        for (int x = 0; x < split; ++x)
+          out[x] = std::max(std::max(a[x], a[x + half]), std::max(b[x], b[x + half]));
+        for (int x = split; x < f.width; ++x) out[x] = std::max(a[x], b[x]);
       } else {
-        for (int x = 0; x < f.width; ++x) out[x] = std::max(a[x], 0.0f);
+        for (int x = 0; x < split; ++x) out[x] = std::max(a[x], a[x + half]);
+        for (int x = split; x < f.width; ++x) out[x] = a[x];
       }
     }
-    pyramid_.push_back(std::move(next));
+    coarse_levels_.push_back(std::move(next));
   }
 }
 
@@ -242,7 +238,7 @@ class BranchAndBound {
   }
 
   double bound(const Candidate& c) const {
-    const grid::Grid2<float>& level = target_.pyramid()[c.level];
+    const grid::Grid2<float>& level = target_.pyramidLevel(c.level);
     const RotatedCells& r = rotations_[c.angle];
     const float* base = level.data.data() + (static_cast<std::ptrdiff_t>(c.y) * width_ + c.x);
     double sum = 0.0;
@@ -330,7 +326,7 @@ MatchResult correlative(const ScanMatcherOptions& options, const MatchTarget& ta
   }
   const int num_angles = static_cast<int>(std::ceil(angular_window / step));
   const int window = static_cast<int>(std::ceil(linear_window / res));
-  const int max_level = static_cast<int>(target.pyramid().size()) - 1;
+  const int max_level = target.pyramidLevels() - 1;
   int level = 0;
   while ((1 << level) < 2 * window + 1 && level < max_level) ++level;
   const int top = 1 << level;

@@ -86,11 +86,16 @@ class MatchTarget {
   // The map's scan points (same frame) for the sub-cell refinement; none by default.
   void setPoints(grid::PointMap points) { points_ = std::move(points); }
   const grid::PointMap& points() const { return points_; }
-  const std::vector<grid::Grid2<float>>& pyramid() const { return pyramid_; }
+  // Level k's cell (x, y) holds the max score over [x, x + 2^k) x [y, y + 2^k); level 0
+  // is the field's score itself (not copied).
+  int pyramidLevels() const { return 1 + static_cast<int>(coarse_levels_.size()); }
+  const grid::Grid2<float>& pyramidLevel(int k) const {
+    return k == 0 ? field_.score() : coarse_levels_[static_cast<std::size_t>(k - 1)];
+  }
 
  private:
   grid::LikelihoodField field_;
-  std::vector<grid::Grid2<float>> pyramid_;
+  std::vector<grid::Grid2<float>> coarse_levels_;  // levels 1, 2, ...
   grid::PointMap points_;
 };
 
