@@ -119,14 +119,17 @@ void OccupancyGrid::traceRay(const Eigen::Vector2d& from, const Eigen::Vector2d&
   const double t_delta_x = d.x() != 0 ? 1.0 / std::abs(d.x()) : inf;
   const double t_delta_y = d.y() != 0 ? 1.0 / std::abs(d.y()) : inf;
   const int max_steps = std::abs(end_x - cx) + std::abs(end_y - cy);
+  // The cell index is stepped along with the cell (the grid contains the whole ray).
+  std::ptrdiff_t index = static_cast<std::ptrdiff_t>(f.index(cx, cy));
+  const std::ptrdiff_t index_step_y = step_y * static_cast<std::ptrdiff_t>(f.width);
   for (int i = 0; i < max_steps; ++i) {
-    visit(f.index(cx, cy));
+    visit(static_cast<std::size_t>(index));
     if (t_max_x < t_max_y) {
       t_max_x += t_delta_x;
-      cx += step_x;
+      index += step_x;
     } else {
       t_max_y += t_delta_y;
-      cy += step_y;
+      index += index_step_y;
     }
   }
 }
