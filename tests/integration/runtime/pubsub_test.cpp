@@ -250,6 +250,37 @@ TEST(RuntimeExecutor, RunsTasksInOrderAndSurvivesExceptions) {
   EXPECT_EQ(order.size(), 99u);
 }
 
+// A task queued by invoke() and dropped by shutdown() must not leave its caller waiting.
+TEST(RuntimeExecutor, InvokeDroppedByShutdownThrowsInsteadOfWaiting) {
+  Executor executor(1);
+  std::atomic<bool> blocking{false}, release{false};
+  executor.post([&] {
+    blocking = true;
+    while (!release) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  });
+  ASSERT_TRUE(waitFor([&] { return blocking.load(); }));
+  std::atomic<bool> ran{false};
+  std::atomic<int> outcome{0};  // 1: returned, 2: threw runtime_error
+  std::thread caller([&] {
+    try {
+      executor.invoke([&] { ran = true; });
+      outcome = 1;
+    } catch (const std::runtime_error&) {
+      outcome = 2;
+    }
+  });
+  // Time for the caller to queue its task behind the blocking one.
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  std::thread stopper([&] { executor.shutdown(); });
+  // The caller hears of it while the worker is still busy (shutdown waits for it).
+  EXPECT_TRUE(waitFor([&] { return outcome != 0; }));
+  EXPECT_EQ(outcome, 2);
+  EXPECT_FALSE(ran);
+  release = true;
+  stopper.join();
+  caller.join();
+}
+
 }  // namespace
 }  // namespace storey::runtime
 
