@@ -30,8 +30,9 @@ class Executor {
   // are logged, not fatal.
   bool post(Task task);
   // Runs `task` on a worker and waits for it, rethrowing its exception; runs it directly
-  // when called from a worker or after shutdown. Lifecycle transitions use this so that
-  // they never overlap a component's callbacks.
+  // when called from a worker or after shutdown. A task that shutdown() drops before it
+  // ran throws std::runtime_error. Lifecycle transitions use this so that they never
+  // overlap a component's callbacks.
   void invoke(const Task& task);
   // Calls `callback` every `period_s` seconds (first call one period from now). A tick
   // that is still queued is not queued twice: slow callbacks skip ticks, never pile up.
