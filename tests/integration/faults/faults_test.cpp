@@ -42,11 +42,12 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 constexpr double kReplayRate = 10.0;
-// A killed process is restarted after this, past the 3 s participant lease of
-// reliable_sensors_qos.xml: a detector restarted 0.5 s after its kill once received no
-// sample at all (2 of 26 runs under load), as if matched to the replay's writers through
-// the dead participant's entry. docs/reliability.md has what was seen.
-constexpr double kRestartAfter = 3.5;  // s
+// A killed process is restarted after this, 2 s past the 3 s participant lease of
+// reliable_sensors_qos.xml: a process restarted while the others still hold the dead
+// participant's entry matches no writer at all (a detector restarted 0.5 s after its kill,
+// 2 of 26 runs under load; a detector and a mapper restarted 3.5 s after, both in one CI
+// run: a loaded machine drops a dead participant late). docs/reliability.md has what was seen.
+constexpr double kRestartAfter = 5.0;  // s
 constexpr double kSimulatedSeconds = 135.0;  // F0, the elevator to F1, F1's rooms
 // Tolerances for "the same building" (see docs/reliability.md for what was measured).
 constexpr double kPositionTolerance = 0.05;  // m, node poses and floor transforms
@@ -470,7 +471,7 @@ TEST_F(FaultsTest, MatcherKilledAndRestartedGivesTheSameBuilding) {
 // The restarted detector gets the sensor history again (transient local here) and sends
 // the same events; the mapper skips those it took before.
 TEST_F(FaultsTest, DetectorKilledAndRestartedGivesTheSameBuilding) {
-  const auto [b, witness] = withRestart(143, "detector", 4.0, Deployment::Witness::kPipeline);
+  const auto [b, witness] = withRestart(143, "detector", 2.0, Deployment::Witness::kPipeline);
   expectSameBuilding(compare(witness, b));
 }
 
