@@ -84,28 +84,17 @@ void LikelihoodField::build(const std::vector<std::uint8_t>& obstacles, LogLikel
   score_ = Grid2<float>(frame, 0.0f);
   const bool with_log = log_table == LogLikelihoodTable::kBuild;
   log_likelihood_ = with_log ? Grid2<float>(frame, 0.0f) : Grid2<float>();
-  auto lookup = [&](float k) {
-    return !tabulate                            ? entry(k)
-           : k < static_cast<float>(table_size) ? table[static_cast<std::size_t>(k)]
-                                                : beyond;
-  };
   float* distance = distance_.data.data();
   float* score = score_.data.data();
-  const std::size_t n = distance_.data.size();
-  if (with_log) {
-    float* log_likelihood = log_likelihood_.data.data();
-    for (std::size_t i = 0; i < n; ++i) {
-      const Entry e = lookup(distance[i]);
-      distance[i] = e.distance;
-      log_likelihood[i] = e.log_likelihood;
-      score[i] = e.score;
-    }
-  } else {
-    for (std::size_t i = 0; i < n; ++i) {
-      const Entry e = lookup(distance[i]);
-      distance[i] = e.distance;
-      score[i] = e.score;
-    }
+  float* log_likelihood = with_log ? log_likelihood_.data.data() : nullptr;
+  for (std::size_t i = 0; i < distance_.data.size(); ++i) {
+    const float k = distance[i];
+    const Entry e = !tabulate                            ? entry(k)
+                    : k < static_cast<float>(table_size) ? table[static_cast<std::size_t>(k)]
+                                                         : beyond;
+    distance[i] = e.distance;
+    score[i] = e.score;
+    if (log_likelihood) log_likelihood[i] = e.log_likelihood;
   }
   const double d = options_.max_distance;
   outside_log_likelihood_ =

@@ -87,7 +87,7 @@ void Executor::invoke(const Task& task) {
     }
     ticket->finish(true, std::move(failure));
   });
-  ticket.reset();
+  ticket.reset();  // the queued task is its only owner now: dropping it tells us
   if (!queued) return task();
   std::exception_ptr failure;
   {
