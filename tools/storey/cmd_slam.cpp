@@ -50,6 +50,31 @@ void printStats(std::ostream& out, const char* name, const mapping::ErrorStats& 
       << s.rotation_std * 180.0 / M_PI << " deg\n";
 }
 
+// One row per loop-closure attempt; with reference poses, the measurement's error against
+// them (in the candidate's frame) and its NEES under the information it claimed.
+void writeLoopAttempts(const std::string& path, const std::vector<mapping::LoopClosureAttempt>& attempts,
+                       const std::map<int, Pose2>* reference) {
+  std::ofstream csv(path);
+  csv << "node,candidate,outcome,score,chi2,dx,dy,dtheta,error_x,error_y,error_theta,nees,correction_x,correction_y,"
+         "correction_theta,see_through\n"
+      << std::setprecision(6);
+  for (const auto& a : attempts) {
+    csv << a.node << ',' << a.candidate << ',' << mapping::loopOutcomeName(a.outcome) << ',' << a.score << ','
+        << a.chi2 << ',' << a.measurement.x() << ',' << a.measurement.y() << ',' << a.measurement.theta();
+    const bool matched = a.outcome != mapping::LoopOutcome::kNoMatch;
+    if (matched && reference && reference->count(a.node) && reference->count(a.candidate)) {
+      const Pose2 truth = reference->at(a.candidate).between(reference->at(a.node));
+      const Pose2 error = truth.between(a.measurement);
+      const Eigen::Vector3d e(error.x(), error.y(), error.theta());
+      csv << ',' << error.x() << ',' << error.y() << ',' << error.theta() << ',' << e.dot(a.information * e);
+    } else {
+      csv << ",,,,";
+    }
+    csv << ',' << a.correction.x() << ',' << a.correction.y() << ',' << a.correction.theta() << ',' << a.see_through
+        << '\n';
+  }
+}
+
 }  // namespace
 
 int run_slam(Args& args) {
@@ -205,6 +230,7 @@ int run_slam(Args& args) {
     for (std::size_t i = 0, k = 0; i < run.status.size(); ++i)
       if (run.status[i] == mapping::ScanStatus::kNode && k < slam.floorGraph().nodes.size())
         node_reference[slam.floorGraph().nodes[k++].id] = reference[i];
+    writeLoopAttempts(out_dir + "/loop_closures.csv", slam.loopAttempts(), &node_reference);
     report << "edges against the reference (NEES: 3 when an edge's covariance is right):\n";
     for (const auto& c : mapping::edgeConsistency(slam.floorGraph(), node_reference))
       report << "  " << std::left << std::setw(13) << floor::edgeKindName(c.kind) << std::right << " "

@@ -26,6 +26,7 @@
 #include "storey/graph/pose_graph.h"
 #include "storey/grid/likelihood_field.h"
 #include "storey/grid/occupancy_grid.h"
+#include "storey/mapping/closure_clusters.h"
 #include "storey/mapping/global_relocalizer.h"
 #include "storey/mapping/scan_matcher.h"
 #include "storey/sensor/laser_scan.h"
@@ -83,6 +84,27 @@ struct LoopClosureOptions {
   // line and in heading, none along it. 0: no check.
   double ambiguity_distance = 0.0;  // m
   double ambiguity_ratio = 0.9;
+  // Closures that agree with each other (closure_clusters.h). A matched closure the graph
+  // does not already agree with (χ² after a robust optimisation) is held as a hypothesis;
+  // when cluster_size hypotheses and accepted closures whose newer nodes lie within
+  // cluster_window nodes agree pairwise (cycle χ² <= cluster_chi2 through the chains
+  // between them), the held ones go in together: optimised at full weight first (a robust
+  // kernel would refuse the correction they bring), then robustly, and kept when each
+  // edge's χ² is <= max_chi2. 0 or 1: no hypotheses, a closure stands or falls alone.
+  int cluster_size = 3;
+  int cluster_window = 60;    // nodes
+  double cluster_chi2 = 11.34;  // χ²(3 dof) at 99 %
+  // A cluster ties older nodes at least this far apart (m): matches against one small
+  // place share its ambiguity (a bare corridor's corner fits a scan 2 m off match after
+  // match, and such matches agree with each other).
+  double cluster_min_spread = 1.0;
+  // A closure alone (no cluster) may move its nodes only this far from where the graph has
+  // them (a graph uncertain enough bends to fit a wrong closure with χ² near 0:
+  // infinite-corridor accepted one 5.6 m off so); larger corrections need a cluster.
+  // Only when cluster_size > 1.
+  double single_max_translation = 0.5;  // m
+  double single_max_rotation = 0.1;     // rad
+  double see_through_margin = 0.3;      // m before a beam's end where walls do not count
   // For closures (windows from the options above). They refine on the likelihood field
   // (ScanMatcherOptions::point_refinement false): on the points, closures in the ring
   // corridor of FloorSlam.LoopClosureCorrectsDrift landed 1.5-1.9 m wrong.
@@ -119,6 +141,11 @@ struct FloorSlamOptions {
   double max_odometry_rotation_step = 1.6;  // rad
   double jump_linear_window = 1.5;          // m
   double jump_angular_window = 0.8;         // rad
+  // Along a direction where the scan match's information is below degenerate_ratio times
+  // the odometry step's (a bare corridor's axis), a new node's position is the two fused
+  // by their information, not the match's alone (solution remapping for degenerate
+  // directions). 0: the match's position always.
+  double degenerate_ratio = 0.1;
 };
 // Reads the front end's options (all keys optional; unknown keys are errors). Sections:
 // scan_matcher, node_creation, local_map (with likelihood_field), odometry_noise,
@@ -149,11 +176,33 @@ struct GraphUpdate {
   bool poses_changed = false;  // optimised: every node's pose may have moved
 };
 
+// One loop-closure attempt and what became of it (provenance: storey slam writes them).
+enum class LoopOutcome {
+  kNoMatch,       // the scan did not match the candidate's map (or scored below min_score)
+  kAccepted,      // added to the graph
+  kInconsistent,  // the optimised graph disagreed (chi2 > max_chi2): undone
+  kUnconfirmed,   // held as a hypothesis; no cluster of agreeing closures took it (yet)
+};
+const char* loopOutcomeName(LoopOutcome outcome);
+struct LoopClosureAttempt {
+  int node = -1;       // the current node
+  int candidate = -1;  // the older node it was matched against
+  double score = 0.0;  // refined mean score (0 when nothing matched)
+  geometry::Pose2 measurement;  // candidate -> node, when matched
+  geometry::Pose2 correction;   // where it would put the node, in the node's frame as the graph had it
+  double see_through = 0.0;     // fraction of its beams crossing the candidate map's walls
+  Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
+  double chi2 = 0.0;   // after optimisation, when added
+  LoopOutcome outcome = LoopOutcome::kNoMatch;
+};
+
 struct FloorSlamStats {
   std::size_t scans = 0, nodes = 0, skipped = 0, rejected = 0;
   std::size_t matched = 0, match_failures = 0, odometry_jumps = 0;
   std::size_t loop_attempts = 0, loop_closures = 0, loop_rejected_inconsistent = 0;
   std::size_t loop_ambiguous = 0;  // attempts whose scan fit as well elsewhere
+  std::size_t loop_clusters = 0;   // clusters of agreeing hypotheses accepted
+  std::size_t loop_clustered = 0;  // closures accepted in them
   std::size_t loop_maps_built = 0;  // candidate maps built (the others were reused)
   std::size_t optimizations = 0;
   std::size_t relocalizations = 0, relocalization_failures = 0;
@@ -187,6 +236,8 @@ class FloorSlam {
   const floor::FloorGraph& floorGraph() const { return floor_graph_; }
   const graph::PoseGraph& poseGraph() const { return pose_graph_; }
   const FloorSlamStats& stats() const { return stats_; }
+  // Every loop-closure attempt so far, in order.
+  const std::vector<LoopClosureAttempt>& loopAttempts() const { return loop_attempts_; }
   const FloorSlamOptions& options() const { return options_; }
   // Last estimated robot pose (of the last accepted scan).
   const geometry::Pose2& currentPose() const { return last_pose_; }
@@ -205,6 +256,16 @@ class FloorSlam {
   ScanResult relocalizeWith(const sensor::LaserScan& scan, const geometry::Pose2& odometry,
                             const std::vector<Eigen::Vector2d>& points);
   bool tryLoopClosure(const std::vector<Eigen::Vector2d>& points);
+  // Adds the held hypotheses `members` (indices) as loop-closure edges and optimises
+  // (at full weight first when `bend_first`); keeps them when every one's χ² is within
+  // max_chi2, else undoes them all. Returns whether they were kept.
+  bool addClosures(const std::vector<std::size_t>& members, bool bend_first);
+  // The held hypotheses that agree pairwise with the newest, the newest included.
+  std::vector<std::size_t> agreeingCluster() const;
+  // Relative pose (with covariance) of node index j in node index i's frame from the
+  // odometry and scan-match edges between consecutive nodes (each step their fused
+  // measurement); false when a step has no information.
+  bool chainBetween(std::size_t i, std::size_t j, UncertainPose* out) const;
   // The map of the nodes around `candidate` (up to last_candidate) for a closure attempt.
   const MatchTarget& loopTarget(int candidate, std::size_t last_candidate);
 
@@ -213,6 +274,7 @@ class FloorSlam {
   floor::FloorGraph floor_graph_;
   graph::PoseGraph pose_graph_;
   FloorSlamStats stats_;
+  std::vector<LoopClosureAttempt> loop_attempts_;
   geometry::Pose2 last_pose_;
   Eigen::Matrix3d covariance_ = Eigen::Matrix3d::Zero();
   bool relocalize_ = false;
