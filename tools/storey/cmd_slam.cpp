@@ -55,23 +55,32 @@ void printStats(std::ostream& out, const char* name, const mapping::ErrorStats& 
 void writeLoopAttempts(const std::string& path, const std::vector<mapping::LoopClosureAttempt>& attempts,
                        const std::map<int, Pose2>* reference) {
   std::ofstream csv(path);
-  csv << "node,candidate,outcome,score,chi2,dx,dy,dtheta,error_x,error_y,error_theta,nees,correction_x,correction_y,"
-         "correction_theta,see_through\n"
+  csv << "node,candidate,outcome,score,chi2,dx,dy,dtheta,error_x,error_y,error_theta,nees,"
+         "prediction_error_x,prediction_error_y,prediction_error_theta,linear_window,angular_window,"
+         "see_through,together,sigma\n"
       << std::setprecision(6);
   for (const auto& a : attempts) {
-    csv << a.node << ',' << a.candidate << ',' << mapping::loopOutcomeName(a.outcome) << ',' << a.score << ','
-        << a.chi2 << ',' << a.measurement.x() << ',' << a.measurement.y() << ',' << a.measurement.theta();
     const bool matched = a.outcome != mapping::LoopOutcome::kNoMatch;
-    if (matched && reference && reference->count(a.node) && reference->count(a.candidate)) {
-      const Pose2 truth = reference->at(a.candidate).between(reference->at(a.node));
+    csv << a.node << ',' << a.candidate << ',' << mapping::loopOutcomeName(a.outcome) << ',' << a.score << ','
+        << a.chi2 << ',';
+    if (matched) csv << a.measurement.x() << ',' << a.measurement.y() << ',' << a.measurement.theta();
+    else csv << ",,";
+    const bool known = reference && reference->count(a.node) && reference->count(a.candidate);
+    const Pose2 truth = known ? reference->at(a.candidate).between(reference->at(a.node)) : Pose2();
+    if (matched && known) {
       const Pose2 error = truth.between(a.measurement);
       const Eigen::Vector3d e(error.x(), error.y(), error.theta());
       csv << ',' << error.x() << ',' << error.y() << ',' << error.theta() << ',' << e.dot(a.information * e);
     } else {
       csv << ",,,,";
     }
-    csv << ',' << a.correction.x() << ',' << a.correction.y() << ',' << a.correction.theta() << ',' << a.see_through
-        << '\n';
+    if (known) {
+      const Pose2 error = truth.between(a.predicted);
+      csv << ',' << error.x() << ',' << error.y() << ',' << error.theta();
+    } else {
+      csv << ",,,";
+    }
+    csv << ',' << a.linear_window << ',' << a.angular_window << ',' << a.see_through << ',' << a.together << ',' << a.sigma << '\n';
   }
 }
 

@@ -101,6 +101,7 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
     l.cluster_min_spread = n.getDouble("cluster_min_spread", l.cluster_min_spread, 0.0, 1e6);
     l.single_max_translation = n.getDouble("single_max_translation", l.single_max_translation, 0.0, 1e6);
     l.single_max_rotation = n.getDouble("single_max_rotation", l.single_max_rotation, 0.0, M_PI);
+    l.single_max_sigma = n.getDouble("single_max_sigma", l.single_max_sigma, 0.0, 1e9);
     l.matcher = readMatcherOrDefault(n, "scan_matcher", l.matcher);
     n.finish();
   }
@@ -547,9 +548,13 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   LoopClosureAttempt& attempt = loop_attempts_.back();
   attempt.node = current.id;
   attempt.candidate = floor_graph_.nodes[best].id;
+  attempt.predicted = floor_graph_.nodes[best].pose.between(current.pose);
   const MatchTarget& target = loopTarget(best, last_candidate);
   const double linear = std::min(o.max_linear_window, o.linear_window + o.sigma_factor * sigma_xy);
   const double angular = std::min(o.max_angular_window, o.angular_window + o.sigma_factor * sigma_theta);
+  attempt.sigma = sigma_xy;
+  attempt.linear_window = linear;
+  attempt.angular_window = angular;
   const MatchResult match = s.loop_matcher.match(target, points, current.pose, linear, angular);
   if (match.success) attempt.score = match.score;
   if (!match.success || match.score < o.min_score) return false;
@@ -590,11 +595,11 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   const std::size_t newest = s.hypotheses.size() - 1;
 
   // The graph agrees with it as it stands (a short loop, little drift): in at once.
-  const Pose2 correction = candidate.pose.between(current.pose).between(h.measurement);
-  attempt.correction = correction;
+  const Pose2 correction = attempt.correction();
 
   const bool small = o.cluster_size <= 1 || (correction.translation().norm() <= o.single_max_translation &&
-                                             std::abs(correction.theta()) <= o.single_max_rotation);
+                                             std::abs(correction.theta()) <= o.single_max_rotation &&
+                                             sigma_xy <= o.single_max_sigma);
   if (small && addClosures({newest}, /*bend_first=*/false)) return true;
   auto reject = [&] {  // a wrong match (e.g. a similar room), or a cluster the graph cannot take
     ++stats_.loop_rejected_inconsistent;
@@ -715,6 +720,7 @@ bool FloorSlam::addClosures(const std::vector<std::size_t>& members, bool bend_f
     ++stats_.loop_closures;
     LoopClosureAttempt& attempt = loop_attempts_[h.attempt];
     attempt.outcome = LoopOutcome::kAccepted;
+    attempt.together = static_cast<int>(members.size());
     common::logDebug(str("floor_slam: loop closure ", h.candidate, " -> ", h.node, " accepted (score ", attempt.score,
                          ", chi2 ", attempt.chi2, ", ", members.size(), " together)"));
     floor::FloorEdge e{h.candidate, h.node, h.measurement, h.information, floor::EdgeKind::kLoopClosure};

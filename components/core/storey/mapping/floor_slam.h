@@ -104,6 +104,9 @@ struct LoopClosureOptions {
   // Only when cluster_size > 1.
   double single_max_translation = 0.5;  // m
   double single_max_rotation = 0.1;     // rad
+  // ...and only while the graph knows where the node is: its marginal standard deviation
+  // (largest axis) at most this (m). After a long loop a small correction says nothing.
+  double single_max_sigma = 1e9;
   double see_through_margin = 0.3;      // m before a beam's end where walls do not count
   // For closures (windows from the options above). They refine on the likelihood field
   // (ScanMatcherOptions::point_refinement false): on the points, closures in the ring
@@ -189,8 +192,13 @@ struct LoopClosureAttempt {
   int candidate = -1;  // the older node it was matched against
   double score = 0.0;  // refined mean score (0 when nothing matched)
   geometry::Pose2 measurement;  // candidate -> node, when matched
-  geometry::Pose2 correction;   // where it would put the node, in the node's frame as the graph had it
+  geometry::Pose2 predicted;    // candidate -> node as the graph had it when attempted
+  double linear_window = 0.0, angular_window = 0.0;  // searched around the prediction
+  double sigma = 0.0;  // the node's marginal standard deviation (largest axis, m) then
+  // The move the measurement asks of the node, in its frame: predicted⁻¹ · measurement.
+  geometry::Pose2 correction() const { return predicted.between(measurement); }
   double see_through = 0.0;     // fraction of its beams crossing the candidate map's walls
+  int together = 0;             // closures added with it (1: alone; more: a cluster)
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
   double chi2 = 0.0;   // after optimisation, when added
   LoopOutcome outcome = LoopOutcome::kNoMatch;
