@@ -150,7 +150,9 @@ TEST(ClosureClique, LargestCliqueContainingAVertexIsExact) {
     EXPECT_TRUE(std::find(clique.begin(), clique.end(), must) != clique.end());
     for (int a : clique)
       for (int b : clique)
-        if (a != b) EXPECT_TRUE(adjacent[a][b]);
+        if (a != b) {
+          EXPECT_TRUE(adjacent[a][b]);
+        }
   }
 }
 

@@ -101,7 +101,6 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
     l.cluster_min_spread = n.getDouble("cluster_min_spread", l.cluster_min_spread, 0.0, 1e6);
     l.single_max_translation = n.getDouble("single_max_translation", l.single_max_translation, 0.0, 1e6);
     l.single_max_rotation = n.getDouble("single_max_rotation", l.single_max_rotation, 0.0, M_PI);
-    l.single_max_sigma = n.getDouble("single_max_sigma", l.single_max_sigma, 0.0, 1e9);
     l.matcher = readMatcherOrDefault(n, "scan_matcher", l.matcher);
     n.finish();
   }
@@ -558,8 +557,6 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   const MatchResult match = s.loop_matcher.match(target, points, current.pose, linear, angular);
   if (match.success) attempt.score = match.score;
   if (!match.success || match.score < o.min_score) return false;
-  attempt.see_through = seeThroughFraction(target, (match.pose * current.scan.sensor_offset).translation(),
-                                           match.pose.transformPoints(points), o.see_through_margin);
 
   Eigen::Matrix3d covariance = match.covariance;
   if (o.ambiguity_distance > 0.0) {
@@ -594,12 +591,11 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   s.hypotheses.push_back(h);
   const std::size_t newest = s.hypotheses.size() - 1;
 
-  // The graph agrees with it as it stands (a short loop, little drift): in at once.
-  const Pose2 correction = attempt.correction();
-
+  // A small correction the optimised graph agrees with (a short loop, little drift): in at
+  // once. A large one alone could be a similar place that a graph uncertain enough bends to.
+  const Pose2 correction = loop_attempts_[attempt_index].correction();
   const bool small = o.cluster_size <= 1 || (correction.translation().norm() <= o.single_max_translation &&
-                                             std::abs(correction.theta()) <= o.single_max_rotation &&
-                                             sigma_xy <= o.single_max_sigma);
+                                             std::abs(correction.theta()) <= o.single_max_rotation);
   if (small && addClosures({newest}, /*bend_first=*/false)) return true;
   auto reject = [&] {  // a wrong match (e.g. a similar room), or a cluster the graph cannot take
     ++stats_.loop_rejected_inconsistent;

@@ -104,10 +104,6 @@ struct LoopClosureOptions {
   // Only when cluster_size > 1.
   double single_max_translation = 0.5;  // m
   double single_max_rotation = 0.1;     // rad
-  // ...and only while the graph knows where the node is: its marginal standard deviation
-  // (largest axis) at most this (m). After a long loop a small correction says nothing.
-  double single_max_sigma = 1e9;
-  double see_through_margin = 0.3;      // m before a beam's end where walls do not count
   // For closures (windows from the options above). They refine on the likelihood field
   // (ScanMatcherOptions::point_refinement false): on the points, closures in the ring
   // corridor of FloorSlam.LoopClosureCorrectsDrift landed 1.5-1.9 m wrong.
@@ -197,7 +193,6 @@ struct LoopClosureAttempt {
   double sigma = 0.0;  // the node's marginal standard deviation (largest axis, m) then
   // The move the measurement asks of the node, in its frame: predicted⁻¹ · measurement.
   geometry::Pose2 correction() const { return predicted.between(measurement); }
-  double see_through = 0.0;     // fraction of its beams crossing the candidate map's walls
   int together = 0;             // closures added with it (1: alone; more: a cluster)
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
   double chi2 = 0.0;   // after optimisation, when added

@@ -114,29 +114,6 @@ double pointResidual(const grid::LikelihoodField& field, const Pose2& pose, cons
   return d;
 }
 
-double seeThroughFraction(const MatchTarget& target, const Eigen::Vector2d& sensor,
-                          const std::vector<Eigen::Vector2d>& endpoints, double margin) {
-  const grid::Grid2<float>& distance = target.field().distance();
-  const grid::GridFrame& f = distance.frame;
-  if (endpoints.empty() || f.width == 0) return 0.0;
-  const double step = 0.5 * f.resolution;  // half cells: a wall one cell thick is not jumped
-  std::size_t through = 0;
-  for (const Eigen::Vector2d& end : endpoints) {
-    const Eigen::Vector2d d = end - sensor;
-    const double length = d.norm() - margin;
-    if (length <= 0.0) continue;
-    const Eigen::Vector2d u = d / d.norm();
-    for (double t = step; t < length; t += step) {
-      const Eigen::Vector2i c = f.cellOf(sensor + t * u);
-      if (f.contains(c.x(), c.y()) && distance.data[f.index(c.x(), c.y())] <= 0.0f) {
-        ++through;
-        break;
-      }
-    }
-  }
-  return static_cast<double>(through) / static_cast<double>(endpoints.size());
-}
-
 std::vector<Eigen::Vector2d> filterPoints(const std::vector<Eigen::Vector2d>& points, double distance) {
   if (distance <= 0.0) return points;
   // Hash on a grid of cell size `distance`: a kept point blocks its neighbours within it.

@@ -124,12 +124,6 @@ double pointResidual(const grid::LikelihoodField& field, const geometry::Pose2& 
 // `radius` (zero where the neighbourhood is not line-like).
 std::vector<Eigen::Vector2d> pointNormals(const std::vector<Eigen::Vector2d>& points, double radius);
 
-// Fraction of the beams from `sensor` (map frame) to `endpoints` (map frame) that cross an
-// obstacle cell of the target (distance 0) more than `margin` before their endpoint: a laser
-// does not see through walls, so a scan placed inside a block or behind a wall shows it.
-double seeThroughFraction(const MatchTarget& target, const Eigen::Vector2d& sensor,
-                          const std::vector<Eigen::Vector2d>& endpoints, double margin);
-
 // Drops points within `distance` of a previously kept point (greedy, order-preserving).
 std::vector<Eigen::Vector2d> filterPoints(const std::vector<Eigen::Vector2d>& points,
                                           double distance);
