@@ -1,9 +1,11 @@
 // The front end on real laser logs with odometry derived from the corrected poses plus
 // seeded noise (5 % of distance per axis, 2°/m + 2 % of the turn in heading), compared
-// with the corrected poses by the relation metric (Kümmerle et al. 2009). Only intel runs
-// here (about a minute); docs/floor_mapper.md has every log, run with `storey slam`.
+// with the corrected poses by the relation metric (Kümmerle et al. 2009). Only intel
+// and infinite-corridor run here (about 40 s together); docs/floor_mapper.md has every log,
+// run with `storey slam`.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 
 #include "storey/common/log.h"
@@ -35,9 +37,24 @@ LogData readLog(const std::string& path) {
   return data;
 }
 
+// Each accepted loop closure's translation error against the reference (node k is the k-th
+// scan that became a node).
+std::vector<double> closureErrors(const FloorSlam& slam, const OfflineRun& run, const std::vector<Pose2>& reference) {
+  std::vector<Pose2> node_reference;
+  for (std::size_t i = 0; i < run.status.size(); ++i)
+    if (run.status[i] == ScanStatus::kNode) node_reference.push_back(reference[i]);
+  std::vector<double> errors;
+  for (const auto& a : slam.loopAttempts())
+    if (a.outcome == LoopOutcome::kAccepted)
+      errors.push_back(node_reference[a.candidate].between(node_reference[a.node]).between(a.measurement)
+                           .translation()
+                           .norm());
+  return errors;
+}
+
 RelationErrors runAndEvaluate(const LogData& log, const std::vector<Pose2>& odometry,
                               const std::vector<Pose2>& reference, const char* name,
-                              const FloorSlamOptions& options = {}) {
+                              const FloorSlamOptions& options = {}, std::vector<double>* closure_errors = nullptr) {
   common::setLogLevel(common::LogLevel::kError);
   FloorSlam slam(options, "robot", 0, 0, 0.0);
   const OfflineRun run = runOffline(slam, log.scans, odometry);
@@ -51,7 +68,14 @@ RelationErrors runAndEvaluate(const LogData& log, const std::vector<Pose2>& odom
               e.far.translation_std, e.far.rotation_mean * 180 / M_PI, e.far.rotation_std * 180 / M_PI,
               slam.stats().loop_closures);
   EXPECT_EQ(slam.stats().rejected, 0u);
+  if (closure_errors) *closure_errors = closureErrors(slam, run, reference);
   return e;
+}
+
+FloorSlamOptions shippedOptions() {
+  const common::ConfigNode config =
+      common::ConfigNode::loadFile(test::sourceDir() + "/config/floor_mapper.yaml");
+  return readFloorSlamOptions(config.child("slam"));
 }
 
 TEST(RealLogs, IntelWithSimulatedOdometry) {
@@ -74,9 +98,7 @@ TEST(RealLogs, IntelWithTheShippedConfig) {
   // config/floor_mapper.yaml as storey map and the floor_mapper component use it: tracking
   // refined on the local map's points (sub-cell) instead of the likelihood field.
   STOREY_REQUIRE_DATA(path, "carmen/intel-corrected.log.gz");
-  const common::ConfigNode config =
-      common::ConfigNode::loadFile(test::sourceDir() + "/config/floor_mapper.yaml");
-  const FloorSlamOptions options = readFloorSlamOptions(config.child("slam"));
+  const FloorSlamOptions options = shippedOptions();
   ASSERT_TRUE(options.matcher.point_refinement);
   const LogData log = readLog(path);
   const auto odometry = simulateOdometry(log.poses, OdometryNoise{}, 1);
@@ -88,6 +110,29 @@ TEST(RealLogs, IntelWithTheShippedConfig) {
   EXPECT_LT(e.nearby.rotation_mean * 180 / M_PI, 0.53);
   EXPECT_LT(e.far.translation_mean, 0.225);
   EXPECT_LT(e.far.rotation_mean * 180 / M_PI, 1.0);
+}
+
+TEST(RealLogs, InfiniteCorridorClosesItsLoopsWithoutWrongClosures) {
+  // Long corridors that look alike for tens of metres, loops of 200-400 m: after a loop the
+  // graph is 10-20 m off, and the first closures must move it that far (in clusters of
+  // closures that agree) without letting in one of the look-alike places. Before closures
+  // were judged by agreement (session 10) seed 1 accepted one 2.8 m off and refused 89 right
+  // ones; the far error was 14.4 m and the map broken (the long corridor drawn twice).
+  STOREY_REQUIRE_DATA(path, "carmen/infinite-corridor-corrected.log.gz");
+  const LogData log = readLog(path);
+  const auto odometry = simulateOdometry(log.poses, OdometryNoise{}, 1);
+  std::vector<double> closure_errors;
+  const RelationErrors e =
+      runAndEvaluate(log, odometry, log.poses, "infinite-corridor (shipped config)", shippedOptions(), &closure_errors);
+  ASSERT_GT(closure_errors.size(), 100u);
+  const double worst = *std::max_element(closure_errors.begin(), closure_errors.end());
+  std::printf("%zu closures, worst %.2f m from the reference\n", closure_errors.size(), worst);
+  // Achieved (seed 1): 160 closures, none more than 1 m off; nearby 0.0363 m / 0.477°, far
+  // 7.1 m (the last pass, after a 400 m loop 20 m off, is not closed: docs/floor_mapper.md).
+  EXPECT_LT(worst, 1.0);
+  EXPECT_LT(e.nearby.translation_mean, 0.04);
+  EXPECT_LT(e.nearby.rotation_mean * 180 / M_PI, 0.5);
+  EXPECT_LT(e.far.translation_mean, 10.0);
 }
 
 }  // namespace
