@@ -40,13 +40,14 @@ struct WorldRun {
   FloorSlamStats stats;
 };
 
+// Maps the world's scans along `truth` with the given odometry.
 WorldRun runWorld(const test::World& world, const std::vector<Pose2>& truth, const FloorSlamOptions& options,
-             std::uint64_t seed, OdometryNoise noise = {}, double range_max = 20.0) {
+                  const std::vector<Pose2>& odometry) {
   WorldRun run;
   run.truth = truth;
-  run.odometry = simulateOdometry(truth, noise, seed);
+  run.odometry = odometry;
   std::vector<sensor::LaserScan> scans;
-  for (std::size_t i = 0; i < truth.size(); ++i) scans.push_back(world.scan(truth[i], 0.1 * i, 361, range_max));
+  for (std::size_t i = 0; i < truth.size(); ++i) scans.push_back(world.scan(truth[i], 0.1 * i));
   FloorSlam slam(options, "robot", 0, 0, 0.0);
   const OfflineRun offline = runOffline(slam, scans, run.odometry);
   // The front end starts at the origin; the truth at truth[0].
@@ -66,6 +67,12 @@ WorldRun runWorld(const test::World& world, const std::vector<Pose2>& truth, con
     }
   }
   return run;
+}
+
+// The same with odometry simulated from the truth.
+WorldRun runWorld(const test::World& world, const std::vector<Pose2>& truth, const FloorSlamOptions& options,
+                  std::uint64_t seed, OdometryNoise noise = {}) {
+  return runWorld(world, truth, options, simulateOdometry(truth, noise, seed));
 }
 
 double maxTranslationError(const WorldRun& run) {
@@ -307,16 +314,7 @@ TEST(FloorSlam, ALargeDriftIsClosedByClosuresThatAgree) {
   auto run = [&](int cluster_size) {
     FloorSlamOptions options;
     options.loop_closure.cluster_size = cluster_size;
-    FloorSlam slam(options, "robot", 0, 0, 0.0);
-    std::vector<sensor::LaserScan> scans;
-    for (std::size_t i = 0; i < truth.size(); ++i) scans.push_back(world.scan(truth[i], 0.1 * i));
-    const OfflineRun offline = runOffline(slam, scans, odometry);
-    WorldRun r;
-    r.truth = truth;
-    r.odometry = odometry;
-    for (const auto& p : offline.trajectory) r.estimate.push_back(truth.front() * p);
-    r.stats = slam.stats();
-    return r;
+    return runWorld(world, truth, options, odometry);
   };
   const WorldRun clustered = run(3), alone = run(1);
   std::printf("clusters %zu closures %zu of %zu, max error %.2f m; closures alone: %zu of %zu, max error %.2f m\n",

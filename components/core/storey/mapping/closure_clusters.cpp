@@ -45,14 +45,11 @@ double closurePairChi2(const UncertainPose& old, const UncertainPose& z_i, const
   return e.dot(ldlt.solve(e));
 }
 
-UncertainPose composeChain(const std::vector<Pose2>& poses, const std::vector<Eigen::Matrix3d>& steps) {
-  if (poses.empty() || steps.size() + 1 != poses.size())
-    throw std::invalid_argument("composeChain: needs one step covariance between each two poses");
+UncertainPose composeChain(const std::vector<UncertainPose>& steps) {
   UncertainPose chain;
-  for (std::size_t k = 0; k < steps.size(); ++k) {
-    const Pose2 step = poses[k].between(poses[k + 1]);
-    chain.covariance = geometry::composeCovariance(chain.pose, chain.covariance, step, steps[k]);
-    chain.pose = chain.pose * step;
+  for (const UncertainPose& step : steps) {
+    chain.covariance = geometry::composeCovariance(chain.pose, chain.covariance, step.pose, step.covariance);
+    chain.pose = chain.pose * step.pose;
   }
   return chain;
 }

@@ -41,10 +41,10 @@ Eigen::Vector3d closureCycleError(const geometry::Pose2& old, const geometry::Po
 double closurePairChi2(const UncertainPose& old, const UncertainPose& z_i, const UncertainPose& recent,
                        const UncertainPose& z_j);
 
-// Relative pose of the chain's last pose in its first's frame, with covariance, from the
-// chain's poses and the covariance of each step (steps[k]: poses[k] → poses[k + 1], in
-// poses[k]'s frame). poses.size() == steps.size() + 1.
-UncertainPose composeChain(const std::vector<geometry::Pose2>& poses, const std::vector<Eigen::Matrix3d>& steps);
+// The steps composed in order (each in the frame the previous one ends in), with the
+// covariance propagated to first order, the steps taken independent. No steps: the
+// identity, certain.
+UncertainPose composeChain(const std::vector<UncertainPose>& steps);
 
 // The largest set of mutually adjacent vertices that contains `must` (ties: the one found
 // first, vertices in index order). `adjacent` is symmetric; the diagonal is ignored.

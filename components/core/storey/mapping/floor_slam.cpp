@@ -42,6 +42,36 @@ Eigen::Matrix3d safeInformation(const Eigen::Matrix3d& covariance) {
   return info;
 }
 
+graph::OptimizerOptions withoutRobustKernels(graph::OptimizerOptions options) {
+  for (auto& kernel : options.robust) kernel = graph::RobustKernel{};
+  return options;
+}
+
+// The matched step from the last node, with its position along each direction where the
+// match's information is below `ratio` times the odometry step's replaced by the two
+// fused by their information (at the match's heading).
+//
+// Degeneracy: in a bare corridor the match knows less along the axis than odometry does,
+// and its correlative result there lags at the local map's frontier (the ring of
+// FloorSlam.LoopClosureCorrectsDrift stood still for 15 m). Elsewhere, and in heading, the
+// step stays the match's (fusing those too followed odometry's noise: infinite-corridor
+// nearby 0.45° -> 0.62°, the office test's worst 0.17 m).
+Pose2 withOdometryWhereDegenerate(const Pose2& matched, const Eigen::Matrix3d& match_information,
+                                  const Pose2& odometry, const Eigen::Matrix3d& odometry_information, double ratio) {
+  const Eigen::Matrix2d match_info = match_information.topLeftCorner<2, 2>();
+  const Eigen::Matrix2d odometry_info = odometry_information.topLeftCorner<2, 2>();
+  const Eigen::Vector2d fused = (odometry_info + match_info)
+                                    .ldlt()
+                                    .solve(odometry_info * odometry.translation() + match_info * matched.translation());
+  Eigen::Vector2d position = matched.translation();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> directions(match_info);
+  for (int k = 0; k < 2; ++k) {
+    const Eigen::Vector2d v = directions.eigenvectors().col(k);
+    if (directions.eigenvalues()(k) < ratio * v.dot(odometry_info * v)) position += v * v.dot(fused - position);
+  }
+  return Pose2(position.x(), position.y(), matched.theta());
+}
+
 }  // namespace
 
 FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
@@ -164,11 +194,6 @@ Eigen::Matrix3d rotateCovariance(const Eigen::Matrix3d& covariance, double theta
   return j * covariance * j.transpose();
 }
 
-graph::OptimizerOptions withoutRobustKernels(graph::OptimizerOptions options) {
-  for (auto& kernel : options.robust) kernel = graph::RobustKernel{};
-  return options;
-}
-
 struct FloorSlam::Impl {
   explicit Impl(const FloorSlamOptions& o)
       : matcher(o.matcher),
@@ -227,12 +252,10 @@ struct FloorSlam::Impl {
     Eigen::Vector3d weighted = Eigen::Vector3d::Zero();
   };
   std::vector<Step> steps;
-  // Matched closures within the cluster window: held hypotheses and accepted closures.
+  // Matched closures within the cluster window, held or accepted: the attempts (indices
+  // into loop_attempts_, which hold their nodes, measurement and information).
   struct Hypothesis {
-    int candidate = -1, node = -1;
-    Pose2 measurement;
-    Eigen::Matrix3d information, covariance;  // in the candidate's frame
-    std::size_t attempt = 0;  // index into loop_attempts_
+    std::size_t attempt = 0;
     bool accepted = false;
   };
   std::vector<Hypothesis> hypotheses;
@@ -426,31 +449,13 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
   const Pose2 last_pose = last.pose;
   Pose2 pose = match.success ? match.pose : prediction;
   const Eigen::Matrix3d odom_info = odometryInformation(motion, options_.odometry);
-  Eigen::Matrix3d rel_cov = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d rel_cov = Eigen::Matrix3d::Zero(), match_info = Eigen::Matrix3d::Zero();
   if (match.success) {
     rel_cov = rotateCovariance(match.covariance, last_pose.theta());
-    if (!jumped && options_.degenerate_ratio > 0.0) {
-      // Degeneracy: in a bare corridor the match knows less along the axis than odometry
-      // does, and its correlative result there lags at the local map's frontier (the
-      // ring of FloorSlam.LoopClosureCorrectsDrift stood still for 15 m). Along such a
-      // direction the node goes where its two edges put it together; elsewhere, and in
-      // heading, it stays the match's (fusing those too followed odometry's noise:
-      // infinite-corridor nearby 0.45° -> 0.62°, the office test's worst 0.17 m).
-      const Eigen::Matrix2d match_info = safeInformation(rel_cov).topLeftCorner<2, 2>();
-      const Eigen::Matrix2d odometry_info = odom_info.topLeftCorner<2, 2>();
-      const Pose2 step = last_pose.between(match.pose);
-      const Eigen::Vector2d fused = (odometry_info + match_info)
-                                        .ldlt()
-                                        .solve(odometry_info * motion.translation() + match_info * step.translation());
-      Eigen::Vector2d position = step.translation();
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> directions(match_info);
-      for (int k = 0; k < 2; ++k) {
-        const Eigen::Vector2d v = directions.eigenvectors().col(k);
-        if (directions.eigenvalues()(k) < options_.degenerate_ratio * v.dot(odometry_info * v))
-          position += v * v.dot(fused - position);
-      }
-      pose = last_pose * Pose2(position.x(), position.y(), step.theta());
-    }
+    match_info = safeInformation(rel_cov);
+    if (!jumped && options_.degenerate_ratio > 0.0)
+      pose = last_pose * withOdometryWhereDegenerate(last_pose.between(match.pose), match_info, motion, odom_info,
+                                                     options_.degenerate_ratio);
   }
   if (match.success) {
     ++stats_.matched;
@@ -465,7 +470,7 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
   Eigen::Matrix3d step_cov = odom_info.inverse();
   if (!jumped) appendEdge(from, to, motion, odom_info, floor::EdgeKind::kOdometry);
   if (match.success) {
-    appendEdge(from, to, last_pose.between(match.pose), safeInformation(rel_cov), floor::EdgeKind::kScanMatch);
+    appendEdge(from, to, last_pose.between(match.pose), match_info, floor::EdgeKind::kScanMatch);
     step_cov = jumped ? rel_cov : Eigen::Matrix3d((rel_cov.inverse() + odom_info).inverse());
   }
   covariance_ = geometry::composeCovariance(last_pose, covariance_, last_pose.between(pose), step_cov);
@@ -573,33 +578,26 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
     }
   }
   const floor::FloorNode& candidate = floor_graph_.nodes[best];
-  Impl::Hypothesis h;
-  h.candidate = candidate.id;
-  h.node = current.id;
-  h.measurement = candidate.pose.between(match.pose);
-  h.information = safeInformation(rotateCovariance(covariance, candidate.pose.theta()));
-  h.covariance = h.information.inverse();
-  h.attempt = attempt_index;
-  attempt.measurement = h.measurement;
-  attempt.information = h.information;
+  attempt.measurement = candidate.pose.between(match.pose);
+  attempt.information = safeInformation(rotateCovariance(covariance, candidate.pose.theta()));
 
   // Hypotheses whose newer node has left the window are no longer compared.
   const int oldest = current.id - o.cluster_window;
   s.hypotheses.erase(std::remove_if(s.hypotheses.begin(), s.hypotheses.end(),
-                                    [&](const Impl::Hypothesis& x) { return x.node < oldest; }),
+                                    [&](const Impl::Hypothesis& x) { return loop_attempts_[x.attempt].node < oldest; }),
                      s.hypotheses.end());
-  s.hypotheses.push_back(h);
+  s.hypotheses.push_back({attempt_index, false});
   const std::size_t newest = s.hypotheses.size() - 1;
 
   // A small correction the optimised graph agrees with (a short loop, little drift): in at
   // once. A large one alone could be a similar place that a graph uncertain enough bends to.
-  const Pose2 correction = loop_attempts_[attempt_index].correction();
+  const Pose2 correction = attempt.correction();
   const bool small = o.cluster_size <= 1 || (correction.translation().norm() <= o.single_max_translation &&
                                              std::abs(correction.theta()) <= o.single_max_rotation);
   if (small && addClosures({newest}, /*bend_first=*/false)) return true;
   auto reject = [&] {  // a wrong match (e.g. a similar room), or a cluster the graph cannot take
     ++stats_.loop_rejected_inconsistent;
-    loop_attempts_[attempt_index].outcome = LoopOutcome::kInconsistent;
+    attempt.outcome = LoopOutcome::kInconsistent;
     s.hypotheses.pop_back();
     return false;
   };
@@ -609,20 +607,19 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   std::vector<std::size_t> held;
   for (std::size_t i : cluster)
     if (!s.hypotheses[i].accepted) held.push_back(i);
-  loop_attempts_[attempt_index].outcome = LoopOutcome::kUnconfirmed;
+  attempt.outcome = LoopOutcome::kUnconfirmed;
   // Matches against one small place of the old map share its ambiguities (the corner of a
   // bare corridor fits a scan two metres off as well, match after match): a cluster must
   // tie places of the old map at least cluster_min_spread apart.
+  auto place = [&](std::size_t i) {
+    return floor_graph_.nodes[loop_attempts_[s.hypotheses[i].attempt].candidate].pose.translation();
+  };
   double spread = 0.0;
   for (std::size_t i : cluster)
-    for (std::size_t j : cluster)
-      spread = std::max(spread, (floor_graph_.nodes[s.hypotheses[i].candidate].pose.translation() -
-                                 floor_graph_.nodes[s.hypotheses[j].candidate].pose.translation())
-                                    .norm());
+    for (std::size_t j : cluster) spread = std::max(spread, (place(i) - place(j)).norm());
   if (cluster.size() < static_cast<std::size_t>(o.cluster_size) || spread < o.cluster_min_spread) return false;
   if (addClosures(held, /*bend_first=*/true)) {
     ++stats_.loop_clusters;
-    stats_.loop_clustered += held.size();
     return true;
   }
   return reject();  // dropping the newest: the others may still agree with later ones
@@ -631,15 +628,13 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
 bool FloorSlam::chainBetween(std::size_t i, std::size_t j, UncertainPose* out) const {
   const std::size_t first = std::min(i, j), last = std::max(i, j);
   const auto& steps = impl_->steps;
-  std::vector<Pose2> poses{Pose2()};
-  std::vector<Eigen::Matrix3d> covariances;
+  std::vector<UncertainPose> fused;
   for (std::size_t k = first; k < last; ++k) {
     if (k >= steps.size() || !graph::informationProblem(steps[k].information).empty()) return false;
     const Eigen::Matrix3d covariance = steps[k].information.inverse();
-    poses.push_back(poses.back() * Pose2(covariance * steps[k].weighted));
-    covariances.push_back(covariance);
+    fused.push_back({Pose2(covariance * steps[k].weighted), covariance});
   }
-  UncertainPose chain = composeChain(poses, covariances);
+  UncertainPose chain = composeChain(fused);
   if (i > j) {  // the other way round
     const Eigen::Matrix3d jacobian = geometry::inverseJacobian(chain.pose);
     chain.covariance = jacobian * chain.covariance * jacobian.transpose();
@@ -650,20 +645,24 @@ bool FloorSlam::chainBetween(std::size_t i, std::size_t j, UncertainPose* out) c
 }
 
 std::vector<std::size_t> FloorSlam::agreeingCluster() const {
-  const auto& hypotheses = impl_->hypotheses;
   const LoopClosureOptions& o = options_.loop_closure;
-  const std::size_t count = hypotheses.size();
+  std::vector<const LoopClosureAttempt*> closures;
+  std::vector<UncertainPose> measured;  // each closure's measurement with its covariance
+  for (const auto& h : impl_->hypotheses) {
+    closures.push_back(&loop_attempts_[h.attempt]);
+    measured.push_back({closures.back()->measurement, closures.back()->information.inverse()});
+  }
+  const std::size_t count = closures.size();
   std::vector<std::vector<char>> agree(count, std::vector<char>(count, 0));
   for (std::size_t p = 0; p < count; ++p)
     for (std::size_t q = p + 1; q < count; ++q) {
-      const auto& hp = hypotheses[p];
-      const auto& hq = hypotheses[q];
+      const LoopClosureAttempt& cp = *closures[p];
+      const LoopClosureAttempt& cq = *closures[q];
       // Older nodes farther apart than the window are on other passes: not compared.
-      if (std::abs(hp.candidate - hq.candidate) > o.cluster_window) continue;
+      if (std::abs(cp.candidate - cq.candidate) > o.cluster_window) continue;
       UncertainPose old, recent;
-      if (!chainBetween(hp.candidate, hq.candidate, &old) || !chainBetween(hp.node, hq.node, &recent)) continue;
-      const double chi2 = closurePairChi2(old, {hp.measurement, hp.covariance}, recent, {hq.measurement, hq.covariance});
-      agree[p][q] = agree[q][p] = chi2 <= o.cluster_chi2 ? 1 : 0;
+      if (!chainBetween(cp.candidate, cq.candidate, &old) || !chainBetween(cp.node, cq.node, &recent)) continue;
+      agree[p][q] = agree[q][p] = closurePairChi2(old, measured[p], recent, measured[q]) <= o.cluster_chi2 ? 1 : 0;
     }
   const std::vector<int> clique = largestCliqueContaining(agree, static_cast<int>(count) - 1);
   return std::vector<std::size_t>(clique.begin(), clique.end());
@@ -677,8 +676,8 @@ bool FloorSlam::addClosures(const std::vector<std::size_t>& members, bool bend_f
   for (const auto& node : pose_graph_.nodes()) backup.push_back(node.pose);
   std::vector<std::size_t> edges;
   for (std::size_t m : members) {
-    const Impl::Hypothesis& h = s.hypotheses[m];
-    edges.push_back(pose_graph_.addEdge(h.candidate, h.node, h.measurement, h.information, graph::EdgeKind::kLoopClosure));
+    const LoopClosureAttempt& c = loop_attempts_[s.hypotheses[m].attempt];
+    edges.push_back(pose_graph_.addEdge(c.candidate, c.node, c.measurement, c.information, graph::EdgeKind::kLoopClosure));
   }
   auto undo = [&] {
     for (std::size_t e : edges) pose_graph_.setEdgeEnabled(e, false);
@@ -698,28 +697,26 @@ bool FloorSlam::addClosures(const std::vector<std::size_t>& members, bool bend_f
   }
   bool consistent = true;
   for (std::size_t k = 0; k < members.size(); ++k) {
-    const Impl::Hypothesis& h = s.hypotheses[members[k]];
-    const double chi2 = pose_graph_.edgeChi2(edges[k]);
-    loop_attempts_[h.attempt].chi2 = chi2;
-    if (!(chi2 <= o.max_chi2)) consistent = false;
+    LoopClosureAttempt& c = loop_attempts_[s.hypotheses[members[k]].attempt];
+    c.chi2 = pose_graph_.edgeChi2(edges[k]);
+    if (!(c.chi2 <= o.max_chi2)) consistent = false;
   }
   if (!consistent) {
-    const Impl::Hypothesis& newest = s.hypotheses[members.back()];
+    const LoopClosureAttempt& newest = loop_attempts_[s.hypotheses[members.back()].attempt];
     common::logDebug(str("floor_slam: loop closure ", newest.candidate, " -> ", newest.node, " not taken (chi2 ",
-                         loop_attempts_[newest.attempt].chi2, ", ", members.size(), " together)"));
+                         newest.chi2, ", ", members.size(), " together)"));
     undo();
     return false;
   }
   for (std::size_t m : members) {
-    Impl::Hypothesis& h = s.hypotheses[m];
-    h.accepted = true;
+    s.hypotheses[m].accepted = true;
     ++stats_.loop_closures;
-    LoopClosureAttempt& attempt = loop_attempts_[h.attempt];
-    attempt.outcome = LoopOutcome::kAccepted;
-    attempt.together = static_cast<int>(members.size());
-    common::logDebug(str("floor_slam: loop closure ", h.candidate, " -> ", h.node, " accepted (score ", attempt.score,
-                         ", chi2 ", attempt.chi2, ", ", members.size(), " together)"));
-    floor::FloorEdge e{h.candidate, h.node, h.measurement, h.information, floor::EdgeKind::kLoopClosure};
+    LoopClosureAttempt& c = loop_attempts_[s.hypotheses[m].attempt];
+    c.outcome = LoopOutcome::kAccepted;
+    c.together = static_cast<int>(members.size());
+    common::logDebug(str("floor_slam: loop closure ", c.candidate, " -> ", c.node, " accepted (score ", c.score,
+                         ", chi2 ", c.chi2, ", ", members.size(), " together)"));
+    floor::FloorEdge e{c.candidate, c.node, c.measurement, c.information, floor::EdgeKind::kLoopClosure};
     floor_graph_.edges.push_back(e);
     s.update_edges.push_back(e);
   }

@@ -204,8 +204,7 @@ struct FloorSlamStats {
   std::size_t matched = 0, match_failures = 0, odometry_jumps = 0;
   std::size_t loop_attempts = 0, loop_closures = 0, loop_rejected_inconsistent = 0;
   std::size_t loop_ambiguous = 0;  // attempts whose scan fit as well elsewhere
-  std::size_t loop_clusters = 0;   // clusters of agreeing hypotheses accepted
-  std::size_t loop_clustered = 0;  // closures accepted in them
+  std::size_t loop_clusters = 0;   // clusters of agreeing closures accepted together
   std::size_t loop_maps_built = 0;  // candidate maps built (the others were reused)
   std::size_t optimizations = 0;
   std::size_t relocalizations = 0, relocalization_failures = 0;
