@@ -112,6 +112,26 @@ TEST(RealLogs, IntelWithTheShippedConfig) {
   EXPECT_LT(e.far.rotation_mean * 180 / M_PI, 1.0);
 }
 
+// infinite-corridor with the shipped config and odometry noise `seed`: the relation errors
+// and the worst accepted closure's distance from the reference.
+struct CorridorRun {
+  RelationErrors errors;
+  double worst_closure = 0.0;
+  std::size_t closures = 0;
+};
+CorridorRun runInfiniteCorridor(const std::string& path, int seed) {
+  const LogData log = readLog(path);
+  const auto odometry = simulateOdometry(log.poses, OdometryNoise{}, seed);
+  std::vector<double> closure_errors;
+  CorridorRun run;
+  const std::string label = common::str("infinite-corridor seed ", seed, " (shipped config)");
+  run.errors = runAndEvaluate(log, odometry, log.poses, label.c_str(), shippedOptions(), &closure_errors);
+  run.closures = closure_errors.size();
+  if (!closure_errors.empty()) run.worst_closure = *std::max_element(closure_errors.begin(), closure_errors.end());
+  std::printf("%zu closures, worst %.2f m from the reference\n", run.closures, run.worst_closure);
+  return run;
+}
+
 TEST(RealLogs, InfiniteCorridorClosesItsLoopsWithoutWrongClosures) {
   // Long corridors that look alike for tens of metres, loops of 200-400 m: after a loop the
   // graph is 10-20 m off, and the first closures must move it that far (in clusters of
@@ -119,20 +139,29 @@ TEST(RealLogs, InfiniteCorridorClosesItsLoopsWithoutWrongClosures) {
   // were judged by agreement (session 10) seed 1 accepted one 2.8 m off and refused 89 right
   // ones; the far error was 14.4 m and the map broken (the long corridor drawn twice).
   STOREY_REQUIRE_DATA(path, "carmen/infinite-corridor-corrected.log.gz");
-  const LogData log = readLog(path);
-  const auto odometry = simulateOdometry(log.poses, OdometryNoise{}, 1);
-  std::vector<double> closure_errors;
-  const RelationErrors e =
-      runAndEvaluate(log, odometry, log.poses, "infinite-corridor (shipped config)", shippedOptions(), &closure_errors);
-  ASSERT_GT(closure_errors.size(), 100u);
-  const double worst = *std::max_element(closure_errors.begin(), closure_errors.end());
-  std::printf("%zu closures, worst %.2f m from the reference\n", closure_errors.size(), worst);
+  const CorridorRun run = runInfiniteCorridor(path, 1);
+  ASSERT_GT(run.closures, 100u);
   // Achieved (seed 1): 160 closures, none more than 1 m off; nearby 0.0363 m / 0.477°, far
   // 7.1 m (the last pass, after a 400 m loop 20 m off, is not closed: docs/floor_mapper.md).
-  EXPECT_LT(worst, 1.0);
-  EXPECT_LT(e.nearby.translation_mean, 0.04);
-  EXPECT_LT(e.nearby.rotation_mean * 180 / M_PI, 0.5);
-  EXPECT_LT(e.far.translation_mean, 10.0);
+  EXPECT_LT(run.worst_closure, 1.0);
+  EXPECT_LT(run.errors.nearby.translation_mean, 0.04);
+  EXPECT_LT(run.errors.nearby.rotation_mean * 180 / M_PI, 0.5);
+  EXPECT_LT(run.errors.far.translation_mean, 10.0);
+}
+
+TEST(RealLogs, InfiniteCorridorTakesNoLookAlikeStretch) {
+  // Seed 2: after the 400 m western loop the graph is 14 m off along a corridor whose stretch
+  // there looks like the right one, and the matches around the prediction agree with each
+  // other. Checked over the region the graph's uncertainty allows (session 11), their joined
+  // scans fit 14 m away better (0.79 against 0.62): the cluster is refused and its closures
+  // move there. Before: a cluster of 5 and 8 single closures went in 13-15 m off (far error
+  // 6.5 m); refusing without moving them left the loop open (14.2 m).
+  STOREY_REQUIRE_DATA(path, "carmen/infinite-corridor-corrected.log.gz");
+  const CorridorRun run = runInfiniteCorridor(path, 2);
+  ASSERT_GT(run.closures, 100u);
+  // Achieved (seed 2): 196 closures, none more than 1 m off; far 2.8 m.
+  EXPECT_LT(run.worst_closure, 1.0);
+  EXPECT_LT(run.errors.far.translation_mean, 4.0);
 }
 
 }  // namespace

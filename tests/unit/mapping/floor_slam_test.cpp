@@ -339,6 +339,7 @@ TEST(FloorSlamOptions, ShippedConfigurationLoads) {
   const FloorSlamOptions o = readFloorSlamOptions(root.child("slam"));
   EXPECT_GT(o.matcher.linear_window, 0.0);
   EXPECT_TRUE(o.loop_closure.enabled);
+  EXPECT_GT(o.loop_closure.cluster_verify_window, 0.0);  // the region check is on where it ships
   EXPECT_THROW(readFloorSlamOptions(common::ConfigNode::loadString("node_creation: {min_translaton: 1}\n")),
                common::ConfigError);
   EXPECT_THROW(readFloorSlamOptions(common::ConfigNode::loadString("bogus: 1\n")), common::ConfigError);

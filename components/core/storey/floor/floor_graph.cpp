@@ -39,11 +39,11 @@ grid::OccupancyGrid renderFloorMap(const FloorGraph& graph, const grid::Occupanc
   return map;
 }
 
-std::vector<Eigen::Vector2d> floorPoints(const FloorGraph& graph, std::size_t first, std::size_t last,
+std::vector<Eigen::Vector2d> floorPoints(const FloorGraph& graph, const std::vector<std::size_t>& indices,
                                          double max_range) {
   std::vector<Eigen::Vector2d> points;
-  for (std::size_t i = first; i < last && i < graph.nodes.size(); ++i) {
-    const FloorNode& node = graph.nodes[i];
+  for (std::size_t i : indices) {
+    const FloorNode& node = graph.nodes.at(i);
     const double range_max = static_cast<double>(node.scan.range_max);
     const double limit = max_range > 0.0 ? std::min(max_range, range_max) : range_max;
     const Eigen::Vector2d sensor = node.scan.sensor_offset.translation();
@@ -54,6 +54,13 @@ std::vector<Eigen::Vector2d> floorPoints(const FloorGraph& graph, std::size_t fi
     points.insert(points.end(), near.begin(), near.end());
   }
   return points;
+}
+
+std::vector<Eigen::Vector2d> floorPoints(const FloorGraph& graph, std::size_t first, std::size_t last,
+                                         double max_range) {
+  std::vector<std::size_t> indices;
+  for (std::size_t i = first; i < last && i < graph.nodes.size(); ++i) indices.push_back(i);
+  return floorPoints(graph, indices, max_range);
 }
 
 }  // namespace storey::floor

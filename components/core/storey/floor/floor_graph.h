@@ -52,5 +52,8 @@ grid::OccupancyGrid renderFloorMap(const FloorGraph& graph, const grid::Occupanc
 // sensor (0: the scan's range_max, as OccupancyGridOptions::max_insert_range).
 std::vector<Eigen::Vector2d> floorPoints(const FloorGraph& graph, std::size_t first, std::size_t last,
                                          double max_range);
+// The same for the nodes `indices`.
+std::vector<Eigen::Vector2d> floorPoints(const FloorGraph& graph, const std::vector<std::size_t>& indices,
+                                         double max_range);
 
 }  // namespace storey::floor

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <unordered_set>
 
 #include "storey/common/log.h"
 
@@ -131,6 +132,10 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
     l.cluster_min_spread = n.getDouble("cluster_min_spread", l.cluster_min_spread, 0.0, 1e6);
     l.single_max_translation = n.getDouble("single_max_translation", l.single_max_translation, 0.0, 1e6);
     l.single_max_rotation = n.getDouble("single_max_rotation", l.single_max_rotation, 0.0, M_PI);
+    l.cluster_verify_window = n.getDouble("cluster_verify_window", l.cluster_verify_window, 0.0, 1000.0);
+    l.cluster_verify_distance = n.getDouble("cluster_verify_distance", l.cluster_verify_distance, 0.0, 1000.0);
+    l.cluster_verify_ratio = n.getDouble("cluster_verify_ratio", l.cluster_verify_ratio, 0.0, 1.0);
+    l.cluster_verify_nodes = n.getInt("cluster_verify_nodes", l.cluster_verify_nodes, 0, 100000);
     l.matcher = readMatcherOrDefault(n, "scan_matcher", l.matcher);
     n.finish();
   }
@@ -172,6 +177,7 @@ const char* loopOutcomeName(LoopOutcome outcome) {
     case LoopOutcome::kAccepted: return "accepted";
     case LoopOutcome::kInconsistent: return "inconsistent";
     case LoopOutcome::kUnconfirmed: return "unconfirmed";
+    case LoopOutcome::kAmbiguous: return "ambiguous";
   }
   return "unknown";
 }
@@ -209,10 +215,15 @@ struct FloorSlam::Impl {
     ScanMatcherOptions loop = o.loop_closure.matcher;
     loop.min_score = std::min(loop.min_score, o.loop_closure.min_score);
     loop_matcher = ScanMatcher(loop);
+    loop.translation_penalty = 0.0;  // a cluster's rival anywhere in the region counts alike
+    loop.rotation_penalty = 0.0;
+    loop.min_score = 0.05;  // scores are compared with each other, not with a bar
+    verify_matcher = ScanMatcher(loop);
   }
   ScanMatcher matcher;
   ScanMatcher loop_matcher;
   ScanMatcher reloc_matcher;
+  ScanMatcher verify_matcher;  // a cluster's scans over the region its graph allows
   graph::Optimizer optimizer;
   graph::Optimizer full_weight_optimizer;  // a cluster's correction first, before the kernels
   MatchTarget local_target;
@@ -283,7 +294,7 @@ namespace {
 // (likelihood field and pyramid for the search) and, where the matcher refines on points
 // (and point_cell_size is not 0), as points; a matcher that refines on the field would
 // never look at them.
-MatchTarget buildTarget(const floor::FloorGraph& graph, std::size_t first, std::size_t last,
+MatchTarget buildTarget(const floor::FloorGraph& graph, const std::vector<std::size_t>& indices,
                         const LocalMapOptions& o, int pyramid_levels, const ScanMatcher& matcher) {
   grid::OccupancyGridOptions go;
   go.resolution = o.resolution;
@@ -295,14 +306,21 @@ MatchTarget buildTarget(const floor::FloorGraph& graph, std::size_t first, std::
   go.growth_margin = o.field.max_distance + ((1 << (std::max(1, pyramid_levels) - 1)) + 1) * o.resolution;
   grid::OccupancyGrid map(go);
   std::vector<grid::OccupancyGrid::PosedScan> scans;
-  for (std::size_t i = first; i < last && i < graph.nodes.size(); ++i)
-    scans.push_back({&graph.nodes[i].scan, graph.nodes[i].pose});
+  for (std::size_t i : indices) scans.push_back({&graph.nodes[i].scan, graph.nodes[i].pose});
   map.insertScans(scans);
   MatchTarget target(map, o.field, pyramid_levels);
   if (matcher.options().point_refinement && o.point_cell_size > 0.0)
-    target.setPoints(grid::PointMap(floor::floorPoints(graph, first, last, o.max_insert_range),
-                                    o.point_cell_size, o.point_normal_radius));
+    target.setPoints(grid::PointMap(floor::floorPoints(graph, indices, o.max_insert_range), o.point_cell_size,
+                                    o.point_normal_radius));
   return target;
+}
+
+// Nodes [first, last).
+MatchTarget buildTarget(const floor::FloorGraph& graph, std::size_t first, std::size_t last,
+                        const LocalMapOptions& o, int pyramid_levels, const ScanMatcher& matcher) {
+  std::vector<std::size_t> indices;
+  for (std::size_t i = first; i < last && i < graph.nodes.size(); ++i) indices.push_back(i);
+  return buildTarget(graph, indices, o, pyramid_levels, matcher);
 }
 
 // The tracking map: the graph's last `max_nodes` nodes.
@@ -603,10 +621,6 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   };
   if (o.cluster_size <= 1) return reject();
   // Otherwise it waits for closures that agree with it.
-  const std::vector<std::size_t> cluster = agreeingCluster();
-  std::vector<std::size_t> held;
-  for (std::size_t i : cluster)
-    if (!s.hypotheses[i].accepted) held.push_back(i);
   attempt.outcome = LoopOutcome::kUnconfirmed;
   // Matches against one small place of the old map share its ambiguities (the corner of a
   // bare corridor fits a scan two metres off as well, match after match): a cluster must
@@ -614,15 +628,111 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   auto place = [&](std::size_t i) {
     return floor_graph_.nodes[loop_attempts_[s.hypotheses[i].attempt].candidate].pose.translation();
   };
-  double spread = 0.0;
-  for (std::size_t i : cluster)
-    for (std::size_t j : cluster) spread = std::max(spread, (place(i) - place(j)).norm());
-  if (cluster.size() < static_cast<std::size_t>(o.cluster_size) || spread < o.cluster_min_spread) return false;
-  if (addClosures(held, /*bend_first=*/true)) {
-    ++stats_.loop_clusters;
-    return true;
+  // A second pass when the first cluster's scans fitted better elsewhere: the newest closure
+  // then claims that place and may complete a cluster of closures so relocated.
+  for (int pass = 0; pass < 2; ++pass) {
+    const std::vector<std::size_t> cluster = agreeingCluster();
+    double spread = 0.0;
+    for (std::size_t i : cluster)
+      for (std::size_t j : cluster) spread = std::max(spread, (place(i) - place(j)).norm());
+    if (cluster.size() < static_cast<std::size_t>(o.cluster_size) || spread < o.cluster_min_spread) return false;
+    if (o.cluster_verify_window > 0.0) {
+      const ClusterCheck check = checkCluster(cluster, last_candidate);
+      if (!check.unique) {
+        ++stats_.loop_clusters_ambiguous;
+        if (!check.better_elsewhere || attempt.relocated) {
+          attempt.outcome = LoopOutcome::kAmbiguous;
+          s.hypotheses.pop_back();
+          return false;
+        }
+        std::size_t nearest = 0;
+        for (std::size_t i = 1; i <= last_candidate; ++i)
+          if ((floor_graph_.nodes[i].pose.translation() - check.pose.translation()).squaredNorm() <
+              (floor_graph_.nodes[nearest].pose.translation() - check.pose.translation()).squaredNorm())
+            nearest = i;
+        const floor::FloorNode& old = floor_graph_.nodes[nearest];
+        attempt.relocated = true;
+        attempt.candidate = old.id;
+        attempt.predicted = old.pose.between(current.pose);
+        attempt.measurement = old.pose.between(check.pose);
+        attempt.information = safeInformation(rotateCovariance(check.covariance, old.pose.theta()));
+        continue;
+      }
+    }
+    std::vector<std::size_t> held;
+    for (std::size_t i : cluster)
+      if (!s.hypotheses[i].accepted) held.push_back(i);
+    if (addClosures(held, /*bend_first=*/true)) {
+      ++stats_.loop_clusters;
+      return true;
+    }
+    return reject();  // dropping the newest: the others may still agree with later ones
   }
-  return reject();  // dropping the newest: the others may still agree with later ones
+  return false;  // relocated, held for company
+}
+
+FloorSlam::ClusterCheck FloorSlam::checkCluster(const std::vector<std::size_t>& cluster, std::size_t last_candidate) {
+  Impl& s = *impl_;
+  const LoopClosureOptions& o = options_.loop_closure;
+  const LoopClosureAttempt& newest = loop_attempts_[s.hypotheses[cluster.back()].attempt];
+  const floor::FloorNode& current = floor_graph_.nodes[newest.node];
+  // The newest scan and those before it, as the graph places them relative to the newest
+  // node, thinned to one point per cell (more would only weigh long walls more). Coarse
+  // cells and a coarse map: the question is which stretch of corridor, not the last cm
+  // (20 m of scans over a 60 m square at 5 cm cost a second; so, tens of ms).
+  const double cell = 0.2;
+  const double resolution = 0.1;
+  std::unordered_set<std::int64_t> occupied;
+  std::vector<Eigen::Vector2d> points;
+  double extent = 0.0;
+  for (int k = std::max(0, newest.node - o.cluster_verify_nodes); k <= newest.node; ++k) {
+    const floor::FloorNode& node = floor_graph_.nodes[k];
+    const Pose2 relative = current.pose.between(node.pose);
+    extent = std::max(extent, relative.translation().norm());
+    for (const auto& p : node.scan.pointsInRobotFrame()) {
+      if (p.norm() > options_.local_map.max_insert_range) continue;
+      const Eigen::Vector2d q = relative.transformPoint(p);
+      const std::int64_t key = (static_cast<std::int64_t>(std::floor(q.x() / cell)) << 32) ^
+                               static_cast<std::int64_t>(static_cast<std::uint32_t>(std::floor(q.y() / cell)));
+      if (occupied.insert(key).second) points.push_back(q);
+    }
+  }
+  const double window = std::min(o.cluster_verify_window, o.linear_window + o.sigma_factor * newest.sigma);
+  // The old map wherever those scans could lie (the window, their extent and a margin).
+  std::vector<std::size_t> region;
+  for (std::size_t i = 0; i <= last_candidate; ++i)
+    if ((floor_graph_.nodes[i].pose.translation() - current.pose.translation()).norm() <= window + extent + 2.0)
+      region.push_back(i);
+  LocalMapOptions coarse = options_.local_map;
+  coarse.resolution = resolution;
+  const MatchTarget target = buildTarget(floor_graph_, region, coarse, kWideSearchLevels - 1, s.verify_matcher);
+  const Pose2 claimed = floor_graph_.nodes[newest.candidate].pose * newest.measurement;
+  const MatchResult at_cluster =
+      s.verify_matcher.match(target, points, claimed, o.cluster_verify_distance, newest.angular_window);
+  const double own = at_cluster.success ? at_cluster.correlative_score : 0.0;
+  const MatchResult elsewhere =
+      s.verify_matcher.bestElsewhere(target, points, current.pose, window, newest.angular_window,
+                                     claimed.translation(), o.cluster_verify_distance, o.cluster_verify_ratio * own);
+  common::logDebug(str("floor_slam: cluster of ", cluster.size(), " at node ", newest.node, " scores ", own,
+                       elsewhere.success ? str("; elsewhere ", elsewhere.correlative_score, " at ",
+                                               (elsewhere.pose.translation() - claimed.translation()).norm(), " m")
+                                         : std::string("; nothing elsewhere")));
+  ClusterCheck check;
+  check.unique = at_cluster.success && !elsewhere.success;
+  if (elsewhere.success && elsewhere.correlative_score > own) {
+    // The newest scan alone, refined there: a closure like the others (the joined scans'
+    // information would count the chain between them as exact).
+    std::vector<Eigen::Vector2d> scan;
+    for (const auto& p : current.scan.pointsInRobotFrame())
+      if (p.norm() <= options_.local_map.max_insert_range) scan.push_back(p);
+    const MatchResult there = s.loop_matcher.match(target, scan, elsewhere.pose, 0.3, 0.1);
+    if (there.success && there.score >= o.min_score) {
+      check.better_elsewhere = true;
+      check.pose = there.pose;
+      check.covariance = there.covariance;
+    }
+  }
+  return check;
 }
 
 bool FloorSlam::chainBetween(std::size_t i, std::size_t j, UncertainPose* out) const {

@@ -104,6 +104,19 @@ struct LoopClosureOptions {
   // Only when cluster_size > 1.
   double single_max_translation = 0.5;  // m
   double single_max_rotation = 0.1;     // rad
+  // A cluster is checked against the whole region the graph's uncertainty allows (a
+  // look-alike stretch of corridor fits a consistently shifted set of matches, which then
+  // agree with each other): the newest closure's scan and the cluster_verify_nodes before it,
+  // placed relative to each other by the graph, are searched over the old map within
+  // min(cluster_verify_window, linear_window + sigma_factor σ) of where the graph has them,
+  // with no penalty for the distance. When a pose more than cluster_verify_distance from the
+  // cluster's scores cluster_verify_ratio of the best near it, the cluster is refused; when
+  // it scores better, the newest closure is moved there (its scan matched at that place, to
+  // the old node nearest it) and may form a cluster with others so moved. 0: no check.
+  double cluster_verify_window = 0.0;  // m
+  double cluster_verify_distance = 4.0;  // m
+  double cluster_verify_ratio = 1.0;
+  int cluster_verify_nodes = 20;
   // For closures (windows from the options above). They refine on the likelihood field
   // (ScanMatcherOptions::point_refinement false): on the points, closures in the ring
   // corridor of FloorSlam.LoopClosureCorrectsDrift landed 1.5-1.9 m wrong.
@@ -181,6 +194,7 @@ enum class LoopOutcome {
   kAccepted,      // added to the graph
   kInconsistent,  // the optimised graph disagreed (chi2 > max_chi2): undone
   kUnconfirmed,   // held as a hypothesis; no cluster of agreeing closures took it (yet)
+  kAmbiguous,     // its cluster's scans fit as well or better elsewhere: dropped
 };
 const char* loopOutcomeName(LoopOutcome outcome);
 struct LoopClosureAttempt {
@@ -194,6 +208,9 @@ struct LoopClosureAttempt {
   // The move the measurement asks of the node, in its frame: predicted⁻¹ · measurement.
   geometry::Pose2 correction() const { return predicted.between(measurement); }
   int together = 0;             // closures added with it (1: alone; more: a cluster)
+  // Its cluster's scans fitted better elsewhere in the old map; the measurement is that
+  // place's (to the old node nearest it), no longer the candidate map's match.
+  bool relocated = false;
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
   double chi2 = 0.0;   // after optimisation, when added
   LoopOutcome outcome = LoopOutcome::kNoMatch;
@@ -205,6 +222,7 @@ struct FloorSlamStats {
   std::size_t loop_attempts = 0, loop_closures = 0, loop_rejected_inconsistent = 0;
   std::size_t loop_ambiguous = 0;  // attempts whose scan fit as well elsewhere
   std::size_t loop_clusters = 0;   // clusters of agreeing closures accepted together
+  std::size_t loop_clusters_ambiguous = 0;  // clusters refused: their scans fit as well elsewhere
   std::size_t loop_maps_built = 0;  // candidate maps built (the others were reused)
   std::size_t optimizations = 0;
   std::size_t relocalizations = 0, relocalization_failures = 0;
@@ -264,6 +282,15 @@ class FloorSlam {
   bool addClosures(const std::vector<std::size_t>& members, bool bend_first);
   // The held hypotheses that agree pairwise with the newest, the newest included.
   std::vector<std::size_t> agreeingCluster() const;
+  // Whether the cluster's scans fit best where it puts them, within the region the graph's
+  // uncertainty allows; if not and a place fits better, the newest node's pose there.
+  struct ClusterCheck {
+    bool unique = false;
+    bool better_elsewhere = false;
+    geometry::Pose2 pose;  // of the newest node, where its scans fit better
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
+  };
+  ClusterCheck checkCluster(const std::vector<std::size_t>& cluster, std::size_t last_candidate);
   // Relative pose (with covariance) of node index j in node index i's frame from the
   // odometry and scan-match edges between consecutive nodes (each step their fused
   // measurement); false when a step has no information.
