@@ -20,10 +20,10 @@ const FloorNode* FloorGraph::findNode(int id) const {
   return nullptr;
 }
 
-int FloorGraph::nearestNodeIndex(const Eigen::Vector2d& point) const {
+int FloorGraph::nearestNodeIndex(const Eigen::Vector2d& point, std::size_t count) const {
   int best = -1;
   double best_d2 = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < nodes.size(); ++i) {
+  for (std::size_t i = 0; i < std::min(count, nodes.size()); ++i) {
     const double d2 = (nodes[i].pose.translation() - point).squaredNorm();
     if (d2 < best_d2) {
       best_d2 = d2;

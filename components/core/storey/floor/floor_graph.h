@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -41,8 +42,10 @@ struct FloorGraph {
   std::vector<FloorEdge> edges;
 
   const FloorNode* findNode(int id) const;
-  // Index of the node nearest to a point (in this graph's frame); -1 when empty.
-  int nearestNodeIndex(const Eigen::Vector2d& point) const;
+  // Index of the node nearest to a point (in this graph's frame) among the first `count`
+  // (all by default); -1 when there are none.
+  int nearestNodeIndex(const Eigen::Vector2d& point,
+                       std::size_t count = std::numeric_limits<std::size_t>::max()) const;
 };
 
 // The occupancy map of a floor graph: every node's scan inserted at its pose.

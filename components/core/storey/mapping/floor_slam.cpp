@@ -554,16 +554,9 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   const double sigma_theta = std::sqrt(std::max(0.0, covariance_(2, 2)));
   const double radius = std::min(o.max_search_radius, o.search_radius + o.sigma_factor * sigma_xy);
   const std::size_t last_candidate = n - 1 - o.min_node_gap;
-  int best = -1;
-  double best_d = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i <= last_candidate; ++i) {
-    const double d = (floor_graph_.nodes[i].pose.translation() - current.pose.translation()).norm();
-    if (d < best_d) {
-      best_d = d;
-      best = static_cast<int>(i);
-    }
-  }
-  if (best < 0 || best_d > radius) return false;
+  const int best = floor_graph_.nearestNodeIndex(current.pose.translation(), last_candidate + 1);
+  if (best < 0 || (floor_graph_.nodes[best].pose.translation() - current.pose.translation()).norm() > radius)
+    return false;
   ++stats_.loop_attempts;
   loop_attempts_.emplace_back();
   const std::size_t attempt_index = loop_attempts_.size() - 1;
@@ -645,12 +638,8 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
           s.hypotheses.pop_back();
           return false;
         }
-        std::size_t nearest = 0;
-        for (std::size_t i = 1; i <= last_candidate; ++i)
-          if ((floor_graph_.nodes[i].pose.translation() - check.pose.translation()).squaredNorm() <
-              (floor_graph_.nodes[nearest].pose.translation() - check.pose.translation()).squaredNorm())
-            nearest = i;
-        const floor::FloorNode& old = floor_graph_.nodes[nearest];
+        const floor::FloorNode& old =
+            floor_graph_.nodes[floor_graph_.nearestNodeIndex(check.pose.translation(), last_candidate + 1)];
         attempt.relocated = true;
         attempt.candidate = old.id;
         attempt.predicted = old.pose.between(current.pose);
@@ -685,12 +674,17 @@ FloorSlam::ClusterCheck FloorSlam::checkCluster(const std::vector<std::size_t>& 
   std::unordered_set<std::int64_t> occupied;
   std::vector<Eigen::Vector2d> points;
   double extent = 0.0;
+  auto inRange = [&](const floor::FloorNode& node) {  // as the maps insert them
+    std::vector<Eigen::Vector2d> near;
+    for (const auto& p : node.scan.pointsInRobotFrame())
+      if (p.norm() <= options_.local_map.max_insert_range) near.push_back(p);
+    return near;
+  };
   for (int k = std::max(0, newest.node - o.cluster_verify_nodes); k <= newest.node; ++k) {
     const floor::FloorNode& node = floor_graph_.nodes[k];
     const Pose2 relative = current.pose.between(node.pose);
     extent = std::max(extent, relative.translation().norm());
-    for (const auto& p : node.scan.pointsInRobotFrame()) {
-      if (p.norm() > options_.local_map.max_insert_range) continue;
+    for (const auto& p : inRange(node)) {
       const Eigen::Vector2d q = relative.transformPoint(p);
       const std::int64_t key = (static_cast<std::int64_t>(std::floor(q.x() / cell)) << 32) ^
                                static_cast<std::int64_t>(static_cast<std::uint32_t>(std::floor(q.y() / cell)));
@@ -722,10 +716,7 @@ FloorSlam::ClusterCheck FloorSlam::checkCluster(const std::vector<std::size_t>& 
   if (elsewhere.success && elsewhere.correlative_score > own) {
     // The newest scan alone, refined there: a closure like the others (the joined scans'
     // information would count the chain between them as exact).
-    std::vector<Eigen::Vector2d> scan;
-    for (const auto& p : current.scan.pointsInRobotFrame())
-      if (p.norm() <= options_.local_map.max_insert_range) scan.push_back(p);
-    const MatchResult there = s.loop_matcher.match(target, scan, elsewhere.pose, 0.3, 0.1);
+    const MatchResult there = s.loop_matcher.match(target, inRange(current), elsewhere.pose, 0.3, 0.1);
     if (there.success && there.score >= o.min_score) {
       check.better_elsewhere = true;
       check.pose = there.pose;
