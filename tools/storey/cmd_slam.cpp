@@ -57,7 +57,7 @@ void writeLoopAttempts(const std::string& path, const std::vector<mapping::LoopC
   std::ofstream csv(path);
   csv << "node,candidate,outcome,score,chi2,dx,dy,dtheta,error_x,error_y,error_theta,nees,"
          "prediction_error_x,prediction_error_y,prediction_error_theta,linear_window,angular_window,"
-         "together,sigma,relocated\n"
+         "together,sigma,relocated,followed,not_unique\n"
       << std::setprecision(6);
   for (const auto& a : attempts) {
     const bool matched = a.outcome != mapping::LoopOutcome::kNoMatch;
@@ -81,7 +81,7 @@ void writeLoopAttempts(const std::string& path, const std::vector<mapping::LoopC
       csv << ",,,";
     }
     csv << ',' << a.linear_window << ',' << a.angular_window << ',' << a.together << ',' << a.sigma << ','
-        << (a.relocated ? 1 : 0) << '\n';
+        << (a.relocated ? 1 : 0) << ',' << (a.followed ? 1 : 0) << ',' << (a.not_unique ? 1 : 0) << '\n';
   }
 }
 

@@ -38,6 +38,8 @@ std::vector<Pose2> path(const std::vector<Eigen::Vector2d>& waypoints, double st
 struct WorldRun {
   std::vector<Pose2> truth, odometry, estimate;
   FloorSlamStats stats;
+  std::vector<Pose2> node_truth;  // the truth of each node (the k-th scan that became one)
+  std::vector<LoopClosureAttempt> attempts;
 };
 
 // Maps the world's scans along `truth` with the given odometry.
@@ -53,17 +55,19 @@ WorldRun runWorld(const test::World& world, const std::vector<Pose2>& truth, con
   // The front end starts at the origin; the truth at truth[0].
   for (const auto& p : offline.trajectory) run.estimate.push_back(truth.front() * p);
   run.stats = slam.stats();
+  run.attempts = slam.loopAttempts();
+  for (std::size_t i = 0; i < offline.status.size(); ++i)
+    if (offline.status[i] == ScanStatus::kNode) run.node_truth.push_back(truth[i]);
   if (std::getenv("STOREY_DEBUG_LOOP")) {
     // Each closure attempt's error against the truth (node k is the k-th scan that became
     // a node), printed as a debugging aid.
-    std::vector<Pose2> node_truth;
-    for (std::size_t i = 0; i < offline.status.size(); ++i)
-      if (offline.status[i] == ScanStatus::kNode) node_truth.push_back(truth[i]);
+    const std::vector<Pose2>& node_truth = run.node_truth;
     for (const auto& a : slam.loopAttempts()) {
       const Pose2 e = node_truth[a.candidate].between(node_truth[a.node]).between(a.measurement);
-      std::printf("closure %d -> %d %s score %.2f chi2 %.1f error %.2f %.2f %.2f deg correction %.2f %.2f %.2f deg\n",
-                  a.candidate, a.node, loopOutcomeName(a.outcome), a.score, a.chi2, e.x(), e.y(),
-                  e.theta() * 180 / M_PI, a.correction().x(), a.correction().y(), a.correction().theta() * 180 / M_PI);
+      std::printf("closure %d -> %d %s%s score %.2f chi2 %.1f sigma %.2f error %.2f %.2f %.2f deg "
+                  "correction %.2f %.2f %.2f deg\n",
+                  a.candidate, a.node, loopOutcomeName(a.outcome), a.relocated ? " relocated" : "", a.score, a.chi2,
+                  a.sigma, e.x(), e.y(), e.theta() * 180 / M_PI, a.correction().x(), a.correction().y(), a.correction().theta() * 180 / M_PI);
     }
   }
   return run;
@@ -332,6 +336,86 @@ TEST(FloorSlam, ALargeDriftIsClosedByClosuresThatAgree) {
   EXPECT_GE(clustered.stats.loop_clusters, 1u);
   EXPECT_LT(endError(clustered), 0.25);
   EXPECT_GT(endError(alone), 1.0);
+}
+
+TEST(FloorSlam, ARegionCheckKeepsClosuresOffALookAlikeStretch) {
+  // A 60 m x 14 m ring whose bottom leg has pillars every 7 m on both walls, and one wide
+  // niche-like block that breaks the pattern. The top leg is bare and the wheels slip there:
+  // odometry says 15 % more than was driven. Back on the bottom leg the graph is about one
+  // period (7 m) behind along the corridor, beyond the closures' match window (4 m), so
+  // every closure finds the pillars one period off, and those closures agree with each
+  // other. The region check searches the last scans, joined, over the whole region the
+  // graph's uncertainty allows (here about 15 m): the true place fits better (the block).
+  const double period = 7.0, length = 60.0;
+  test::World world;
+  world.addBox(0, 0, length, 14);
+  world.addBox(2, 2, length - 2, 12);
+  for (double x = 3; x < length - 3; x += period) {
+    world.addBox(x, 0.05, x + 0.4, 0.4);
+    world.addBox(x + 1, 1.6, x + 1.4, 1.95);
+  }
+  world.addBox(12, 0.05, 13.5, 0.6);  // the irregularity
+  world.addBox(length - 1.9, 5, length - 1.5, 5.6);
+  world.addBox(1.6, 7, 1.95, 7.5);
+  world.addBox(0.05, 9, 0.4, 9.4);
+  const auto truth = path({{1, 1}, {length - 1, 1}, {length - 1, 13}, {1, 13}, {1, 1}, {28, 1}});
+  const std::vector<Pose2> simulated = simulateOdometry(truth, OdometryNoise{}, 5);
+  std::vector<Pose2> odometry = {simulated.front()};
+  for (std::size_t i = 1; i < truth.size(); ++i) {
+    Pose2 step = simulated[i - 1].between(simulated[i]);
+    if (truth[i].y() > 12.5 && truth[i].x() > 1.1 && truth[i].x() < length - 1.1)  // the top leg slips
+      step = Pose2(step.x() * 1.15, step.y(), step.theta());
+    odometry.push_back(odometry.back() * step);
+  }
+  auto run = [&](double verify_window) {
+    FloorSlamOptions options;  // the library's defaults: max_linear_window 4 m, cluster_verify_distance 4 m
+    options.loop_closure.cluster_verify_window = verify_window;
+    return runWorld(world, truth, options, odometry);
+  };
+  struct Figures {
+    int accepted = 0, relocated = 0;
+    double worst = 0.0;  // largest error of an accepted closure against the truth (m)
+    double along = 0.0;  // where the robot ended along the bottom leg relative to its start, error (m)
+  };
+  auto figures = [](const WorldRun& r) {
+    Figures f;
+    for (const auto& a : r.attempts) {
+      if (a.outcome != LoopOutcome::kAccepted) continue;
+      ++f.accepted;
+      f.relocated += a.relocated ? 1 : 0;
+      const Pose2 e = r.node_truth[a.candidate].between(r.node_truth[a.node]).between(a.measurement);
+      f.worst = std::max(f.worst, e.translation().norm());
+    }
+    f.along = r.estimate.front().between(r.estimate.back()).x() - r.truth.front().between(r.truth.back()).x();
+    return f;
+  };
+  const WorldRun off = run(0.0), on = run(30.0);
+  const Figures f_off = figures(off), f_on = figures(on);
+  auto print = [](const char* name, const WorldRun& r, const Figures& f) {
+    std::printf("%s: clusters %zu (refused %zu), closures %d of %zu (relocated %d), worst closure %.2f m, "
+                "end along %.2f m, max error %.2f m\n",
+                name, r.stats.loop_clusters, r.stats.loop_clusters_ambiguous, f.accepted, r.stats.loop_attempts,
+                f.relocated, f.worst, f.along, maxTranslationError(r));
+  };
+  print("check off", off, f_off);
+  print("check on ", on, f_on);
+  // Achieved: off, one cluster 7.06 m wrong (one period), the end 6.96 m short along the
+  // leg; on, 3 clusters refused and 3 closures relocated, the worst of 25 closures 0.06 m
+  // off, the end 0.01 m along. (The largest error anywhere is no better, 12.6 m against
+  // 7.0: the optimiser spreads the 7 m correction by bending the legs across, the weakness
+  // noted in LoopClosureCorrectsDrift; so it is not asserted.)
+  // Without the check a cluster one period off goes in, and the end is a period off.
+  EXPECT_GE(off.stats.loop_clusters, 1u);
+  EXPECT_GT(f_off.worst, 0.7 * period);
+  EXPECT_GT(std::abs(f_off.along), 0.7 * period);
+  // With it the wrong clusters are refused, the newest closures moved to the true place,
+  // and every closure that goes in is right.
+  EXPECT_GE(on.stats.loop_clusters_ambiguous, 1u);
+  EXPECT_GE(on.stats.loop_clusters, 1u);
+  EXPECT_GE(f_on.relocated, 1);
+  EXPECT_GT(f_on.accepted, 10);
+  EXPECT_LT(f_on.worst, 0.2);
+  EXPECT_LT(std::abs(f_on.along), 0.5);
 }
 
 TEST(FloorSlamOptions, ShippedConfigurationLoads) {

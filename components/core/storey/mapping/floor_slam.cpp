@@ -136,6 +136,9 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
     l.cluster_verify_distance = n.getDouble("cluster_verify_distance", l.cluster_verify_distance, 0.0, 1000.0);
     l.cluster_verify_ratio = n.getDouble("cluster_verify_ratio", l.cluster_verify_ratio, 0.0, 1.0);
     l.cluster_verify_nodes = n.getInt("cluster_verify_nodes", l.cluster_verify_nodes, 0, 100000);
+    l.follow_relocated = n.get<bool>("follow_relocated", l.follow_relocated);
+    l.single_unique_distance = n.getDouble("single_unique_distance", l.single_unique_distance, 0.0, 1000.0);
+    l.single_unique_ratio = n.getDouble("single_unique_ratio", l.single_unique_ratio, 0.0, 1.0);
     l.matcher = readMatcherOrDefault(n, "scan_matcher", l.matcher);
     n.finish();
   }
@@ -554,8 +557,25 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   const double sigma_theta = std::sqrt(std::max(0.0, covariance_(2, 2)));
   const double radius = std::min(o.max_search_radius, o.search_radius + o.sigma_factor * sigma_xy);
   const std::size_t last_candidate = n - 1 - o.min_node_gap;
-  const int best = floor_graph_.nearestNodeIndex(current.pose.translation(), last_candidate + 1);
-  if (best < 0 || (floor_graph_.nodes[best].pose.translation() - current.pose.translation()).norm() > radius)
+  // A held closure that a region check moved (its cluster's scans fit best there) says where
+  // the robot is better than a graph that far off: later attempts search where it puts
+  // them, so that closures agreeing with it can be found.
+  Pose2 prediction = current.pose;
+  bool followed = false;
+  if (o.follow_relocated) {
+    for (auto h = s.hypotheses.rbegin(); h != s.hypotheses.rend(); ++h) {
+      const LoopClosureAttempt& held = loop_attempts_[h->attempt];
+      if (h->accepted || !held.relocated || held.node < current.id - o.cluster_window) continue;
+      UncertainPose since;
+      if (chainBetween(static_cast<std::size_t>(held.node), n - 1, &since)) {
+        prediction = floor_graph_.nodes[held.candidate].pose * held.measurement * since.pose;
+        followed = true;
+      }
+      break;
+    }
+  }
+  const int best = floor_graph_.nearestNodeIndex(prediction.translation(), last_candidate + 1);
+  if (best < 0 || (floor_graph_.nodes[best].pose.translation() - prediction.translation()).norm() > radius)
     return false;
   ++stats_.loop_attempts;
   loop_attempts_.emplace_back();
@@ -568,16 +588,31 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   const double linear = std::min(o.max_linear_window, o.linear_window + o.sigma_factor * sigma_xy);
   const double angular = std::min(o.max_angular_window, o.angular_window + o.sigma_factor * sigma_theta);
   attempt.sigma = sigma_xy;
+  attempt.followed = followed;
   attempt.linear_window = linear;
   attempt.angular_window = angular;
-  const MatchResult match = s.loop_matcher.match(target, points, current.pose, linear, angular);
+  // Ties the closure to `old` at `pose` of the current node.
+  auto tie = [&](const floor::FloorNode& old, const Pose2& pose, const Eigen::Matrix3d& covariance) {
+    attempt.candidate = old.id;
+    attempt.predicted = old.pose.between(current.pose);
+    attempt.measurement = old.pose.between(pose);
+    attempt.information = safeInformation(rotateCovariance(covariance, old.pose.theta()));
+  };
+  // The cluster's scans fitted better at another place of the region: the closure claims
+  // that place, tied to the old node nearest it.
+  auto relocate = [&](const ClusterCheck& check) {
+    attempt.relocated = true;
+    tie(floor_graph_.nodes[floor_graph_.nearestNodeIndex(check.pose.translation(), last_candidate + 1)],
+        check.pose, check.covariance);
+  };
+  const MatchResult match = s.loop_matcher.match(target, points, prediction, linear, angular);
   if (match.success) attempt.score = match.score;
   if (!match.success || match.score < o.min_score) return false;
 
   Eigen::Matrix3d covariance = match.covariance;
   if (o.ambiguity_distance > 0.0) {
     const MatchResult elsewhere =
-        s.loop_matcher.bestElsewhere(target, points, current.pose, linear, angular, match.pose.translation(),
+        s.loop_matcher.bestElsewhere(target, points, prediction, linear, angular, match.pose.translation(),
                                      o.ambiguity_distance, o.ambiguity_ratio * match.correlative_score);
     if (elsewhere.success) {
       ++stats_.loop_ambiguous;
@@ -588,9 +623,17 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
                            elsewhere.correlative_score, " elsewhere against ", match.correlative_score));
     }
   }
-  const floor::FloorNode& candidate = floor_graph_.nodes[best];
-  attempt.measurement = candidate.pose.between(match.pose);
-  attempt.information = safeInformation(rotateCovariance(covariance, candidate.pose.theta()));
+  // A closure that will wait for company (a correction too large to stand alone) is tied to
+  // the node of the candidate map nearest where the scan matched, not the one nearest a
+  // prediction far off: a cluster's spread then counts the places really matched.
+  int anchor = best;
+  const double moved = (match.pose.translation() - prediction.translation()).norm();
+  if (o.cluster_size > 1 && moved > o.single_max_translation)
+    for (std::size_t i = s.loop_target.first; i < s.loop_target.end; ++i)
+      if ((floor_graph_.nodes[i].pose.translation() - match.pose.translation()).squaredNorm() <
+          (floor_graph_.nodes[anchor].pose.translation() - match.pose.translation()).squaredNorm())
+        anchor = static_cast<int>(i);
+  tie(floor_graph_.nodes[anchor], match.pose, covariance);
 
   // Hypotheses whose newer node has left the window are no longer compared.
   const int oldest = current.id - o.cluster_window;
@@ -603,8 +646,20 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   // A small correction the optimised graph agrees with (a short loop, little drift): in at
   // once. A large one alone could be a similar place that a graph uncertain enough bends to.
   const Pose2 correction = attempt.correction();
-  const bool small = o.cluster_size <= 1 || (correction.translation().norm() <= o.single_max_translation &&
-                                             std::abs(correction.theta()) <= o.single_max_rotation);
+  bool small = o.cluster_size <= 1 || (correction.translation().norm() <= o.single_max_translation &&
+                                       std::abs(correction.theta()) <= o.single_max_rotation);
+  // A graph too uncertain for the window agrees with whatever lies near its prediction, and
+  // a prediction metres off along a corridor has a look-alike there: alone, a closure must
+  // then be the only place in the window its scan fits; otherwise it waits for company.
+  if (small && o.cluster_size > 1 && o.single_unique_distance > 0.0 && linear >= o.max_linear_window) {
+    const MatchResult rival =
+        s.loop_matcher.bestElsewhere(target, points, prediction, linear, angular, match.pose.translation(),
+                                     o.single_unique_distance, o.single_unique_ratio * match.correlative_score);
+    if (rival.success) {
+      small = false;
+      attempt.not_unique = true;
+    }
+  }
   if (small && addClosures({newest}, /*bend_first=*/false)) return true;
   auto reject = [&] {  // a wrong match (e.g. a similar room), or a cluster the graph cannot take
     ++stats_.loop_rejected_inconsistent;
@@ -638,13 +693,7 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
           s.hypotheses.pop_back();
           return false;
         }
-        const floor::FloorNode& old =
-            floor_graph_.nodes[floor_graph_.nearestNodeIndex(check.pose.translation(), last_candidate + 1)];
-        attempt.relocated = true;
-        attempt.candidate = old.id;
-        attempt.predicted = old.pose.between(current.pose);
-        attempt.measurement = old.pose.between(check.pose);
-        attempt.information = safeInformation(rotateCovariance(check.covariance, old.pose.theta()));
+        relocate(check);
         continue;
       }
     }

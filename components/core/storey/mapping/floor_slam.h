@@ -117,6 +117,15 @@ struct LoopClosureOptions {
   double cluster_verify_distance = 4.0;  // m
   double cluster_verify_ratio = 1.0;
   int cluster_verify_nodes = 20;
+  // While a closure the check moved is held, attempts search around the pose it gives the
+  // robot (its place, then the chain of steps since), not the graph's, which is farther off
+  // than the window reaches when the check had to move it.
+  bool follow_relocated = false;
+  // While the window is at its cap (max_linear_window), a closure goes in alone (a small
+  // correction) only when no pose more than single_unique_distance from its match scores
+  // single_unique_ratio of it in the window; otherwise it is held for a cluster. 0: off.
+  double single_unique_distance = 0.0;  // m
+  double single_unique_ratio = 0.9;
   // For closures (windows from the options above). They refine on the likelihood field
   // (ScanMatcherOptions::point_refinement false): on the points, closures in the ring
   // corridor of FloorSlam.LoopClosureCorrectsDrift landed 1.5-1.9 m wrong.
@@ -211,6 +220,12 @@ struct LoopClosureAttempt {
   // Its cluster's scans fitted better elsewhere in the old map; the measurement is that
   // place's (to the old node nearest it), no longer the candidate map's match.
   bool relocated = false;
+  // Searched around the pose a held relocated closure gives the robot (follow_relocated),
+  // not the graph's prediction.
+  bool followed = false;
+  // A small correction held for company because another place in the window fitted as well
+  // (single_unique_distance).
+  bool not_unique = false;
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
   double chi2 = 0.0;   // after optimisation, when added
   LoopOutcome outcome = LoopOutcome::kNoMatch;
