@@ -141,12 +141,14 @@ TEST(RealLogs, InfiniteCorridorClosesItsLoopsWithoutWrongClosures) {
   STOREY_REQUIRE_DATA(path, "carmen/infinite-corridor-corrected.log.gz");
   const CorridorRun run = runInfiniteCorridor(path, 1);
   ASSERT_GT(run.closures, 100u);
-  // Achieved (seed 1): 160 closures, none more than 1 m off; nearby 0.0363 m / 0.477°, far
-  // 7.1 m (the last pass, after a 400 m loop 20 m off, is not closed: docs/floor_mapper.md).
+  // Achieved (seed 1): 219 closures, none more than 1 m off; nearby 0.0373 m / 0.48°, far
+  // 2.3 m. Until session 12 the last pass, after a 400 m loop 20 m off, was not closed (160
+  // closures, far 7.1 m): its first right matches were tied to one old node and refused
+  // for lack of spread (docs/floor_mapper.md, "When the graph is lost").
   EXPECT_LT(run.worst_closure, 1.0);
   EXPECT_LT(run.errors.nearby.translation_mean, 0.04);
   EXPECT_LT(run.errors.nearby.rotation_mean * 180 / M_PI, 0.5);
-  EXPECT_LT(run.errors.far.translation_mean, 10.0);
+  EXPECT_LT(run.errors.far.translation_mean, 4.0);
 }
 
 TEST(RealLogs, InfiniteCorridorTakesNoLookAlikeStretch) {
@@ -159,7 +161,21 @@ TEST(RealLogs, InfiniteCorridorTakesNoLookAlikeStretch) {
   STOREY_REQUIRE_DATA(path, "carmen/infinite-corridor-corrected.log.gz");
   const CorridorRun run = runInfiniteCorridor(path, 2);
   ASSERT_GT(run.closures, 100u);
-  // Achieved (seed 2): 196 closures, none more than 1 m off; far 2.8 m.
+  // Achieved (seed 2): 199 closures, none more than 1 m off; far 3.0 m (session 11: 196,
+  // 2.8 m).
+  EXPECT_LT(run.worst_closure, 1.0);
+  EXPECT_LT(run.errors.far.translation_mean, 4.0);
+}
+
+TEST(RealLogs, InfiniteCorridorFindsItsWayBackWhenLost) {
+  // Seed 9: the session 11 code left the last pass, after the 400 m western loop, open (far
+  // 23.6 m, 121 closures). Now, while the closure window is at its cap, a lone closure needs
+  // a unique place (otherwise it waits for a cluster, which the region check judges), held
+  // closures are tied where they matched, and attempts follow a closure the check relocated.
+  STOREY_REQUIRE_DATA(path, "carmen/infinite-corridor-corrected.log.gz");
+  const CorridorRun run = runInfiniteCorridor(path, 9);
+  ASSERT_GT(run.closures, 100u);
+  // Achieved (seed 9): 178 closures, none more than 1 m off; far 1.8 m.
   EXPECT_LT(run.worst_closure, 1.0);
   EXPECT_LT(run.errors.far.translation_mean, 4.0);
 }
