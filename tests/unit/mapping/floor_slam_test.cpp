@@ -418,12 +418,107 @@ TEST(FloorSlam, ARegionCheckKeepsClosuresOffALookAlikeStretch) {
   EXPECT_LT(std::abs(f_on.along), 0.5);
 }
 
+TEST(FloorSlam, ALoneClosureNeedsAUniquePlaceWhileTheGraphIsLost) {
+  // A 60 m x 14 m ring whose bottom leg has pillars every 2.5 m on both walls from x = 10 on
+  // (no irregularity). The top leg is bare and the wheels slip there the other way: odometry
+  // says 6 % less than was driven, so back at the bottom-left corner the graph has the robot
+  // about one period (2.5 m) ahead along the bottom leg, with σ near 5 m: the closures'
+  // window is at its cap (4 m), and both the true place and the look-alike one period on lie
+  // in it. The match near the graph's prediction is the look-alike, a small correction,
+  // which goes in alone and confirms the wrong place. With single_unique_distance the other
+  // place in the window holds it for a cluster, and the closures that follow, at the true
+  // place, close the loop together.
+  const double period = 2.5, length = 60.0;
+  test::World world;
+  world.addBox(0, 0, length, 14);
+  world.addBox(2, 2, length - 2, 12);
+  for (double x = 10; x < length - 3; x += period) {
+    world.addBox(x, 0.05, x + 0.4, 0.4);
+    world.addBox(x + 1, 1.6, x + 1.4, 1.95);
+  }
+  world.addBox(length - 1.9, 5, length - 1.5, 5.6);
+  world.addBox(1.6, 7, 1.95, 7.5);
+  world.addBox(0.05, 9, 0.4, 9.4);
+  const auto truth = path({{1, 1}, {length - 1, 1}, {length - 1, 13}, {1, 13}, {1, 1}, {28, 1}});
+  const std::vector<Pose2> simulated = simulateOdometry(truth, OdometryNoise{}, 5);
+  std::vector<Pose2> odometry = {simulated.front()};
+  for (std::size_t i = 1; i < truth.size(); ++i) {
+    Pose2 step = simulated[i - 1].between(simulated[i]);
+    if (truth[i].y() > 12.5 && truth[i].x() > 1.1 && truth[i].x() < length - 1.1)  // the top leg slips
+      step = Pose2(step.x() * 0.94, step.y(), step.theta());
+    odometry.push_back(odometry.back() * step);
+  }
+  auto run = [&](double unique_distance) {
+    FloorSlamOptions options;  // the library's defaults (max_linear_window 4 m), the region check on
+    options.loop_closure.cluster_verify_window = 30.0;
+    options.loop_closure.single_unique_distance = unique_distance;
+    return runWorld(world, truth, options, odometry);
+  };
+  struct Figures {
+    int accepted = 0, not_unique = 0;
+    double worst = 0.0;  // largest error of an accepted closure against the truth (m)
+    // The worst closure that went in alone while the window was at its cap.
+    double capped_alone = 0.0, capped_alone_sigma = 0.0, capped_alone_correction = 0.0;
+    double along = 0.0;  // where the robot ended along the bottom leg relative to its start, error (m)
+  };
+  const double cap = LoopClosureOptions{}.max_linear_window;
+  auto figures = [&](const WorldRun& r) {
+    Figures f;
+    for (const auto& a : r.attempts) {
+      f.not_unique += a.not_unique ? 1 : 0;
+      if (a.outcome != LoopOutcome::kAccepted) continue;
+      ++f.accepted;
+      const double e =
+          r.node_truth[a.candidate].between(r.node_truth[a.node]).between(a.measurement).translation().norm();
+      f.worst = std::max(f.worst, e);
+      if (a.together == 1 && a.linear_window >= cap && e > f.capped_alone) {
+        f.capped_alone = e;
+        f.capped_alone_sigma = a.sigma;
+        f.capped_alone_correction = a.correction().translation().norm();
+      }
+    }
+    f.along = r.estimate.front().between(r.estimate.back()).x() - r.truth.front().between(r.truth.back()).x();
+    return f;
+  };
+  const WorldRun off = run(0.0), on = run(1.0);
+  const Figures f_off = figures(off), f_on = figures(on);
+  auto print = [](const char* name, const WorldRun& r, const Figures& f) {
+    std::printf("%s: closures %d of %zu (clusters %zu), not unique %d, worst closure %.2f m; worst alone at the "
+                "cap %.2f m (sigma %.2f m, correction %.2f m); end along %.2f m, max error %.2f m\n",
+                name, f.accepted, r.stats.loop_attempts, r.stats.loop_clusters, f.not_unique, f.worst,
+                f.capped_alone, f.capped_alone_sigma, f.capped_alone_correction, f.along, maxTranslationError(r));
+  };
+  print("unique check off", off, f_off);
+  print("unique check on ", on, f_on);
+  // Achieved: off, a closure at the corner went in alone 2.51 m (one period) wrong with a
+  // 0.08 m correction at σ 4.80 m, and the rest followed it (37 closures, all alone, the worst
+  // 2.55 m off, the end 2.51 m along); on, that closure was held (1 not unique), the next
+  // three, at the true place, went in as a cluster, the worst of 36 closures 0.04 m off, the
+  // end 0.01 m along. (The largest error anywhere is worse, 6.06 m against 2.83: the optimiser
+  // spreads the 2.5 m correction by bending the legs across, the weakness noted in
+  // LoopClosureCorrectsDrift; so it is not asserted.) The world is narrow: with 6.5 % slip
+  // instead of 6 % nothing in the window scores 0.9 of the match and the wrong closure goes in
+  // with the check on too (5.5 %, or seed 6, behave as here).
+  EXPECT_GT(f_off.capped_alone, 0.7 * period);
+  EXPECT_GE(f_off.capped_alone_sigma, 1.0);  // 1 m + 3σ >= 4 m: the window at its cap
+  EXPECT_LE(f_off.capped_alone_correction, LoopClosureOptions{}.single_max_translation);
+  EXPECT_GT(std::abs(f_off.along), 0.7 * period);
+  EXPECT_EQ(off.stats.loop_clusters, 0u);
+  EXPECT_GE(f_on.not_unique, 1);
+  EXPECT_GE(on.stats.loop_clusters, 1u);
+  EXPECT_GT(f_on.accepted, 10);
+  EXPECT_LT(f_on.worst, 0.5);
+  EXPECT_LT(std::abs(f_on.along), 0.5);
+}
+
 TEST(FloorSlamOptions, ShippedConfigurationLoads) {
   const auto root = common::ConfigNode::loadFile(storey::test::sourceDir() + "/config/floor_mapper.yaml");
   const FloorSlamOptions o = readFloorSlamOptions(root.child("slam"));
   EXPECT_GT(o.matcher.linear_window, 0.0);
   EXPECT_TRUE(o.loop_closure.enabled);
   EXPECT_GT(o.loop_closure.cluster_verify_window, 0.0);  // the region check is on where it ships
+  EXPECT_GT(o.loop_closure.single_unique_distance, 0.0);  // and so are the rules for a lost graph
+  EXPECT_TRUE(o.loop_closure.follow_relocated);
   EXPECT_THROW(readFloorSlamOptions(common::ConfigNode::loadString("node_creation: {min_translaton: 1}\n")),
                common::ConfigError);
   EXPECT_THROW(readFloorSlamOptions(common::ConfigNode::loadString("bogus: 1\n")), common::ConfigError);
