@@ -623,12 +623,16 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
                            elsewhere.correlative_score, " elsewhere against ", match.correlative_score));
     }
   }
-  // A closure that will wait for company (a correction too large to stand alone) is tied to
-  // the node of the candidate map nearest where the scan matched, not the one nearest a
-  // prediction far off: a cluster's spread then counts the places really matched.
+  // A closure that will wait for company (a correction too large to stand alone) and that
+  // knows where it is along the line it moved (unlike a match along a bare corridor's axis)
+  // is tied to the node of the candidate map nearest where the scan matched, not the one
+  // nearest a prediction far off: a cluster's spread then counts the places really matched.
   int anchor = best;
-  const double moved = (match.pose.translation() - prediction.translation()).norm();
-  if (o.cluster_size > 1 && moved > o.single_max_translation)
+  const Eigen::Vector2d shift = match.pose.translation() - prediction.translation();
+  const Eigen::Vector2d shift_direction = shift.normalized();
+  const double sigma_shift =
+      std::sqrt(std::max(0.0, shift_direction.dot(covariance.topLeftCorner<2, 2>() * shift_direction)));
+  if (o.cluster_size > 1 && shift.norm() > o.single_max_translation && o.sigma_factor * sigma_shift < shift.norm())
     for (std::size_t i = s.loop_target.first; i < s.loop_target.end; ++i)
       if ((floor_graph_.nodes[i].pose.translation() - match.pose.translation()).squaredNorm() <
           (floor_graph_.nodes[anchor].pose.translation() - match.pose.translation()).squaredNorm())
@@ -655,9 +659,16 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
     const MatchResult rival =
         s.loop_matcher.bestElsewhere(target, points, prediction, linear, angular, match.pose.translation(),
                                      o.single_unique_distance, o.single_unique_ratio * match.correlative_score);
+    // A rival the closure's own uncertainty already spans (along a bare corridor's axis) is
+    // what it claims; only a closure that claims to know better waits.
     if (rival.success) {
-      small = false;
-      attempt.not_unique = true;
+      const Eigen::Vector2d apart = rival.pose.translation() - match.pose.translation();
+      const Eigen::Vector2d along = apart.normalized();
+      const double sigma_along = std::sqrt(std::max(0.0, along.dot(covariance.topLeftCorner<2, 2>() * along)));
+      if (o.sigma_factor * sigma_along < apart.norm()) {
+        small = false;
+        attempt.not_unique = true;
+      }
     }
   }
   if (small && addClosures({newest}, /*bend_first=*/false)) return true;
