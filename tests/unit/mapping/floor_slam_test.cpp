@@ -350,6 +350,52 @@ TEST(FloorSlam, ALargeDriftIsClosedByClosuresThatAgree) {
   EXPECT_GT(errorAt(alone, back), 1.5);
 }
 
+// A 60 m x 14 m ring corridor, 2 m wide, whose bottom leg has pillars every `period` on both
+// walls from x = first_pillar on; a few features elsewhere so the other legs can be tracked.
+const double kRingLength = 60.0;
+test::World ringWithPillars(double period, double first_pillar) {
+  test::World world;
+  world.addBox(0, 0, kRingLength, 14);
+  world.addBox(2, 2, kRingLength - 2, 12);
+  for (double x = first_pillar; x < kRingLength - 3; x += period) {
+    world.addBox(x, 0.05, x + 0.4, 0.4);
+    world.addBox(x + 1, 1.6, x + 1.4, 1.95);
+  }
+  world.addBox(kRingLength - 1.9, 5, kRingLength - 1.5, 5.6);
+  world.addBox(1.6, 7, 1.95, 7.5);
+  world.addBox(0.05, 9, 0.4, 9.4);
+  return world;
+}
+
+// Once round the ring and back along the bottom leg to x = 28.
+std::vector<Pose2> ringPath() {
+  return path({{1, 1}, {kRingLength - 1, 1}, {kRingLength - 1, 13}, {1, 13}, {1, 1}, {28, 1}});
+}
+
+// Simulated odometry (seed 5) whose steps on the bare top leg are scaled by `slip`, built
+// step by step.
+std::vector<Pose2> slipOnTopLeg(const std::vector<Pose2>& truth, double slip) {
+  const std::vector<Pose2> simulated = simulateOdometry(truth, OdometryNoise{}, 5);
+  std::vector<Pose2> odometry = {simulated.front()};
+  for (std::size_t i = 1; i < truth.size(); ++i) {
+    Pose2 step = simulated[i - 1].between(simulated[i]);
+    if (truth[i].y() > 12.5 && truth[i].x() > 1.1 && truth[i].x() < kRingLength - 1.1)
+      step = Pose2(step.x() * slip, step.y(), step.theta());
+    odometry.push_back(odometry.back() * step);
+  }
+  return odometry;
+}
+
+// A closure's error against the truth (m).
+double closureError(const WorldRun& r, const LoopClosureAttempt& a) {
+  return r.node_truth[a.candidate].between(r.node_truth[a.node]).between(a.measurement).translation().norm();
+}
+
+// Where the robot ended along the bottom leg relative to its start, error (m).
+double endAlongError(const WorldRun& r) {
+  return r.estimate.front().between(r.estimate.back()).x() - r.truth.front().between(r.truth.back()).x();
+}
+
 TEST(FloorSlam, ARegionCheckKeepsClosuresOffALookAlikeStretch) {
   // A 60 m x 14 m ring whose bottom leg has pillars every 7 m on both walls, and one wide
   // niche-like block that breaks the pattern. The top leg is bare and the wheels slip there:
@@ -358,27 +404,11 @@ TEST(FloorSlam, ARegionCheckKeepsClosuresOffALookAlikeStretch) {
   // every closure finds the pillars one period off, and those closures agree with each
   // other. The region check searches the last scans, joined, over the whole region the
   // graph's uncertainty allows (here about 15 m): the true place fits better (the block).
-  const double period = 7.0, length = 60.0;
-  test::World world;
-  world.addBox(0, 0, length, 14);
-  world.addBox(2, 2, length - 2, 12);
-  for (double x = 3; x < length - 3; x += period) {
-    world.addBox(x, 0.05, x + 0.4, 0.4);
-    world.addBox(x + 1, 1.6, x + 1.4, 1.95);
-  }
+  const double period = 7.0;
+  test::World world = ringWithPillars(period, 3.0);
   world.addBox(12, 0.05, 13.5, 0.6);  // the irregularity
-  world.addBox(length - 1.9, 5, length - 1.5, 5.6);
-  world.addBox(1.6, 7, 1.95, 7.5);
-  world.addBox(0.05, 9, 0.4, 9.4);
-  const auto truth = path({{1, 1}, {length - 1, 1}, {length - 1, 13}, {1, 13}, {1, 1}, {28, 1}});
-  const std::vector<Pose2> simulated = simulateOdometry(truth, OdometryNoise{}, 5);
-  std::vector<Pose2> odometry = {simulated.front()};
-  for (std::size_t i = 1; i < truth.size(); ++i) {
-    Pose2 step = simulated[i - 1].between(simulated[i]);
-    if (truth[i].y() > 12.5 && truth[i].x() > 1.1 && truth[i].x() < length - 1.1)  // the top leg slips
-      step = Pose2(step.x() * 1.15, step.y(), step.theta());
-    odometry.push_back(odometry.back() * step);
-  }
+  const auto truth = ringPath();
+  const std::vector<Pose2> odometry = slipOnTopLeg(truth, 1.15);
   auto run = [&](double verify_window) {
     FloorSlamOptions options;  // the library's defaults: max_linear_window 4 m, cluster_verify_distance 4 m
     options.loop_closure.cluster_verify_window = verify_window;
@@ -395,10 +425,9 @@ TEST(FloorSlam, ARegionCheckKeepsClosuresOffALookAlikeStretch) {
       if (a.outcome != LoopOutcome::kAccepted) continue;
       ++f.accepted;
       f.relocated += a.relocated ? 1 : 0;
-      const Pose2 e = r.node_truth[a.candidate].between(r.node_truth[a.node]).between(a.measurement);
-      f.worst = std::max(f.worst, e.translation().norm());
+      f.worst = std::max(f.worst, closureError(r, a));
     }
-    f.along = r.estimate.front().between(r.estimate.back()).x() - r.truth.front().between(r.truth.back()).x();
+    f.along = endAlongError(r);
     return f;
   };
   const WorldRun off = run(0.0), on = run(30.0);
@@ -440,26 +469,10 @@ TEST(FloorSlam, ALoneClosureNeedsAUniquePlaceWhileTheGraphIsLost) {
   // which goes in alone and confirms the wrong place. With single_unique_distance the other
   // place in the window holds it for a cluster, and the closures that follow, at the true
   // place, close the loop together.
-  const double period = 2.5, length = 60.0;
-  test::World world;
-  world.addBox(0, 0, length, 14);
-  world.addBox(2, 2, length - 2, 12);
-  for (double x = 10; x < length - 3; x += period) {
-    world.addBox(x, 0.05, x + 0.4, 0.4);
-    world.addBox(x + 1, 1.6, x + 1.4, 1.95);
-  }
-  world.addBox(length - 1.9, 5, length - 1.5, 5.6);
-  world.addBox(1.6, 7, 1.95, 7.5);
-  world.addBox(0.05, 9, 0.4, 9.4);
-  const auto truth = path({{1, 1}, {length - 1, 1}, {length - 1, 13}, {1, 13}, {1, 1}, {28, 1}});
-  const std::vector<Pose2> simulated = simulateOdometry(truth, OdometryNoise{}, 5);
-  std::vector<Pose2> odometry = {simulated.front()};
-  for (std::size_t i = 1; i < truth.size(); ++i) {
-    Pose2 step = simulated[i - 1].between(simulated[i]);
-    if (truth[i].y() > 12.5 && truth[i].x() > 1.1 && truth[i].x() < length - 1.1)  // the top leg slips
-      step = Pose2(step.x() * 0.94, step.y(), step.theta());
-    odometry.push_back(odometry.back() * step);
-  }
+  const double period = 2.5;
+  const test::World world = ringWithPillars(period, 10.0);
+  const auto truth = ringPath();
+  const std::vector<Pose2> odometry = slipOnTopLeg(truth, 0.94);
   auto run = [&](double unique_distance) {
     FloorSlamOptions options;  // the library's defaults (max_linear_window 4 m), the region check on
     options.loop_closure.cluster_verify_window = 30.0;
@@ -480,8 +493,7 @@ TEST(FloorSlam, ALoneClosureNeedsAUniquePlaceWhileTheGraphIsLost) {
       f.not_unique += a.not_unique ? 1 : 0;
       if (a.outcome != LoopOutcome::kAccepted) continue;
       ++f.accepted;
-      const double e =
-          r.node_truth[a.candidate].between(r.node_truth[a.node]).between(a.measurement).translation().norm();
+      const double e = closureError(r, a);
       f.worst = std::max(f.worst, e);
       if (a.together == 1 && a.linear_window >= cap && e > f.capped_alone) {
         f.capped_alone = e;
@@ -489,7 +501,7 @@ TEST(FloorSlam, ALoneClosureNeedsAUniquePlaceWhileTheGraphIsLost) {
         f.capped_alone_correction = a.correction().translation().norm();
       }
     }
-    f.along = r.estimate.front().between(r.estimate.back()).x() - r.truth.front().between(r.truth.back()).x();
+    f.along = endAlongError(r);
     return f;
   };
   const WorldRun off = run(0.0), on = run(1.0);
