@@ -731,7 +731,7 @@ FloorSlam::ClusterCheck FloorSlam::checkCluster(const std::vector<std::size_t>& 
   // (20 m of scans over a 60 m square at 5 cm cost a second; so, tens of ms).
   const double cell = 0.2;
   const double resolution = 0.1;
-  std::unordered_set<std::int64_t> occupied;
+  std::unordered_set<std::uint64_t> occupied;
   std::vector<Eigen::Vector2d> points;
   double extent = 0.0;
   auto inRange = [&](const floor::FloorNode& node) {  // as the maps insert them
@@ -746,8 +746,11 @@ FloorSlam::ClusterCheck FloorSlam::checkCluster(const std::vector<std::size_t>& 
     extent = std::max(extent, relative.translation().norm());
     for (const auto& p : inRange(node)) {
       const Eigen::Vector2d q = relative.transformPoint(p);
-      const std::int64_t key = (static_cast<std::int64_t>(std::floor(q.x() / cell)) << 32) ^
-                               static_cast<std::int64_t>(static_cast<std::uint32_t>(std::floor(q.y() / cell)));
+      // The cell's two indices in one key; through unsigned so negative indices are defined.
+      const auto index = [&](double v) {
+        return static_cast<std::uint64_t>(static_cast<std::uint32_t>(static_cast<std::int32_t>(std::floor(v / cell))));
+      };
+      const std::uint64_t key = (index(q.x()) << 32) | index(q.y());
       if (occupied.insert(key).second) points.push_back(q);
     }
   }
