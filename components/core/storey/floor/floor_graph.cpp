@@ -21,9 +21,13 @@ const FloorNode* FloorGraph::findNode(int id) const {
 }
 
 int FloorGraph::nearestNodeIndex(const Eigen::Vector2d& point, std::size_t count) const {
+  return nearestNodeIndex(point, 0, count);
+}
+
+int FloorGraph::nearestNodeIndex(const Eigen::Vector2d& point, std::size_t first, std::size_t end) const {
   int best = -1;
   double best_d2 = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < std::min(count, nodes.size()); ++i) {
+  for (std::size_t i = first; i < std::min(end, nodes.size()); ++i) {
     const double d2 = (nodes[i].pose.translation() - point).squaredNorm();
     if (d2 < best_d2) {
       best_d2 = d2;

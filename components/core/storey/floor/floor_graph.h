@@ -46,6 +46,8 @@ struct FloorGraph {
   // (all by default); -1 when there are none.
   int nearestNodeIndex(const Eigen::Vector2d& point,
                        std::size_t count = std::numeric_limits<std::size_t>::max()) const;
+  // The same among the nodes [first, end).
+  int nearestNodeIndex(const Eigen::Vector2d& point, std::size_t first, std::size_t end) const;
 };
 
 // The occupancy map of a floor graph: every node's scan inserted at its pose.

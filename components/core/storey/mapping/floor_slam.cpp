@@ -73,6 +73,15 @@ Pose2 withOdometryWhereDegenerate(const Pose2& matched, const Eigen::Matrix3d& m
   return Pose2(position.x(), position.y(), matched.theta());
 }
 
+// Whether a match with this covariance (map frame) claims to know its place along `offset`
+// to better than the offset's length (sigma_factor σ along it), unlike a match along a
+// bare corridor's axis, whose σ there spans such an offset.
+bool pinsAlong(const Eigen::Matrix3d& covariance, const Eigen::Vector2d& offset, double sigma_factor) {
+  const Eigen::Vector2d direction = offset.normalized();
+  const double sigma = std::sqrt(std::max(0.0, direction.dot(covariance.topLeftCorner<2, 2>() * direction)));
+  return sigma_factor * sigma < offset.norm();
+}
+
 }  // namespace
 
 FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
@@ -627,16 +636,16 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   // knows where it is along the line it moved (unlike a match along a bare corridor's axis)
   // is tied to the node of the candidate map nearest where the scan matched, not the one
   // nearest a prediction far off: a cluster's spread then counts the places really matched.
-  int anchor = best;
   const Eigen::Vector2d shift = match.pose.translation() - prediction.translation();
-  const Eigen::Vector2d shift_direction = shift.normalized();
-  const double sigma_shift =
-      std::sqrt(std::max(0.0, shift_direction.dot(covariance.topLeftCorner<2, 2>() * shift_direction)));
-  if (o.cluster_size > 1 && shift.norm() > o.single_max_translation && o.sigma_factor * sigma_shift < shift.norm())
-    for (std::size_t i = s.loop_target.first; i < s.loop_target.end; ++i)
-      if ((floor_graph_.nodes[i].pose.translation() - match.pose.translation()).squaredNorm() <
-          (floor_graph_.nodes[anchor].pose.translation() - match.pose.translation()).squaredNorm())
-        anchor = static_cast<int>(i);
+  const bool retie = o.cluster_size > 1 && shift.norm() > o.single_max_translation &&
+                     pinsAlong(covariance, shift, o.sigma_factor);
+  int anchor = best;
+  if (retie) {  // the candidate map may be a reused one that ends before `best`
+    const Eigen::Vector2d matched = match.pose.translation();
+    const auto squared = [&](int i) { return (floor_graph_.nodes[i].pose.translation() - matched).squaredNorm(); };
+    const int in_map = floor_graph_.nearestNodeIndex(matched, s.loop_target.first, s.loop_target.end);
+    if (in_map >= 0 && squared(in_map) < squared(anchor)) anchor = in_map;
+  }
   tie(floor_graph_.nodes[anchor], match.pose, covariance);
 
   // Hypotheses whose newer node has left the window are no longer compared.
@@ -661,14 +670,9 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
                                      o.single_unique_distance, o.single_unique_ratio * match.correlative_score);
     // A rival the closure's own uncertainty already spans (along a bare corridor's axis) is
     // what it claims; only a closure that claims to know better waits.
-    if (rival.success) {
-      const Eigen::Vector2d apart = rival.pose.translation() - match.pose.translation();
-      const Eigen::Vector2d along = apart.normalized();
-      const double sigma_along = std::sqrt(std::max(0.0, along.dot(covariance.topLeftCorner<2, 2>() * along)));
-      if (o.sigma_factor * sigma_along < apart.norm()) {
-        small = false;
-        attempt.not_unique = true;
-      }
+    if (rival.success && pinsAlong(covariance, rival.pose.translation() - match.pose.translation(), o.sigma_factor)) {
+      small = false;
+      attempt.not_unique = true;
     }
   }
   if (small && addClosures({newest}, /*bend_first=*/false)) return true;
@@ -734,6 +738,10 @@ FloorSlam::ClusterCheck FloorSlam::checkCluster(const std::vector<std::size_t>& 
   std::unordered_set<std::uint64_t> occupied;
   std::vector<Eigen::Vector2d> points;
   double extent = 0.0;
+  // A cell's two indices in one key, through unsigned so negative indices are defined.
+  const auto cellIndex = [&](double v) {
+    return static_cast<std::uint64_t>(static_cast<std::uint32_t>(static_cast<std::int32_t>(std::floor(v / cell))));
+  };
   auto inRange = [&](const floor::FloorNode& node) {  // as the maps insert them
     std::vector<Eigen::Vector2d> near;
     for (const auto& p : node.scan.pointsInRobotFrame())
@@ -746,11 +754,7 @@ FloorSlam::ClusterCheck FloorSlam::checkCluster(const std::vector<std::size_t>& 
     extent = std::max(extent, relative.translation().norm());
     for (const auto& p : inRange(node)) {
       const Eigen::Vector2d q = relative.transformPoint(p);
-      // The cell's two indices in one key; through unsigned so negative indices are defined.
-      const auto index = [&](double v) {
-        return static_cast<std::uint64_t>(static_cast<std::uint32_t>(static_cast<std::int32_t>(std::floor(v / cell))));
-      };
-      const std::uint64_t key = (index(q.x()) << 32) | index(q.y());
+      const std::uint64_t key = (cellIndex(q.x()) << 32) | cellIndex(q.y());
       if (occupied.insert(key).second) points.push_back(q);
     }
   }

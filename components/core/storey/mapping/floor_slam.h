@@ -123,7 +123,9 @@ struct LoopClosureOptions {
   bool follow_relocated = false;
   // While the window is at its cap (max_linear_window), a closure goes in alone (a small
   // correction) only when no pose more than single_unique_distance from its match scores
-  // single_unique_ratio of it in the window; otherwise it is held for a cluster. 0: off.
+  // single_unique_ratio of it in the window, unless its own covariance spans that pose
+  // (sigma_factor σ along the line to it: a bare corridor's axis); otherwise it is held
+  // for a cluster. 0: off.
   double single_unique_distance = 0.0;  // m
   double single_unique_ratio = 0.9;
   // For closures (windows from the options above). They refine on the likelihood field
