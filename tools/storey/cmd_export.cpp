@@ -20,19 +20,11 @@ int run_export(Args& args) {
   if (!args.parse()) return 0;
   const std::string journal_path = args.positional(0, "JOURNAL");
   const std::string out = args.positional(1, "OUTDIR");
-  const building::JournalReadResult journal = building::readJournal(journal_path);
+  building::JournalBuilding journal = building::rebuildFromJournal(journal_path);
   if (journal.torn_tail) std::cerr << journal_path << ": the last record was torn and is ignored\n";
-  building::BuildingGraph graph;
-  std::size_t skipped = 0;
-  for (const auto& record : journal.records) {
-    try {
-      if (const auto* d = std::get_if<building::FloorGraphDelta>(&record)) building::applyDelta(graph, *d);
-      else graph.addConstraint(std::get<building::InterGraphConstraint>(record));
-    } catch (const std::exception& e) {
-      ++skipped;
-      std::cerr << journal_path << ": record skipped: " << e.what() << "\n";
-    }
-  }
+  for (const auto& why : journal.skipped) std::cerr << journal_path << ": " << why << " (skipped)\n";
+  building::BuildingGraph& graph = journal.graph;
+  const std::size_t skipped = journal.skipped.size();
   if (graph.empty()) throw std::runtime_error(journal_path + ": the journal holds no floor graph");
   const building::BuildingSolution solution = graph.optimize();
   tools::BuildingOutputOptions options;
@@ -43,7 +35,7 @@ int run_export(Args& args) {
   extras.title = "storey building (from journal)";
   extras.input = journal_path;
   const auto summary = tools::writeBuildingOutputs(out, graph, solution, options, extras);
-  std::cout << "exported " << journal.records.size() - skipped << " journal records: " << summary.floors
+  std::cout << "exported " << journal.records - skipped << " journal records: " << summary.floors
             << " floors, " << summary.constraints << " inter-floor constraints, " << summary.occupied_voxels
             << " occupied voxels\n";
   for (const auto& file : summary.files) std::cout << "  " << file << "\n";

@@ -7,9 +7,14 @@
 #include <map>
 #include <sstream>
 
+#include <filesystem>
+
 #include "args.h"
+#include "storey/building/journal.h"
 #include "storey/common/config.h"
 #include "storey/common/log.h"
+#include "storey/eval/metrics.h"
+#include "storey/eval/trajectory.h"
 #include "storey/io/carmen.h"
 #include "storey/matching/floor_matcher.h"
 #include "storey/matching/log_floors.h"
@@ -151,6 +156,51 @@ void printCandidateTruth(const matching::MatchResult& result,
   }
 }
 
+// The floor graphs a mapped building ended with, from its graph server journal.
+std::vector<floor::FloorGraph> journalFloorGraphs(const std::string& path) {
+  const building::JournalBuilding journal = building::rebuildFromJournal(path);
+  if (journal.torn_tail) std::cerr << path << ": the last record was torn and is ignored\n";
+  for (const auto& why : journal.skipped) std::cerr << path << ": " << why << " (skipped)\n";
+  std::vector<floor::FloorGraph> graphs;
+  for (const auto& [id, g] : journal.graph.floorGraphs()) graphs.push_back(g);
+  if (graphs.empty()) throw std::runtime_error(path + ": the journal holds no floor graph");
+  return graphs;
+}
+
+// Each graph's true frame: its node positions fitted to the ground-truth positions at the
+// nodes' stamps (one rigid fit per graph; a mapped floor is not exactly rigid, so the
+// judged errors include its own mapping error).
+std::vector<Pose2> fittedFrames(const std::vector<floor::FloorGraph>& graphs,
+                                const std::vector<eval::PoseRow>& truth, const std::string& truth_path) {
+  std::vector<Pose2> frames;
+  for (const auto& g : graphs) {
+    std::vector<eval::PoseRow> nodes;
+    for (const auto& n : g.nodes) {
+      eval::PoseRow row;
+      row.stamp = n.stamp;
+      row.robot = g.robot;
+      row.pose = n.pose;
+      nodes.push_back(row);
+    }
+    std::vector<eval::PoseRow> mine;  // this robot's truth while its nodes were taken
+    for (const auto& row : truth)
+      if (row.robot == g.robot && !g.nodes.empty() && row.stamp >= g.nodes.front().stamp &&
+          row.stamp <= g.nodes.back().stamp)
+        mine.push_back(row);
+    const auto pairs = eval::associate(nodes, mine, 0.05, 0.5);
+    std::vector<Eigen::Vector2d> from, to;
+    for (const auto& p : pairs) {
+      from.push_back(p.estimate.translation());
+      to.push_back(p.truth.translation());
+    }
+    if (from.size() < 2)
+      throw std::runtime_error(truth_path + ": no ground truth for graph " + std::to_string(g.graph_id) +
+                               " (robot " + g.robot + ")");
+    frames.push_back(eval::alignPoints(from, to));
+  }
+  return frames;
+}
+
 }  // namespace
 
 int run_match(Args& args) {
@@ -158,7 +208,9 @@ int run_match(Args& args) {
              "Matches floor graphs with the floor matcher and prints every candidate: which\n"
              "scans, which nodes, l_t against l_min, refinement fit, RANSAC verdict and why.\n"
              "INPUT is a simulator scenario (building .yaml: simulated with --sim-seed, one\n"
-             "floor graph per robot and floor, true poses in a random frame per graph), or one\n"
+             "floor graph per robot and floor, true poses in a random frame per graph), a\n"
+             "graph server journal (journal.bin of storey map: the floor graphs the mapper\n"
+             "made, judged against --truth or the recording/ground_truth beside it), or one\n"
              "or two CARMEN corrected logs: two logs are two floors; one log is split into\n"
              "halves. The second floor is moved by --offset and --dz and gets fresh odometry\n"
              "noise, so the recovered alignment can be checked against the known offset.")
@@ -168,6 +220,7 @@ int run_match(Args& args) {
       .option("offset", "X,Y,DEG", "frame of the second log floor in the first's", "3.0,-2.0,25.0")
       .option("dz", "METRES", "height of the second log floor", "3.0")
       .option("threads", "N", "worker threads (overrides the config)", "")
+      .option("truth", "CSV", "ground-truth trajectory.csv for a journal input", "")
       .flag("quiet", "print only the summary and errors");
   if (!args.parse()) return 0;
   const std::vector<std::string>& inputs = args.positionals();
@@ -192,6 +245,20 @@ int run_match(Args& args) {
     matching::SimulatedFloorsOptions so;
     so.seed = static_cast<std::uint64_t>(args.getInt("sim-seed"));
     floors = matching::floorGraphsFromSimulation(run, so);
+  } else if (inputs.size() == 1 && endsWith(inputs[0], ".bin")) {
+    floors.graphs = journalFloorGraphs(inputs[0]);
+    std::string truth_path = args.get("truth");
+    if (truth_path.empty()) {
+      const auto beside = std::filesystem::path(inputs[0]).parent_path() / "recording" / "ground_truth" /
+                          "trajectory.csv";
+      if (std::filesystem::exists(beside)) truth_path = beside.string();
+    }
+    if (truth_path.empty()) {
+      std::cout << "no ground truth (--truth): candidates and constraints are not judged\n";
+    } else {
+      floors.frames = fittedFrames(floors.graphs, eval::readTrajectoryCsv(truth_path), truth_path);
+      std::cout << "truth: " << truth_path << "\n";
+    }
   } else {
     const auto offset = numbers(args.get("offset"), 3, "offset");
     const Pose2 frame(offset[0], offset[1], offset[2] * M_PI / 180.0);
@@ -227,6 +294,7 @@ int run_match(Args& args) {
   } else {
     matching::printMatchReport(std::cout, result);
   }
+  if (floors.frames.size() != floors.graphs.size()) return 0;  // no truth to judge by
   if (!args.flagSet("quiet")) printCandidateTruth(result, floors, options);
   printErrors(result, floors);
   return 0;

@@ -206,5 +206,28 @@ TEST(Experiments, Tower10TableAgreesWithDirectEvaluation) {
   EXPECT_NE(text.str().find("every floor within 0.05 m / 0.2 deg"), std::string::npos);
 }
 
+// featureless seed 7, end to end: floor B, a bare corridor whose ends and lobby differ,
+// must not be taken for a symmetric floor (session 12's floor graphs made it one of the
+// self-check's near misses: no inter-floor constraint, floor B unplaced, 149 deg off).
+TEST(Experiments, FeaturelessFloorBIsPlacedOnSeed7) {
+  ExperimentOptions options;
+  options.experiment = "featureless";
+  options.seeds = 1;
+  options.first_seed = 7;
+  options.domain_id = 79;
+  options.output_dir = test::makeTempDir("storey_experiments");
+  const auto tables = runExperiments(options);
+  ASSERT_EQ(tables.size(), 1u);
+  const ExperimentTable& table = tables.front();
+  ASSERT_EQ(table.floors.size(), 2u);
+  const FloorRow& b = table.floors[1];
+  ASSERT_EQ(b.floor, "B");
+  EXPECT_GE(b.constraints.mean, 3.0);
+  EXPECT_EQ(b.wrong, 0u);
+  // Placed by its constraints: 0.138 m / 0.06 deg when written (unplaced: 1.17 m / 149 deg).
+  EXPECT_LT(b.translation_with.worst, 0.3);
+  EXPECT_LT(b.rotation_with.worst, 0.2 * M_PI / 180.0);
+}
+
 }  // namespace
 }  // namespace storey::tools

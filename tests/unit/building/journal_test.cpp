@@ -165,5 +165,28 @@ TEST(Journal, DeltaWithUnknownNodeIsRejected) {
   EXPECT_EQ(building.floorGraphs().at(0).edges.size(), 2u);
 }
 
+TEST(Journal, RebuildSkipsARecordItCannotApplyNamingItAndKeepsTheRest) {
+  const std::string path = test::makeTempDir() + "/journal.bin";
+  {
+    JournalWriter writer(path, false);
+    writer.append(makeDelta(0, 0, 3));
+    InterGraphConstraint to_nowhere;  // graph 5 was never journalled
+    to_nowhere.graph_from = 0;
+    to_nowhere.graph_to = 5;
+    writer.append(to_nowhere);
+    writer.append(makeDelta(1, 0, 2));
+    writer.append(makeDelta(0, 3, 2));
+  }
+  const JournalBuilding rebuilt = rebuildFromJournal(path);
+  EXPECT_EQ(rebuilt.records, 4u);
+  EXPECT_FALSE(rebuilt.torn_tail);
+  ASSERT_EQ(rebuilt.skipped.size(), 1u);
+  EXPECT_EQ(rebuilt.skipped[0].rfind("record 2: ", 0), 0u) << rebuilt.skipped[0];
+  ASSERT_EQ(rebuilt.graph.floorGraphs().size(), 2u);
+  EXPECT_EQ(rebuilt.graph.floorGraphs().at(0).nodes.size(), 5u);
+  EXPECT_EQ(rebuilt.graph.floorGraphs().at(1).nodes.size(), 2u);
+  EXPECT_TRUE(rebuilt.graph.constraints().empty());
+}
+
 }  // namespace
 }  // namespace storey::building

@@ -179,6 +179,22 @@ void checkDelta(const BuildingGraph& building, const FloorGraphDelta& delta) {
   }
 }
 
+JournalBuilding rebuildFromJournal(const std::string& path) {
+  JournalReadResult journal = readJournal(path);
+  JournalBuilding out;
+  out.records = journal.records.size();
+  out.torn_tail = journal.torn_tail;
+  for (std::size_t i = 0; i < journal.records.size(); ++i) {
+    try {
+      if (const auto* d = std::get_if<FloorGraphDelta>(&journal.records[i])) applyDelta(out.graph, *d);
+      else out.graph.addConstraint(std::get<InterGraphConstraint>(journal.records[i]));
+    } catch (const std::exception& e) {
+      out.skipped.push_back("record " + std::to_string(i + 1) + ": " + e.what());
+    }
+  }
+  return out;
+}
+
 void applyDelta(BuildingGraph& building, const FloorGraphDelta& delta) {
   checkDelta(building, delta);  // a rejected delta changes nothing
   floor::FloorGraph& graph = building.floorGraphForUpdate(delta.graph_id);

@@ -69,6 +69,18 @@ class JournalWriter {
   common::RecordFileWriter file_;
 };
 
+// A building rebuilt from a journal (storey export, storey match): every record applied
+// in order; a record that cannot be applied is skipped and described in `skipped`
+// ("record N: why"), the rest are kept.
+struct JournalBuilding {
+  BuildingGraph graph;
+  std::size_t records = 0;
+  std::vector<std::string> skipped;
+  bool torn_tail = false;
+};
+// Throws as readJournal does.
+JournalBuilding rebuildFromJournal(const std::string& path);
+
 // Encoding, exposed for tests and fuzzing.
 std::vector<std::uint8_t> encodeRecord(const JournalRecord& record);
 // Decodes one record payload (without framing); throws std::runtime_error on bad bytes.

@@ -810,6 +810,29 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_
   return matchPairDirected(reference, floor_data, o, seed, o.match_both_directions);
 }
 
+namespace {
+
+// How many of the candidates `home` (sequences of a floor localised in its own map at the
+// identity) fit that map worse by more than ambiguity_fit_margin when placed by `twin`.
+int refutingSequences(const PreparedFloor& floor_data, const std::vector<Candidate>& candidates,
+                      const std::vector<std::size_t>& home, const Pose2& twin, const FloorMatcherOptions& o) {
+  int refuting = 0;
+  for (std::size_t i : home) {
+    const Candidate& c = candidates[i];
+    const std::vector<std::pair<int, int>> range{
+        {std::min(c.first_index, c.last_index), std::max(c.first_index, c.last_index)}};
+    Pose2 identity, placed = twin;
+    const double at_home =
+        refineAlignment(floor_data.map->field(), *floor_data.graph, range, o.refine_beams, 0, &identity);
+    const double at_twin =
+        refineAlignment(floor_data.map->field(), *floor_data.graph, range, o.refine_beams, 0, &placed);
+    refuting += at_home - at_twin > o.ambiguity_fit_margin;
+  }
+  return refuting;
+}
+
+}  // namespace
+
 FloorCheck checkSelfSimilarity(const PreparedFloor& floor_data, const FloorMatcherOptions& o,
                                std::uint64_t seed) {
   FloorCheck check;
@@ -817,17 +840,18 @@ FloorCheck checkSelfSimilarity(const PreparedFloor& floor_data, const FloorMatch
   check.structure = floor_data.structure;
   check.l_min = floor_data.l_min;
   const PairResult own = matchPairDirected(floor_data, floor_data, o, seed, false);
-  std::vector<std::size_t> elsewhere;
+  std::vector<std::size_t> elsewhere, at_home;
   for (std::size_t i = 0; i < own.candidates.size(); ++i) {
     const Candidate& c = own.candidates[i];
     if (!passedGate(c.status)) continue;
     const Pose2& pk = floor_data.graph->nodes[c.node_index].pose;
     if (agrees(Pose2(), c.alignment, pk, o.ransac_translation_tolerance,
                o.ransac_rotation_tolerance))
-      ++check.at_identity;
+      at_home.push_back(i);
     else
       elsewhere.push_back(i);
   }
+  check.at_identity = static_cast<int>(at_home.size());
   std::mt19937_64 rng(seed);
   const std::vector<std::size_t> twin =
       largestConsistentSet(own.candidates, elsewhere, *floor_data.graph, o, &rng);
@@ -848,7 +872,17 @@ FloorCheck checkSelfSimilarity(const PreparedFloor& floor_data, const FloorMatch
                                           {{0, count - 1}}, beams, o.refine_iterations, &other);
     check.fit_identity = refineAlignment(floor_data.map->field(), *floor_data.graph,
                                          {{0, count - 1}}, beams, o.refine_iterations, &identity);
-    check.self_similar = check.fit_identity < check.fit_elsewhere + o.ambiguity_fit_margin;
+    check.other = other;
+    // A twin must also explain the sequences that found their own place: placed by it,
+    // their scans fit about as well as at home on a symmetric floor (all but those at the
+    // one asymmetric door), but clearly worse where the floor has structure of its own,
+    // as at the ends and the lobby of a bare corridor. The whole-floor fit above cannot
+    // see those few: a long bare corridor fits either way round and dilutes them.
+    const int refuting = refutingSequences(floor_data, own.candidates, at_home, other, o);
+    check.refuted = refuting;
+    check.self_similar =
+        check.fit_identity < check.fit_elsewhere + o.ambiguity_fit_margin &&
+        refuting < std::max(2.0, o.ambiguity_ratio * static_cast<double>(check.elsewhere));
   }
   return check;
 }
@@ -1149,7 +1183,10 @@ void printMatchReport(std::ostream& out, const MatchResult& result) {
     out << "graph " << f.graph_id << ": structure " << f.structure << " cells, l_min " << f.l_min
         << ", own sequences at identity " << f.at_identity << ", elsewhere " << f.elsewhere
         << (f.fit_elsewhere >= 0.0
-                ? common::str(" (whole-floor fit ", f.fit_identity, " vs ", f.fit_elsewhere, ")")
+                ? common::str(" at (", f.other.x(), " m, ", f.other.y(), " m, ",
+                              f.other.theta() * 180.0 / M_PI, " deg): whole-floor fit ", f.fit_identity,
+                              " vs ", f.fit_elsewhere, "; at the identity, ", f.refuted,
+                              " fit worse placed by it")
                 : std::string())
         << (f.self_similar ? "  SELF-SIMILAR" : "") << "\n";
   out << "reference floor graph: " << result.reference_graph_id << "\n";

@@ -112,7 +112,9 @@ struct FloorMatcherOptions {
   // floor where a consistent set of them localises at another alignment, at least
   // max(2, ambiguity_ratio * the set at the identity), is symmetric or periodic: it is
   // never a reference and never gets a constraint, unless the identity fits all of the
-  // floor's scans better by ambiguity_fit_margin than that other alignment does.
+  // floor's scans better by ambiguity_fit_margin than that other alignment does, or at
+  // least max(2, ambiguity_ratio * that set) of its sequences at the identity fit worse
+  // by that margin when placed by the other alignment (FloorCheck::refuted).
   bool self_check = true;
   // When a pair is not accepted (too few consistent candidates, or two rival sets), g_ref's
   // scans are also localised in g_i's map and those candidates, inverted, join the same
@@ -225,6 +227,10 @@ struct FloorCheck {
   // (-1 when not computed). Self-similar only if the identity is not clearly better.
   double fit_identity = -1.0;
   double fit_elsewhere = -1.0;
+  geometry::Pose2 other;  // that set's (refined) alignment of the floor onto itself
+  // Own sequences at the identity whose scans, placed by `other`, fit the floor's map
+  // worse by more than ambiguity_fit_margin: places the twin does not explain.
+  int refuted = 0;
   bool self_similar = false;
 };
 
