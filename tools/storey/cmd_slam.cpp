@@ -214,6 +214,7 @@ int run_slam(Args& args) {
   report << "log: " << log_path << "\n"
          << "scans: " << scans.size() << "  nodes: " << st.nodes << "  skipped: " << st.skipped
          << "  rejected: " << st.rejected << "  matched: " << st.matched << "  match failures: " << st.match_failures
+         << " (" << st.matches_against_odometry << " against odometry)"
          << "\nloop closures: " << st.loop_closures << " of " << st.loop_attempts << " attempts ("
          << st.loop_rejected_inconsistent << " rejected as inconsistent, " << st.loop_ambiguous
          << " ambiguous; " << st.loop_maps_built << " candidate maps built), optimisations: " << st.optimizations

@@ -29,6 +29,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "storey/building/building_graph.h"
@@ -133,13 +134,7 @@ struct Building {
 
 Building rebuild(const std::string& journal) {
   Building b;
-  for (const auto& record : building::readJournal(journal).records) {
-    if (const auto* d = std::get_if<building::FloorGraphDelta>(&record)) {
-      building::applyDelta(b.graph, *d);
-    } else {
-      b.graph.addConstraint(std::get<building::InterGraphConstraint>(record));
-    }
-  }
+  b.graph = std::move(building::rebuildFromJournal(journal).graph);
   b.solution = b.graph.optimize();
   return b;
 }
@@ -477,8 +472,12 @@ TEST_F(FaultsTest, DetectorKilledAndRestartedGivesTheSameBuilding) {
 
 // The restarted mapper replays its input log (same graphs, same updates re-sent) and
 // resumes after the last logged scan with what the sensor topics' history gives it.
+// Killed 3 s into the 13.5 s replay, back 5 s later: the sensor history it needs lives in
+// the replay process, which exits when it has published everything. Killed at 6 s, the
+// restarted mapper had 2.5 s to start and take that history; at a load average of 5 it
+// did not (floor 1 mapped 11-27 of 66 nodes, 2 runs of 3 on a loaded machine).
 TEST_F(FaultsTest, MapperKilledAndRestartedGivesTheSameBuilding) {
-  const auto [b, witness] = withRestart(144, "mapper", 6.0, Deployment::Witness::kPipeline);
+  const auto [b, witness] = withRestart(144, "mapper", 3.0, Deployment::Witness::kPipeline);
   expectSameBuilding(compare(witness, b));
 }
 

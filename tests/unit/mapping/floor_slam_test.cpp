@@ -238,6 +238,39 @@ TEST_F(FloorSlamBadInput, DifferentBeamCountIsMatched) {
   EXPECT_LT((r.pose.translation() - (Pose2(2, 1.2, 0).between(truth)).translation()).norm(), 0.03);
 }
 
+// A tracking match 0.2 m to the side of where the odometry step puts the robot (13 sigma
+// of the odometry model for a 0.3 m step; on csail, such are matches 10-20 degrees off):
+// with max_tracking_chi2 the node keeps the odometry's place and no scan-match edge.
+TEST(FloorSlam, AMatchThatDisagreesWithOdometryIsNotUsedWhenGated) {
+  const test::World world = test::officeWorld();
+  auto run = [&](double max_chi2) {
+    FloorSlamOptions options;
+    options.max_tracking_chi2 = max_chi2;
+    FloorSlam slam(options, "robot", 0, 0, 0.0);
+    for (int i = 0; i < 6; ++i) {
+      const Pose2 p(2 + 0.3 * i, 1.2, 0.05 * i);
+      slam.addScan(world.scan(p, i), p);
+    }
+    const Pose2 claimed(3.8, 1.2, 0.3), truth(3.8, 1.4, 0.3);
+    // Where the odometry step puts the new node: from the last node, as the graph has it.
+    const Pose2 predicted = slam.floorGraph().nodes.back().pose * Pose2(3.5, 1.2, 0.25).between(claimed);
+    const ScanResult r = slam.addScan(world.scan(truth, 10.0), claimed);
+    EXPECT_EQ(r.status, ScanStatus::kNode) << r.reason;
+    return std::make_tuple(r, slam.stats(), slam.floorGraph().edges.back().kind, predicted);
+  };
+  const Pose2 start(2, 1.2, 0);
+  const auto [used, used_stats, used_edge, unused] = run(0.0);
+  EXPECT_TRUE(used.matched);
+  EXPECT_LT((used.pose.translation() - start.between(Pose2(3.8, 1.4, 0.3)).translation()).norm(), 0.03);
+  EXPECT_EQ(used_edge, floor::EdgeKind::kScanMatch);
+  const auto [gated, gated_stats, gated_edge, predicted] = run(25.0);
+  EXPECT_FALSE(gated.matched);
+  EXPECT_EQ(gated_stats.matches_against_odometry, 1u);
+  EXPECT_EQ(used_stats.matches_against_odometry, 0u);
+  EXPECT_LT((gated.pose.translation() - predicted.translation()).norm(), 1e-9);
+  EXPECT_EQ(gated_edge, floor::EdgeKind::kOdometry);
+}
+
 TEST(FloorSlam, LoopClosureCorrectsDrift) {
   // A ring corridor around a block: 24 m x 16 m outside, 2 m wide, with a few doors and
   // pillars so that it is not featureless.
@@ -543,6 +576,7 @@ TEST(FloorSlamOptions, ShippedConfigurationLoads) {
   EXPECT_GT(o.loop_closure.cluster_verify_window, 0.0);  // the region check is on where it ships
   EXPECT_GT(o.loop_closure.single_unique_distance, 0.0);  // and so are the rules for a lost graph
   EXPECT_TRUE(o.loop_closure.follow_relocated);
+  EXPECT_EQ(o.max_tracking_chi2, 0.0);  // off where it ships: it needs a calibrated odometry model
   EXPECT_THROW(readFloorSlamOptions(common::ConfigNode::loadString("node_creation: {min_translaton: 1}\n")),
                common::ConfigError);
   EXPECT_THROW(readFloorSlamOptions(common::ConfigNode::loadString("bogus: 1\n")), common::ConfigError);

@@ -170,6 +170,7 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
   o.jump_linear_window = node.getDouble("jump_linear_window", o.jump_linear_window, 0.0, 100.0);
   o.jump_angular_window = node.getDouble("jump_angular_window", o.jump_angular_window, 0.0, M_PI);
   o.degenerate_ratio = node.getDouble("degenerate_ratio", o.degenerate_ratio, 0.0, 1e6);
+  o.max_tracking_chi2 = node.getDouble("max_tracking_chi2", o.max_tracking_chi2, 0.0, 1e12);
   node.finish();
   return o;
 }
@@ -466,10 +467,23 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     s.nodes_since_rebuild = 0;
   }
   const bool jumped = s.jump_since_node;
-  const MatchResult match =
+  MatchResult match =
       jumped ? s.matcher.match(s.local_target, points, prediction, options_.jump_linear_window,
                                options_.jump_angular_window)
              : s.matcher.match(s.local_target, points, prediction);
+  if (match.success && !jumped && options_.max_tracking_chi2 > 0.0) {
+    const Pose2 matched = last.pose.between(match.pose);
+    const Eigen::Vector3d e(matched.x() - motion.x(), matched.y() - motion.y(),
+                            geometry::angleDiff(matched.theta(), motion.theta()));
+    const Eigen::Matrix3d cov = odometryInformation(motion, options_.odometry).inverse() +
+                                rotateCovariance(match.covariance, last.pose.theta());
+    const double chi2 = e.dot(cov.ldlt().solve(e));
+    if (chi2 > options_.max_tracking_chi2) {
+      ++stats_.matches_against_odometry;
+      match.success = false;
+      match.problem = str("disagrees with odometry (chi2 ", chi2, ")");
+    }
+  }
   if (!match.success && jumped) {
     // Neither odometry nor the map can place this scan: keep waiting for one that fits.
     ++stats_.match_failures;

@@ -169,6 +169,14 @@ struct FloorSlamOptions {
   // by their information, not the match's alone (solution remapping for degenerate
   // directions). 0: the match's position always.
   double degenerate_ratio = 0.1;
+  // A tracking match that disagrees with the odometry step by more than this χ² (3 dof;
+  // the odometry model's and the match's covariance together) is not used: the node is
+  // placed by odometry, as when no match is found. A scan that fits a wrong part of the
+  // local map confidently (csail: 17° off with σ 0.3°) otherwise bends the graph there.
+  // Only as good as the odometry noise model: with recorded odometry noisier than it
+  // (csail .gfs), right matches are refused and loops stay open. 0: every match is used
+  // (docs/floor_mapper.md, "An odometry gate").
+  double max_tracking_chi2 = 0.0;
 };
 // Reads the front end's options (all keys optional; unknown keys are errors). Sections:
 // scan_matcher, node_creation, local_map (with likelihood_field), odometry_noise,
@@ -236,6 +244,7 @@ struct LoopClosureAttempt {
 struct FloorSlamStats {
   std::size_t scans = 0, nodes = 0, skipped = 0, rejected = 0;
   std::size_t matched = 0, match_failures = 0, odometry_jumps = 0;
+  std::size_t matches_against_odometry = 0;  // matches refused by max_tracking_chi2
   std::size_t loop_attempts = 0, loop_closures = 0, loop_rejected_inconsistent = 0;
   std::size_t loop_ambiguous = 0;  // attempts whose scan fit as well elsewhere
   std::size_t loop_clusters = 0;   // clusters of agreeing closures accepted together
