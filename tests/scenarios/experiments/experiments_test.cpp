@@ -147,15 +147,21 @@ TEST(Experiments, UnknownExperimentIsAnError) {
   EXPECT_THROW(runExperiments(options), std::invalid_argument);  // domains beyond 232
 }
 
+// The options of one seed of one experiment, written to a fresh folder.
+ExperimentOptions oneSeed(const std::string& experiment, std::uint64_t seed, int domain_id) {
+  ExperimentOptions options;
+  options.experiment = experiment;
+  options.seeds = 1;
+  options.first_seed = seed;
+  options.domain_id = domain_id;
+  options.output_dir = test::makeTempDir("storey_experiments");
+  return options;
+}
+
 // One tower10 seed end to end: the table's figures are those of a direct evaluation of
 // the run's written trajectory against its ground truth.
 TEST(Experiments, Tower10TableAgreesWithDirectEvaluation) {
-  ExperimentOptions options;
-  options.experiment = "tower10";
-  options.seeds = 1;
-  options.first_seed = 3;
-  options.domain_id = 78;
-  options.output_dir = test::makeTempDir("storey_experiments");
+  const ExperimentOptions options = oneSeed("tower10", 3, 78);
   const auto tables = runExperiments(options);
   ASSERT_EQ(tables.size(), 1u);
   const ExperimentTable& table = tables.front();
@@ -210,13 +216,7 @@ TEST(Experiments, Tower10TableAgreesWithDirectEvaluation) {
 // must not be taken for a symmetric floor (session 12's floor graphs made it one of the
 // self-check's near misses: no inter-floor constraint, floor B unplaced, 149 deg off).
 TEST(Experiments, FeaturelessFloorBIsPlacedOnSeed7) {
-  ExperimentOptions options;
-  options.experiment = "featureless";
-  options.seeds = 1;
-  options.first_seed = 7;
-  options.domain_id = 79;
-  options.output_dir = test::makeTempDir("storey_experiments");
-  const auto tables = runExperiments(options);
+  const auto tables = runExperiments(oneSeed("featureless", 7, 79));
   ASSERT_EQ(tables.size(), 1u);
   const ExperimentTable& table = tables.front();
   ASSERT_EQ(table.floors.size(), 2u);

@@ -151,7 +151,10 @@ Pose2 meanAlignment(const std::vector<Pose2>& poses) {
 
 // The candidates of `set` whose scans are pairwise disjoint, as many as possible (per
 // source graph, earliest-ending first): a time-reversed sequence and a forward one over
-// the same scans are one piece of evidence, not two.
+// the same scans are one piece of evidence, not two. Two sequences that share only their
+// end scan count as two (the paper's own sequences do: k <- k + d), so a forward pass
+// ending where a time-reversed one ends is not lost; but not when that scan is node k
+// of both, which would give the same constraint twice.
 std::vector<std::size_t> disjointSubset(const std::vector<Candidate>& cands,
                                         std::vector<std::size_t> set) {
   std::sort(set.begin(), set.end(), [&](std::size_t a, std::size_t b) {
@@ -160,12 +163,17 @@ std::vector<std::size_t> disjointSubset(const std::vector<Candidate>& cands,
     return a < b;
   });
   std::vector<std::size_t> out;
-  std::map<int, int> last_end;  // by the graph whose scans were localised
+  // By the graph whose scans were localised: the last kept sequence's end scan, and
+  // whether that scan is its node k (a time-reversed sequence's k is its later end).
+  std::map<int, std::pair<int, bool>> last_end;
   for (std::size_t i : set) {
-    const int source = cands[i].reversed ? cands[i].reference_graph_id : cands[i].graph_id;
-    int& end = last_end.emplace(source, -1).first->second;
-    if (cands[i].first_index <= end) continue;
-    end = cands[i].last_index;
+    const Candidate& c = cands[i];
+    const int source = c.reversed ? c.reference_graph_id : c.graph_id;
+    auto& [end, end_is_k] = last_end.emplace(source, std::make_pair(-1, false)).first->second;
+    // Sharing the end scan is allowed, unless it is node k of both (one constraint twice).
+    if (c.first_index < end || (c.first_index == end && end_is_k && !c.backwards)) continue;
+    end = c.last_index;
+    end_is_k = c.backwards;
     out.push_back(i);
   }
   std::sort(out.begin(), out.end());
