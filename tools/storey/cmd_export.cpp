@@ -21,8 +21,7 @@ int run_export(Args& args) {
   const std::string journal_path = args.positional(0, "JOURNAL");
   const std::string out = args.positional(1, "OUTDIR");
   building::JournalBuilding journal = building::rebuildFromJournal(journal_path);
-  if (journal.torn_tail) std::cerr << journal_path << ": the last record was torn and is ignored\n";
-  for (const auto& why : journal.skipped) std::cerr << journal_path << ": " << why << " (skipped)\n";
+  building::printJournalProblems(std::cerr, journal_path, journal);
   building::BuildingGraph& graph = journal.graph;
   const std::size_t skipped = journal.skipped.size();
   if (graph.empty()) throw std::runtime_error(journal_path + ": the journal holds no floor graph");

@@ -5,9 +5,8 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
-#include <sstream>
-
 #include <filesystem>
+#include <sstream>
 
 #include "args.h"
 #include "storey/building/journal.h"
@@ -159,8 +158,7 @@ void printCandidateTruth(const matching::MatchResult& result,
 // The floor graphs a mapped building ended with, from its graph server journal.
 std::vector<floor::FloorGraph> journalFloorGraphs(const std::string& path) {
   const building::JournalBuilding journal = building::rebuildFromJournal(path);
-  if (journal.torn_tail) std::cerr << path << ": the last record was torn and is ignored\n";
-  for (const auto& why : journal.skipped) std::cerr << path << ": " << why << " (skipped)\n";
+  building::printJournalProblems(std::cerr, path, journal);
   std::vector<floor::FloorGraph> graphs;
   for (const auto& [id, g] : journal.graph.floorGraphs()) graphs.push_back(g);
   if (graphs.empty()) throw std::runtime_error(path + ": the journal holds no floor graph");

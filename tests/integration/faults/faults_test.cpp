@@ -29,7 +29,6 @@
 #include <sstream>
 #include <string>
 #include <thread>
-#include <utility>
 #include <vector>
 
 #include "storey/building/building_graph.h"
@@ -134,7 +133,7 @@ struct Building {
 
 Building rebuild(const std::string& journal) {
   Building b;
-  b.graph = std::move(building::rebuildFromJournal(journal).graph);
+  b.graph = building::rebuildFromJournal(journal).graph;  // an rvalue: moved, not copied
   b.solution = b.graph.optimize();
   return b;
 }

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <ostream>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -193,6 +194,11 @@ JournalBuilding rebuildFromJournal(const std::string& path) {
     }
   }
   return out;
+}
+
+void printJournalProblems(std::ostream& out, const std::string& path, const JournalBuilding& journal) {
+  if (journal.torn_tail) out << path << ": the last record was torn and is ignored\n";
+  for (const auto& why : journal.skipped) out << path << ": " << why << " (skipped)\n";
 }
 
 void applyDelta(BuildingGraph& building, const FloorGraphDelta& delta) {

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <iosfwd>
 #include <map>
 #include <string>
 #include <variant>
@@ -80,6 +81,8 @@ struct JournalBuilding {
 };
 // Throws as readJournal does.
 JournalBuilding rebuildFromJournal(const std::string& path);
+// One line per problem the rebuild met (a torn tail, each skipped record), naming `path`.
+void printJournalProblems(std::ostream& out, const std::string& path, const JournalBuilding& journal);
 
 // Encoding, exposed for tests and fuzzing.
 std::vector<std::uint8_t> encodeRecord(const JournalRecord& record);

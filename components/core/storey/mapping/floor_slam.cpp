@@ -471,12 +471,12 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
       jumped ? s.matcher.match(s.local_target, points, prediction, options_.jump_linear_window,
                                options_.jump_angular_window)
              : s.matcher.match(s.local_target, points, prediction);
+  const Eigen::Matrix3d odom_info = odometryInformation(motion, options_.odometry);
   if (match.success && !jumped && options_.max_tracking_chi2 > 0.0) {
     const Pose2 matched = last.pose.between(match.pose);
     const Eigen::Vector3d e(matched.x() - motion.x(), matched.y() - motion.y(),
                             geometry::angleDiff(matched.theta(), motion.theta()));
-    const Eigen::Matrix3d cov = odometryInformation(motion, options_.odometry).inverse() +
-                                rotateCovariance(match.covariance, last.pose.theta());
+    const Eigen::Matrix3d cov = odom_info.inverse() + rotateCovariance(match.covariance, last.pose.theta());
     const double chi2 = e.dot(cov.ldlt().solve(e));
     if (chi2 > options_.max_tracking_chi2) {
       ++stats_.matches_against_odometry;
@@ -492,7 +492,6 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
   const int from = last.id;
   const Pose2 last_pose = last.pose;
   Pose2 pose = match.success ? match.pose : prediction;
-  const Eigen::Matrix3d odom_info = odometryInformation(motion, options_.odometry);
   Eigen::Matrix3d rel_cov = Eigen::Matrix3d::Zero(), match_info = Eigen::Matrix3d::Zero();
   if (match.success) {
     rel_cov = rotateCovariance(match.covariance, last_pose.theta());
