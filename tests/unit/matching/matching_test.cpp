@@ -2,7 +2,10 @@
 
 #include <Eigen/LU>
 
+#include <algorithm>
+#include <cstdio>
 #include <iostream>
+#include <numeric>
 #include <sstream>
 
 #include "storey/common/config.h"
@@ -166,6 +169,46 @@ TEST(FloorMatcher, TwoFloorsWithSharedStructureAlign) {
   const Pose2 truth = r.reference_graph_id == 0 ? frame : frame.inverse();
   EXPECT_LT(translationError(pair->alignment, truth), 0.05) << report.str();
   EXPECT_LT(angleError(pair->alignment, truth), 0.0035);
+}
+
+// A floor graph is not rigid: here floor 1's graph is 1 % too long (its scans are true,
+// its node positions scaled), so one rigid alignment places its far end 0.2 m off. Each
+// constraint that takes its translation from its own scans' fit says where those scans
+// lie; through the joint alignment it says where the rigid floor would put them.
+TEST(FloorMatcher, ConstraintsOfAStretchedFloorSayWhereTheirOwnScansLie) {
+  const Pose2 frame(1.3, -0.7, 0.3);
+  const floor::FloorGraph floor1 = driveFloor(officeFloor(1), officePath(1), frame, 1, 3.2, 9);
+  floor::FloorGraph stretched = floor1;
+  for (auto& n : stretched.nodes) n.pose = Pose2(1.01 * n.pose.x(), 1.01 * n.pose.y(), n.pose.theta());
+  for (auto& e : stretched.edges)
+    e.measurement = stretched.findNode(e.from)->pose.between(stretched.findNode(e.to)->pose);
+  const std::vector<floor::FloorGraph> graphs{driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 8),
+                                              stretched};
+  // The true pose of a node in the building frame (floor 0's graph frame).
+  auto truePose = [&](int graph_id, int node_id) {
+    return graph_id == 0 ? graphs[0].findNode(node_id)->pose : frame * floor1.findNode(node_id)->pose;
+  };
+  auto errors = [&](bool local) {
+    FloorMatcherOptions o = fastOptions();
+    o.local_constraint_translation = local;
+    const MatchResult r = matchFloors(graphs, o);
+    std::vector<double> e;
+    for (const auto& c : r.constraints) {
+      const Pose2 truth = truePose(c.reference_graph_id, c.reference_node_id).between(truePose(c.graph_id, c.node_id));
+      e.push_back(translationError(c.measurement, truth));
+    }
+    return e;
+  };
+  const std::vector<double> joint = errors(false), local = errors(true);
+  ASSERT_GE(local.size(), 3u);
+  ASSERT_EQ(local.size(), joint.size());
+  const double joint_mean = std::accumulate(joint.begin(), joint.end(), 0.0) / joint.size();
+  const double local_mean = std::accumulate(local.begin(), local.end(), 0.0) / local.size();
+  const double local_max = *std::max_element(local.begin(), local.end());
+  std::printf("%zu constraints: through the joint alignment %.3f m (worst %.3f), local %.3f m (worst %.3f)\n",
+              local.size(), joint_mean, *std::max_element(joint.begin(), joint.end()), local_mean, local_max);
+  EXPECT_LT(local_mean, 0.5 * joint_mean);
+  EXPECT_LT(local_max, 0.05);
 }
 
 // When g_i's own sequences are not enough, g_ref's scans localised in g_i's map join the

@@ -43,6 +43,8 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
   o.point_cell_size = node.getDouble("point_cell_size", o.point_cell_size, 0.0, 1.0);
   o.point_refinement_whole_floor =
       node.get<bool>("point_refinement_whole_floor", o.point_refinement_whole_floor);
+  o.local_constraint_translation =
+      node.get<bool>("local_constraint_translation", o.local_constraint_translation);
   o.point_normal_radius = node.getDouble("point_normal_radius", o.point_normal_radius, 0.01, 5.0);
   o.point_correspondence_distance =
       node.getDouble("point_correspondence_distance", o.point_correspondence_distance, 1e-3, 10.0);
@@ -301,6 +303,30 @@ void refineAlignmentOnPoints(const grid::PointMap& map, const floor::FloorGraph&
       moved.translation().norm() <= 2.0 * o.point_correspondence_distance &&
       std::abs(moved.theta()) <= o.ransac_rotation_tolerance)
     *alignment = fit.pose;
+}
+
+// The translation of `joint` that best fits one candidate's own scans (nodes first..last)
+// on the reference's points, the heading held at the joint's. A floor graph is not rigid
+// (a bare corridor's length is off by a few tenths of a per cent): where this candidate's
+// scans lie, the floor may sit a little off the joint alignment, and a constraint that
+// says so lets the building graph take up the distortion. Returns `joint` when the fit
+// moves further than the points' correspondence reach or rests on too few points.
+Pose2 localTranslation(const grid::PointMap& map, const floor::FloorGraph& graph, int first, int last,
+                       const Pose2& joint, const FloorMatcherOptions& o) {
+  if (map.empty()) return joint;
+  const std::vector<Eigen::Vector2d> points = floor::floorPoints(
+      graph, static_cast<std::size_t>(first), static_cast<std::size_t>(last) + 1, o.map.max_insert_range);
+  grid::PointAlignmentOptions a;
+  a.max_iterations = std::max(1, o.refine_iterations);
+  a.max_correspondence_distance = o.point_correspondence_distance;
+  a.robust_distance = o.point_robust_distance;
+  a.rotation_prior_weight = 1e9;  // the heading is the joint alignment's, fixed
+  const grid::PointAlignment fit = grid::alignToPoints(map, points, joint, a);
+  const Pose2 moved = joint.between(fit.pose);
+  if (fit.weight_sum < 0.5 * static_cast<double>(points.size()) || !fit.pose.isFinite() ||
+      moved.translation().norm() > 2.0 * o.point_correspondence_distance)
+    return joint;
+  return Pose2(fit.pose.x(), fit.pose.y(), joint.theta());
 }
 
 }  // namespace
@@ -745,7 +771,10 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
         c.weak_direction = weakDirectionAt(c, c.alignment, ref.findNode(c.reference_node_id)->pose);
         continue;
       }
-      const Pose2 x = joint * g.nodes[c.node_index].pose;
+      const Pose2 placed = o.local_constraint_translation
+                               ? localTranslation(reference.points, g, c.first_index, c.last_index, joint, o)
+                               : joint;
+      const Pose2 x = placed * g.nodes[c.node_index].pose;
       const int q = ref.nearestNodeIndex(x.translation());
       c.reference_node_id = ref.nodes[q].id;
       c.measurement = ref.nodes[q].pose.between(x);

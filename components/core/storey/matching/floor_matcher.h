@@ -83,6 +83,11 @@ struct FloorMatcherOptions {
   double point_normal_radius = 0.2;
   double point_correspondence_distance = 0.15;
   double point_robust_distance = 0.05;
+  // Each accepted constraint takes its heading from the joint alignment and, when true,
+  // its translation from its own scans' fit on the reference's points (within
+  // 2 x point_correspondence_distance of the joint's): the floor graphs are not rigid,
+  // and constraints at both ends of a corridor can then correct its length.
+  bool local_constraint_translation = false;
   // RANSAC: the model is one planar alignment T_i; candidates agree when their
   // alignments place node k within these tolerances.
   int ransac_iterations = 500;
