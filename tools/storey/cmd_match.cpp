@@ -72,7 +72,8 @@ void printErrors(const matching::MatchResult& result, const matching::SimulatedF
     const auto e = matching::alignmentError(p.alignment, p.reference_graph_id, p.graph_id, floors);
     std::cout << "  alignment of graph " << p.graph_id << " in graph " << p.reference_graph_id
               << ": " << std::fixed << std::setprecision(3) << e.translation << " m, "
-              << e.rotation * 180.0 / M_PI << " deg\n";
+              << e.rotation * 180.0 / M_PI << " deg"
+              << (floors.node_truth.empty() ? "" : " (against the graphs' rigid fits to the truth)") << "\n";
   }
   const matching::WrongConstraintLimits limits;  // the ones judgeConstraint used
   std::cout << std::defaultfloat << wrong << " wrong constraints (more than " << limits.rotation * 180.0 / M_PI << " deg, or "
@@ -103,18 +104,31 @@ void printCandidateTruth(const matching::MatchResult& result,
       if (c.status == matching::CandidateStatus::kLowLikelihood ||
           c.status == matching::CandidateStatus::kPoorFit)
         continue;  // (underconstrained ones are shown: what the conditioning gate drops)
-      const auto e =
-          matching::alignmentError(c.alignment, c.reference_graph_id, c.graph_id, floors);
-      const std::size_t si = c.reversed ? ri : gi;
+      auto e = matching::alignmentError(c.alignment, c.reference_graph_id, c.graph_id, floors);
+      const std::size_t si = c.reversed ? ri : gi;  // the graph whose scans were localised
+      const std::size_t mi = c.reversed ? gi : ri;  // the graph whose map they were localised in
       const auto& nodes = floors.graphs[si].nodes;
-      const Pose2 a = floors.frames[si] * nodes[c.first_index].pose;
-      const Pose2 b = floors.frames[si] * nodes[c.last_index].pose;
-      const bool bad = e.translation > 0.3 || e.rotation > 2.0 * M_PI / 180.0;
+      const Pose2 a = matching::trueNodePose(floors, si, nodes[c.first_index]);
+      const Pose2 b = matching::trueNodePose(floors, si, nodes[c.last_index]);
       // Where the candidate puts the sequence's last scan (building frame, via the
       // reference's true frame): for a false one, the place that looked alike.
-      const Pose2 placed =
-          c.reversed ? floors.frames[gi] * c.alignment.inverse() * nodes[c.last_index].pose
-                     : floors.frames[ri] * c.alignment * nodes[c.last_index].pose;
+      Pose2 placed = c.reversed ? floors.frames[gi] * c.alignment.inverse() * nodes[c.last_index].pose
+                                : floors.frames[ri] * c.alignment * nodes[c.last_index].pose;
+      // The alignment that would have put the last scan at its true place.
+      Pose2 truth = floors.frames[mi].inverse() * floors.frames[si];
+      if (!floors.node_truth.empty()) {
+        // Mapped graphs bend: judge the candidate where its last scan lies, through the
+        // true pose of the map's node nearest to where it placed that scan.
+        const Pose2 in_map = (c.reversed ? c.alignment.inverse() : c.alignment) * nodes[c.last_index].pose;
+        const floor::FloorGraph& mg = floors.graphs[mi];
+        const floor::FloorNode& q = mg.nodes[mg.nearestNodeIndex(in_map.translation())];
+        const Pose2 q_true = matching::trueNodePose(floors, mi, q);
+        placed = q_true * q.pose.between(in_map);
+        e.translation = (placed.translation() - b.translation()).norm();
+        e.rotation = std::abs(geometry::angleDiff(placed.theta(), b.theta()));
+        truth = q.pose * q_true.between(b) * nodes[c.last_index].pose.inverse();
+      }
+      const bool bad = e.translation > 0.3 || e.rotation > 2.0 * M_PI / 180.0;
       std::cout << "  graph " << c.graph_id << " in " << c.reference_graph_id << " "
                 << (c.reversed ? "ref scans " : "scans ") << (c.backwards ? "<" : "")
                 << c.first_index << ".." << c.last_index << std::fixed << std::setprecision(1)
@@ -126,12 +140,10 @@ void printCandidateTruth(const matching::MatchResult& result,
       if (bad) {
         // The same scans at the true alignment: the fit and the see-through fraction the
         // true place would have had, against those of the place the filter chose.
-        const std::size_t mi = c.reversed ? gi : ri;
         auto it = prepared.find(mi);
         if (it == prepared.end())
           it = prepared.emplace(mi, matching::prepareFloor(floors.graphs[mi], options)).first;
         const matching::PreparedFloor& map = it->second;
-        Pose2 truth = floors.frames[mi].inverse() * floors.frames[si];
         Pose2 chosen = c.reversed ? c.alignment.inverse() : c.alignment;
         const std::vector<std::pair<int, int>> range{{c.first_index, c.last_index}};
         const double through_truth =
@@ -165,13 +177,17 @@ std::vector<floor::FloorGraph> journalFloorGraphs(const std::string& path) {
   return graphs;
 }
 
-// Each graph's true frame: its node positions fitted to the ground-truth positions at the
-// nodes' stamps (one rigid fit per graph; a mapped floor is not exactly rigid, so the
-// judged errors include its own mapping error).
-std::vector<Pose2> fittedFrames(const std::vector<floor::FloorGraph>& graphs,
-                                const std::vector<eval::PoseRow>& truth, const std::string& truth_path) {
-  std::vector<Pose2> frames;
-  for (const auto& g : graphs) {
+// Each node's true pose (the ground truth at its stamp), and each graph's frame: its node
+// positions fitted to those (one rigid fit per graph). A mapped floor is not exactly
+// rigid: constraints and candidates are judged by the true poses of their own nodes; the
+// fitted frame only places a floor as a whole.
+void fitTruth(const std::vector<eval::PoseRow>& truth, const std::string& truth_path,
+              matching::SimulatedFloors* floors) {
+  const std::vector<floor::FloorGraph>& graphs = floors->graphs;
+  floors->frames.clear();
+  floors->node_truth.assign(graphs.size(), {});
+  for (std::size_t gi = 0; gi < graphs.size(); ++gi) {
+    const floor::FloorGraph& g = graphs[gi];
     std::vector<eval::PoseRow> nodes;
     for (const auto& n : g.nodes) {
       eval::PoseRow row;
@@ -191,12 +207,18 @@ std::vector<Pose2> fittedFrames(const std::vector<floor::FloorGraph>& graphs,
       from.push_back(p.estimate.translation());
       to.push_back(p.truth.translation());
     }
+    // The other way round, the truth interpolated at each node's stamp.
+    std::map<double, int> node_at;  // stamp -> node id
+    for (const auto& n : g.nodes) node_at[n.stamp] = n.id;
+    for (const auto& p : eval::associate(mine, nodes, 0.05, 0.5)) {
+      const auto it = node_at.find(p.stamp);
+      if (it != node_at.end()) floors->node_truth[gi][it->second] = p.estimate;
+    }
     if (from.size() < 2)
       throw std::runtime_error(truth_path + ": no ground truth for graph " + std::to_string(g.graph_id) +
                                " (robot " + g.robot + ")");
-    frames.push_back(eval::alignPoints(from, to));
+    floors->frames.push_back(eval::alignPoints(from, to));
   }
-  return frames;
 }
 
 }  // namespace
@@ -254,7 +276,7 @@ int run_match(Args& args) {
     if (truth_path.empty()) {
       std::cout << "no ground truth (--truth): candidates and constraints are not judged\n";
     } else {
-      floors.frames = fittedFrames(floors.graphs, eval::readTrajectoryCsv(truth_path), truth_path);
+      fitTruth(eval::readTrajectoryCsv(truth_path), truth_path, &floors);
       std::cout << "truth: " << truth_path << "\n";
     }
   } else {

@@ -12,6 +12,7 @@
 #include "storey/matching/constraint_judgement.h"
 #include "storey/matching/floor_matcher.h"
 #include "storey/matching/particle_filter.h"
+#include "storey/matching/simulated_floors.h"
 #include "synthetic_floor.h"
 #include "test_support.h"
 
@@ -553,6 +554,40 @@ TEST(ConstraintJudgement, AnErrorAlongAClaimedWeakDirectionIsNotWrongAcrossItIs)
     EXPECT_TRUE(judgeConstraint(at(0.31), truth, room).wrong) << angle;
     EXPECT_TRUE(judgeConstraint(at(0.31), truth, room).off) << angle;
   }
+}
+
+// A mapped graph's node poses are estimates, bent against the truth: a constraint is
+// judged by the true poses of its own two nodes, not through a rigid frame of the graph.
+TEST(ConstraintJudgement, MappedGraphsAreJudgedByTheirNodesTruePoses) {
+  SimulatedFloors floors;
+  floors.graphs.resize(2);
+  floors.frames = {Pose2(), Pose2()};
+  for (int g = 0; g < 2; ++g) {
+    floors.graphs[g].graph_id = g;
+    for (int i = 0; i < 2; ++i) {
+      floor::FloorNode n;
+      n.id = 10 * g + i;
+      n.pose = Pose2(40.0 * i, 0.0, 0.0);  // as mapped: 40 m apart
+      floors.graphs[g].nodes.push_back(n);
+    }
+  }
+  InterFloorConstraint c;
+  c.reference_graph_id = 0;
+  c.reference_node_id = 1;
+  c.graph_id = 1;
+  c.node_id = 11;
+  c.measurement = Pose2(0.5, 0.0, 0.0);  // graph 1's node 11 lies 0.5 m past graph 0's node 1
+  c.information = Eigen::Matrix3d::Identity() * 400.0;
+  // Without node truths the graphs are taken as true: 0.5 m off, wrong.
+  EXPECT_NEAR(judgeConstraint(c, floors).translation, 0.5, 1e-12);
+  EXPECT_TRUE(judgeConstraint(c, floors).wrong);
+  // In truth graph 1 is 1.25 % longer than mapped (its node 11 at 40.5 m): right.
+  floors.node_truth = {{{0, Pose2(0, 0, 0)}, {1, Pose2(40, 0, 0)}}, {{10, Pose2(0, 0, 0)}, {11, Pose2(40.5, 0, 0)}}};
+  EXPECT_NEAR(judgeConstraint(c, floors).translation, 0.0, 1e-12);
+  EXPECT_FALSE(judgeConstraint(c, floors).wrong);
+  // A node without a truth falls back to its graph's frame.
+  floors.node_truth[1].erase(11);
+  EXPECT_NEAR(judgeConstraint(c, floors).translation, 0.5, 1e-12);
 }
 
 TEST(FloorMatcherOptions, ReadsValuesAndRejectsUnknownKeys) {

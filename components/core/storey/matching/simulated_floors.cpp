@@ -111,9 +111,16 @@ ConstraintJudgement judgeConstraint(const InterFloorConstraint& c, const Simulat
   const floor::FloorNode* q = ref->findNode(c.reference_node_id);
   const floor::FloorNode* k = g->findNode(c.node_id);
   if (!q || !k) throw std::invalid_argument("constraint names a node that does not exist");
-  // The node poses are true poses in each graph's random frame.
-  const Pose2 truth = q->pose.inverse() * floors.frames[ri].inverse() * floors.frames[gi] * k->pose;
+  const Pose2 truth = trueNodePose(floors, ri, *q).between(trueNodePose(floors, gi, *k));
   return judgeConstraint(c.measurement, truth, c.information, limits);
+}
+
+Pose2 trueNodePose(const SimulatedFloors& floors, std::size_t graph_index, const floor::FloorNode& node) {
+  if (graph_index < floors.node_truth.size()) {
+    const auto it = floors.node_truth[graph_index].find(node.id);
+    if (it != floors.node_truth[graph_index].end()) return it->second;
+  }
+  return floors.frames.at(graph_index) * node.pose;
 }
 
 ConstraintError alignmentError(const Pose2& alignment, int reference_graph_id, int graph_id,

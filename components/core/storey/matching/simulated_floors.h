@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <vector>
 
 #include "storey/floor/floor_graph.h"
@@ -30,14 +31,22 @@ struct SimulatedFloorsOptions {
 struct SimulatedFloors {
   std::vector<floor::FloorGraph> graphs;
   std::vector<geometry::Pose2> frames;  // graph frame in the building frame (the truth)
+  // Mapped graphs (a `storey map` journal) are estimates, not true poses in a true frame:
+  // per graph (same order), node id -> the node's true pose in the building frame. Then
+  // `frames` is only a rigid fit, and constraints are judged by these instead.
+  std::vector<std::map<int, geometry::Pose2>> node_truth;
 };
+
+// The true pose of node `node` of graph `graph_index` in the building frame: from
+// node_truth when it has the node, else the graph's true frame times the node's pose.
+geometry::Pose2 trueNodePose(const SimulatedFloors& floors, std::size_t graph_index, const floor::FloorNode& node);
 
 SimulatedFloors floorGraphsFromSimulation(const sim::Simulation& simulation,
                                           const SimulatedFloorsOptions& options);
 
 // How far an accepted constraint is from the truth, and whether that is wrong for what
 // its information claims: node k as the constraint places it in the frame of node q,
-// against where the true frames (frame_ref^-1 * frame_i) put it.
+// against their true poses (trueNodePose).
 ConstraintJudgement judgeConstraint(const InterFloorConstraint& constraint,
                                     const SimulatedFloors& floors,
                                     const WrongConstraintLimits& limits = {});
