@@ -250,7 +250,7 @@ class Deployment {
                                                      "max_floor_detector_lag: 30.0", "max_floor_detector_lag: 300.0");
     // The mapper under test logs its input, so that a restart resumes its graphs.
     write("floor_mapper.yaml",
-          replaceAll(mapper_parameters, "input_log: \"\"", "input_log: " + dir_ + "/mapper_input.log"));
+          replaceAll(mapper_parameters, "input_log: \"\"", "input_log: " + mapperInputLog()));
     // The witness: the shipped parameters on witness topics.
     write("witness_floor_detector.yaml", replaceAll(readText(config + "floor_detector.yaml"),
                                                     "events_topic: floor_events", "events_topic: witness_floor_events"));
@@ -303,6 +303,7 @@ class Deployment {
   ~Deployment() { stop(); }
 
   std::string journal() const { return dir_ + "/journal.bin"; }
+  std::string mapperInputLog() const { return dir_ + "/mapper_input.log"; }
   std::string witnessJournal() const { return dir_ + "/witness_journal.bin"; }
   std::string bringup() const { return dir_ + "/bringup.yaml"; }
 
@@ -332,19 +333,28 @@ class Deployment {
     ASSERT_EQ(running(), processes_.size()) << logs();
     replay_ = spawn({kStorey, "replay", bag, "--rate", std::to_string(kReplayRate), "--domain",
                      std::to_string(domain_), "--subscribers", std::to_string(subscribers_), "--wait", "0.5",
-                     // The matchers' idle rule is timed from the end of the replay.
-                     "--ack-wait", "0", "--quiet"},
+                     // Every reliable subscriber, a restarted one catching up on the
+                     // history included, gets every sample before the replay (the only
+                     // writer) exits; a reader killed and not yet dropped (3 s lease)
+                     // holds it at most this long.
+                     "--ack-wait", "10", "--quiet"},
                     log("replay"));
     replay_start_ = Clock::now();
   }
   double sinceReplayStart() const { return std::chrono::duration<double>(Clock::now() - replay_start_).count(); }
-  // Waits for the replay to end, then for both matchers to match after it and both
-  // journals to stay still for 3 s; then stops everything.
+  // Waits for the replay to end, then for both matchers to match after it published its
+  // last message and both journals to stay still for 3 s; then stops everything.
   void finish() {
-    const int status = waitFor(replay_, 120);
-    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << readText(log("replay"));
+    // Matchings count from the end of publishing: the replay then waits for every
+    // subscriber's acknowledgments (seconds for a restarted one catching up on the
+    // history), and the matchers' idle rule may fire while it waits.
+    const auto published_by = Clock::now() + std::chrono::seconds(120);
+    while (readText(log("replay")).find("messages published") == std::string::npos && Clock::now() < published_by)
+      sleepFor(0.05);
     const std::size_t main_before = matchings("] floor_matcher: matched");
     const std::size_t witness_before = matchings("witness_matcher: matched");
+    const int status = waitFor(replay_, 120);
+    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << readText(log("replay"));
     const auto end = Clock::now() + std::chrono::seconds(60);
     auto witnessDone = [&] { return !witness_matches_ || matchings("witness_matcher: matched") > witness_before; };
     while ((matchings("] floor_matcher: matched") <= main_before || !witnessDone()) && Clock::now() < end)
@@ -412,6 +422,9 @@ class FaultsTest : public ::testing::Test {
     // Every storey process started here inherits it: sensor topics reliable too.
     setenv("STOREY_QOS_PROFILES", (test::sourceDir() + "/tests/integration/faults/reliable_sensors_qos.xml").c_str(),
            1);
+    // Debug lines include each process's DDS discovery and reader matches: when a
+    // restarted process takes no sample, its log shows whether it matched anyone.
+    setenv("STOREY_LOG_LEVEL", "debug", 1);
     bag_ = simulate(dir_);
   }
   void TearDown() override {
@@ -427,6 +440,11 @@ class FaultsTest : public ::testing::Test {
     d.startAll();
     d.startReplay(bag_);
     while (d.sinceReplayStart() < kill_at) sleepFor(0.05);
+    // A mapper killed before it logged any input has nothing to resume from (under load
+    // the replay can start publishing seconds after it started): wait for its first input.
+    // (The log's 8-byte magic is written when the mapper starts.)
+    while (process == "mapper" && fileSize(d.mapperInputLog()) <= 8 && d.sinceReplayStart() < kill_at + 20)
+      sleepFor(0.05);
     d.killHard(process);
     sleepFor(kRestartAfter);
     d.start(process);

@@ -47,6 +47,34 @@ SecurityOptions resolveSecurity(const ContextOptions& options) {
   }
 }
 
+std::string guidPrefixText(const eprosima::fastrtps::rtps::GuidPrefix_t& prefix) {
+  static const char* kHex = "0123456789abcdef";
+  std::string text;
+  for (unsigned char byte : prefix.value) {
+    text += kHex[byte >> 4];
+    text += kHex[byte & 15];
+  }
+  return text;
+}
+
+// Logs (debug) every remote participant this one discovers, drops or loses, so a process
+// that matches nobody can be told apart from one that matched and got nothing.
+class DiscoveryLogger : public fdds::DomainParticipantListener {
+ public:
+  void on_participant_discovery(fdds::DomainParticipant* participant,
+                                eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) override {
+    using Info = eprosima::fastrtps::rtps::ParticipantDiscoveryInfo;
+    const char* what = info.status == Info::DISCOVERED_PARTICIPANT  ? "discovered"
+                       : info.status == Info::REMOVED_PARTICIPANT   ? "removed"
+                       : info.status == Info::DROPPED_PARTICIPANT   ? "dropped (lease expired)"
+                                                                    : "changed";
+    common::logDebug(common::str("dds: participant ", participant->get_qos().name().to_string(), " (",
+                                 guidPrefixText(participant->guid().guidPrefix), ") ", what, " participant ",
+                                 info.info.m_participantName.to_string(), " (",
+                                 guidPrefixText(info.info.m_guid.guidPrefix), ")"));
+  }
+};
+
 }  // namespace
 
 int resolveDomainId(int requested) {
@@ -83,7 +111,10 @@ Context::Context(const ContextOptions& options) {
   for (const auto& [name, value] : securityProperties(security)) {
     qos.properties().properties().emplace_back(name, value);
   }
-  participant_ = factory->create_participant(domain_id_, qos);
+  discovery_logger_ = std::make_unique<DiscoveryLogger>();
+  // Discovery callbacks do not depend on the mask; none keeps every other status on the
+  // entities' own listeners.
+  participant_ = factory->create_participant(domain_id_, qos, discovery_logger_.get(), fdds::StatusMask::none());
   if (!participant_) {
     throw DdsError("cannot create a DomainParticipant on domain " + std::to_string(domain_id_) +
                    (security.enabled()
@@ -149,7 +180,7 @@ fdds::DataReader* Context::createReader(const std::string& name, TopicKind kind,
   fdds::Topic* topic = topicFor(name, factory);
   const std::string profile = profileName(kind, false);
   fdds::DataReader* reader = subscriber_->create_datareader_with_profile(
-      topic, profile, listener, fdds::StatusMask::data_available());
+      topic, profile, listener, fdds::StatusMask::data_available() << fdds::StatusMask::subscription_matched());
   if (!reader) throw DdsError("cannot create a reader on " + name + " with profile " + profile);
   return reader;
 }

@@ -93,6 +93,8 @@ class Context {
 
   int domain_id_ = 0;
   std::unique_ptr<Executor> executor_;
+  // Declared before participant_: it must outlive the participant that calls it.
+  std::unique_ptr<eprosima::fastdds::dds::DomainParticipantListener> discovery_logger_;
   eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
   eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;

@@ -168,6 +168,15 @@ class Subscription : public SubscriptionBase {
       });
     }
 
+    // Logged (debug) so a process that takes no sample shows whether it matched a writer.
+    void on_subscription_matched(eprosima::fastdds::dds::DataReader*,
+                                 const eprosima::fastdds::dds::SubscriptionMatchedStatus& status) override {
+      auto state = state_.lock();
+      if (!state) return;
+      common::logDebug(common::str("dds: reader on ", state->topic, ": ", status.current_count_change > 0 ? "matched" : "unmatched",
+                                   " a writer, ", status.current_count, " now"));
+    }
+
    private:
     std::weak_ptr<State> state_;
   };

@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "nav_msgs/msg/OdometryPubSubTypes.h"
+#include "storey/common/log.h"
 #include "sensor_msgs/msg/FluidPressurePubSubTypes.h"
 #include "sensor_msgs/msg/ImuPubSubTypes.h"
 #include "sensor_msgs/msg/LaserScanPubSubTypes.h"
@@ -214,10 +215,19 @@ ReplaySummary SensorReplayer::replay(SensorSource& source, const std::atomic<boo
   // Reliable subscribers get everything before the replay ends (waited for at most
   // ack_seconds: a subscriber killed mid-replay is only dropped after its lease).
   if (!summary.stopped && options_.ack_seconds > 0.0) {
+    // Said before the wait: a late-joining reliable subscriber catching up on the history
+    // can take seconds (8 s in the fault tests), and whoever watches may want to know.
+    common::logInfo(common::str("replay: all ", summary.total, " messages published; waiting up to ",
+                                options_.ack_seconds, " s for reliable subscribers' acknowledgments"));
     const auto ack_end = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                                               std::chrono::duration<double>(options_.ack_seconds));
     auto left = [&] { return std::max(0.0, std::chrono::duration<double>(ack_end - std::chrono::steady_clock::now()).count()); };
     for (auto& [robot, p] : publishers_) {
+      // A subscriber restarted mid-replay that has not matched again yet would miss
+      // whatever this process alone still holds: wait for it too.
+      if (options_.min_subscribers > 0 && !p->scan.waitForSubscribers(options_.min_subscribers, left()))
+        summary.unacknowledged.push_back(p->scan.topic() + " (fewer than " +
+                                         std::to_string(options_.min_subscribers) + " subscribers)");
       for (const runtime::PublisherBase* w :
            std::initializer_list<const runtime::PublisherBase*>{&p->scan, &p->odom, &p->pressure, &p->imu})
         if (!w->waitForAcknowledgments(left())) summary.unacknowledged.push_back(w->topic());

@@ -24,7 +24,9 @@ struct ReplayOptions {
   std::string log_robot = "robot";   // CARMEN logs carry no robot name
   std::string topic_prefix;          // prepended to every topic ("" -> "<robot>/scan")
   double settle_seconds = 0.3;       // wait after creating publishers, for discovery
-  double ack_seconds = 3.0;          // at the end, wait this long at most for acknowledgments
+  // At the end, wait this long at most for acknowledgments (and, with min_subscribers,
+  // for that many subscribers on each scan topic again: one restarted mid-replay).
+  double ack_seconds = 3.0;
   // > 0: before a robot's first message, wait until each of its topics has a subscriber
   // and its scan topic this many (e.g. detector + mapper), then settle_seconds; so a
   // deployment started beforehand misses nothing (throws after subscriber_timeout).
