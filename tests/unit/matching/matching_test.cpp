@@ -172,33 +172,46 @@ TEST(FloorMatcher, TwoFloorsWithSharedStructureAlign) {
   EXPECT_LT(angleError(pair->alignment, truth), 0.0035);
 }
 
-// A floor graph is not rigid: here floor 1's graph is 1 % too long (its scans are true,
-// its node positions scaled), so one rigid alignment places its far end 0.2 m off. Each
-// constraint that takes its translation from its own scans' fit says where those scans
-// lie; through the joint alignment it says where the rigid floor would put them.
-TEST(FloorMatcher, ConstraintsOfAStretchedFloorSayWhereTheirOwnScansLie) {
-  const Pose2 frame(1.3, -0.7, 0.3);
-  const floor::FloorGraph floor1 = driveFloor(officeFloor(1), officePath(1), frame, 1, 3.2, 9);
-  floor::FloorGraph stretched = floor1;
-  for (auto& n : stretched.nodes) n.pose = Pose2(1.01 * n.pose.x(), 1.01 * n.pose.y(), n.pose.theta());
-  for (auto& e : stretched.edges)
-    e.measurement = stretched.findNode(e.from)->pose.between(stretched.findNode(e.to)->pose);
-  const std::vector<floor::FloorGraph> graphs{driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 8),
-                                              stretched};
-  // The true pose of a node in the building frame (floor 0's graph frame).
-  auto truePose = [&](int graph_id, int node_id) {
-    return graph_id == 0 ? graphs[0].findNode(node_id)->pose : frame * floor1.findNode(node_id)->pose;
-  };
-  auto errors = [&](bool local) {
-    FloorMatcherOptions o = fastOptions();
-    o.local_constraint_translation = local;
-    const MatchResult r = matchFloors(graphs, o);
+// The office pair with floor 1's graph `scale` times too long: its scans are true, its
+// node positions scaled, as a floor mapped with a scale error along it.
+struct StretchedOfficePair {
+  Pose2 frame{1.3, -0.7, 0.3};  // floor 1's true graph frame in floor 0's
+  floor::FloorGraph floor1_true;
+  std::vector<floor::FloorGraph> graphs;
+
+  explicit StretchedOfficePair(double scale) {
+    floor1_true = driveFloor(officeFloor(1), officePath(1), frame, 1, 3.2, 9);
+    floor::FloorGraph stretched = floor1_true;
+    for (auto& n : stretched.nodes) n.pose = Pose2(scale * n.pose.x(), scale * n.pose.y(), n.pose.theta());
+    for (auto& e : stretched.edges)
+      e.measurement = stretched.findNode(e.from)->pose.between(stretched.findNode(e.to)->pose);
+    graphs = {driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 8), stretched};
+  }
+  // A node's true pose in floor 0's frame.
+  Pose2 truePose(int graph_id, int node_id) const {
+    return graph_id == 0 ? graphs[0].findNode(node_id)->pose : frame * floor1_true.findNode(node_id)->pose;
+  }
+  // Each constraint's translation error against its two nodes' true poses.
+  std::vector<double> constraintErrors(const MatchResult& r) const {
     std::vector<double> e;
     for (const auto& c : r.constraints) {
       const Pose2 truth = truePose(c.reference_graph_id, c.reference_node_id).between(truePose(c.graph_id, c.node_id));
       e.push_back(translationError(c.measurement, truth));
     }
     return e;
+  }
+};
+
+// A floor graph is not rigid: here floor 1's graph is 1 % too long, so one rigid
+// alignment places its far end 0.2 m off. Each constraint that takes its translation from
+// its own scans' fit says where those scans lie; through the joint alignment it says
+// where the rigid floor would put them.
+TEST(FloorMatcher, ConstraintsOfAStretchedFloorSayWhereTheirOwnScansLie) {
+  const StretchedOfficePair pair(1.01);
+  auto errors = [&](bool local) {
+    FloorMatcherOptions o = fastOptions();
+    o.local_constraint_translation = local;
+    return pair.constraintErrors(matchFloors(pair.graphs, o));
   };
   const std::vector<double> joint = errors(false), local = errors(true);
   ASSERT_GE(local.size(), 3u);
@@ -210,6 +223,36 @@ TEST(FloorMatcher, ConstraintsOfAStretchedFloorSayWhereTheirOwnScansLie) {
               local.size(), joint_mean, *std::max_element(joint.begin(), joint.end()), local_mean, local_max);
   EXPECT_LT(local_mean, 0.5 * joint_mean);
   EXPECT_LT(local_max, 0.05);
+}
+
+// Floor 1's graph 4 % too long: a rigid alignment that fits one end is 0.6-0.8 m off at
+// the other, beyond RANSAC's 0.3 m. With a distortion allowance the right candidates
+// from both ends form one set; those beyond the joint alignment keep their own
+// measurement, and with local translations the rest say where their own scans lie.
+TEST(FloorMatcher, ADistortionAllowanceKeepsRightCandidatesFromBothEndsOfABentFloor) {
+  const StretchedOfficePair pair(1.04);
+  struct Outcome {
+    std::size_t constraints = 0;
+    double worst = 0.0;
+  };
+  auto run = [&](double distortion, bool local) {
+    FloorMatcherOptions o = fastOptions();
+    o.ransac_distortion = distortion;
+    o.local_constraint_translation = local;
+    const std::vector<double> e = pair.constraintErrors(matchFloors(pair.graphs, o));
+    Outcome out;
+    out.constraints = e.size();
+    if (!e.empty()) out.worst = *std::max_element(e.begin(), e.end());
+    std::printf("distortion %.2f, local translation %d: %zu constraints, worst %.3f m\n", distortion, local,
+                out.constraints, out.worst);
+    return out;
+  };
+  const Outcome rigid = run(0.0, false), bent = run(0.05, false), both = run(0.05, true);
+  EXPECT_GT(bent.constraints, rigid.constraints);
+  // The ones within RANSAC's tolerance of the joint alignment still go through it unless
+  // they take their translation from their own scans too.
+  EXPECT_LT(both.worst, 0.08);
+  EXPECT_LT(both.worst, 0.5 * rigid.worst);
 }
 
 // When g_i's own sequences are not enough, g_ref's scans localised in g_i's map join the

@@ -54,6 +54,7 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
       node.getDouble("ransac_translation_tolerance", o.ransac_translation_tolerance, 1e-4, 100.0);
   o.ransac_rotation_tolerance =
       node.getDouble("ransac_rotation_tolerance", o.ransac_rotation_tolerance, 1e-5, M_PI);
+  o.ransac_distortion = node.getDouble("ransac_distortion", o.ransac_distortion, 0.0, 0.1);
   o.min_constraints = node.getInt("min_constraints", o.min_constraints, 1, 100000);
   o.ambiguity_ratio = node.getDouble("ambiguity_ratio", o.ambiguity_ratio, 0.0, 1.0);
   o.ambiguity_fit_margin = node.getDouble("ambiguity_fit_margin", o.ambiguity_fit_margin, 0.0, 1.0);
@@ -185,10 +186,15 @@ std::vector<std::size_t> disjointSubset(const std::vector<Candidate>& cands,
 // Largest set of candidates (among `pool`) agreeing with one candidate's alignment,
 // counting candidates with overlapping scans once (the set returned is disjoint; `all`,
 // when given, receives every candidate agreeing with the winning hypothesis).
+// `distortion` is the allowance per metre between two candidates' nodes k (see
+// FloorMatcherOptions::ransac_distortion); rival sets and twins are searched rigidly (0):
+// a symmetric floor's twin is a rigid transform, and a bent floor's right candidates
+// belong to the largest set.
 std::vector<std::size_t> largestConsistentSet(const std::vector<Candidate>& cands,
                                               const std::vector<std::size_t>& pool,
                                               const floor::FloorGraph& graph,
-                                              const FloorMatcherOptions& o, std::mt19937_64* rng,
+                                              const FloorMatcherOptions& o, double distortion,
+                                              std::mt19937_64* rng,
                                               std::vector<std::size_t>* all = nullptr) {
   std::vector<std::size_t> hypotheses = pool;
   if (hypotheses.size() > static_cast<std::size_t>(o.ransac_iterations)) {
@@ -199,10 +205,12 @@ std::vector<std::size_t> largestConsistentSet(const std::vector<Candidate>& cand
   double best_score = -1.0;
   for (std::size_t h : hypotheses) {
     std::vector<std::size_t> consistent;
+    const Eigen::Vector2d at_h = graph.nodes[cands[h].node_index].pose.translation();
     for (std::size_t i : pool) {
       const Pose2& pk = graph.nodes[cands[i].node_index].pose;
-      if (agrees(cands[h].alignment, cands[i].alignment, pk, o.ransac_translation_tolerance,
-                 o.ransac_rotation_tolerance))
+      const double tolerance =
+          o.ransac_translation_tolerance + distortion * (pk.translation() - at_h).norm();
+      if (agrees(cands[h].alignment, cands[i].alignment, pk, tolerance, o.ransac_rotation_tolerance))
         consistent.push_back(i);
     }
     std::vector<std::size_t> set = disjointSubset(cands, consistent);
@@ -679,7 +687,7 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
     if (result.candidates[i].status == CandidateStatus::kOutlier) pool.push_back(i);
   std::vector<std::size_t> best_all;
   const std::vector<std::size_t> best =
-      largestConsistentSet(result.candidates, pool, g, o, &rng, &best_all);
+      largestConsistentSet(result.candidates, pool, g, o, o.ransac_distortion, &rng, &best_all);
   std::vector<std::size_t> rest, overlapping;
   for (std::size_t i : pool) {
     if (std::find(best_all.begin(), best_all.end(), i) == best_all.end())
@@ -687,7 +695,7 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
     else if (std::find(best.begin(), best.end(), i) == best.end())
       overlapping.push_back(i);
   }
-  const std::vector<std::size_t> second = largestConsistentSet(result.candidates, rest, g, o, &rng);
+  const std::vector<std::size_t> second = largestConsistentSet(result.candidates, rest, g, o, 0.0, &rng);
   auto markAll = [&](const std::vector<std::size_t>& which, CandidateStatus s,
                      const std::string& why) {
     for (std::size_t i : which) {
@@ -767,7 +775,13 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
     const floor::FloorGraph& ref = *reference.graph;
     for (std::size_t i : best) {
       Candidate& c = result.candidates[i];
-      if (c.reversed) {
+      // A candidate that joined only through the distortion allowance is where the rigid
+      // joint alignment is not: it keeps its own measurement, as a reversed one does.
+      const bool beyond_joint =
+          !c.reversed && o.ransac_distortion > 0.0 &&
+          !agrees(joint, c.alignment, g.nodes[c.node_index].pose, o.ransac_translation_tolerance,
+                  o.ransac_rotation_tolerance);
+      if (c.reversed || beyond_joint) {
         c.weak_direction = weakDirectionAt(c, c.alignment, ref.findNode(c.reference_node_id)->pose);
         continue;
       }
@@ -891,7 +905,7 @@ FloorCheck checkSelfSimilarity(const PreparedFloor& floor_data, const FloorMatch
   check.at_identity = static_cast<int>(at_home.size());
   std::mt19937_64 rng(seed);
   const std::vector<std::size_t> twin =
-      largestConsistentSet(own.candidates, elsewhere, *floor_data.graph, o, &rng);
+      largestConsistentSet(own.candidates, elsewhere, *floor_data.graph, o, 0.0, &rng);
   check.elsewhere = static_cast<int>(twin.size());
   check.self_similar =
       check.elsewhere >= 2 &&
@@ -977,11 +991,11 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
   std::mt19937_64 rng(seed);
   std::vector<std::size_t> best_all;
   const std::vector<std::size_t> best =
-      largestConsistentSet(in_reference, pool, g, o, &rng, &best_all);
+      largestConsistentSet(in_reference, pool, g, o, 0.0, &rng, &best_all);
   std::vector<std::size_t> rest;
   for (std::size_t i : pool)
     if (std::find(best_all.begin(), best_all.end(), i) == best_all.end()) rest.push_back(i);
-  const std::vector<std::size_t> second = largestConsistentSet(in_reference, rest, g, o, &rng);
+  const std::vector<std::size_t> second = largestConsistentSet(in_reference, rest, g, o, 0.0, &rng);
   int from_via = 0;
   for (std::size_t i : best) from_via += i >= first_via;
   auto markAll = [&](const std::vector<std::size_t>& which, CandidateStatus st,

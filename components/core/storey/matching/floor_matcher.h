@@ -93,6 +93,14 @@ struct FloorMatcherOptions {
   int ransac_iterations = 500;
   double ransac_translation_tolerance = 0.3;  // metres
   double ransac_rotation_tolerance = 0.05;    // rad
+  // Floor graphs are not rigid (a bare corridor's length is off by up to ~1 %): two
+  // candidates also agree when their alignments differ at node k by up to this fraction
+  // of the distance between their nodes k, on top of the tolerance above. A candidate that
+  // agrees only through this allowance keeps its own measurement (not the joint
+  // alignment's), so the building graph learns where that part of the floor lies. Only
+  // the pair's largest set is searched so; rival sets (ambiguity), the self-check's twins
+  // and evidence combined through an aligned floor stay rigid.
+  double ransac_distortion = 0.0;  // m per m
   int min_constraints = 3;
   // A floor whose second-largest consistent set (disjoint from the largest) has at least
   // max(2, ambiguity_ratio * largest) candidates is ambiguous: no constraint.
