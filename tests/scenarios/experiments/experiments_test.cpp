@@ -229,5 +229,27 @@ TEST(Experiments, FeaturelessFloorBIsPlacedOnSeed7) {
   EXPECT_LT(b.rotation_with.worst, 0.2 * M_PI / 180.0);
 }
 
+// Session 14: featureless seed 1's corridor B is mapped 0.8 % short. The rigid RANSAC set
+// anchored B at its west end and the lobby and left out the right candidate at its east
+// end, 0.5 m off the rigid alignment; B was placed 0.267 m off and kept its length.
+// ransac_distortion lets that candidate join (docs/floor_matcher.md).
+TEST(Experiments, FeaturelessSeed1CorrectsCorridorBThroughItsFarEnd) {
+  const auto tables = runExperiments(oneSeed("featureless", 1, 77));
+  ASSERT_EQ(tables.size(), 1u);
+  const ExperimentTable& table = tables.front();
+  ASSERT_EQ(table.floors.size(), 2u);
+  const FloorRow& b = table.floors[1];
+  ASSERT_EQ(b.floor, "B");
+  EXPECT_EQ(b.wrong, 0u);
+  // 0.013 m when written (session 13: 0.267 m).
+  EXPECT_LT(b.translation_with.worst, 0.05);
+  for (const CorridorRow& c : table.corridors) {
+    if (c.name != "corridor_B") continue;
+    // -0.27 % when written; -0.79 % without inter-floor constraints.
+    EXPECT_LT(c.abs_error_with.worst, 0.005);
+    EXPECT_LT(c.abs_error_with.worst, c.abs_error_without.worst - 0.003);
+  }
+}
+
 }  // namespace
 }  // namespace storey::tools

@@ -225,34 +225,40 @@ TEST(FloorMatcher, ConstraintsOfAStretchedFloorSayWhereTheirOwnScansLie) {
   EXPECT_LT(local_max, 0.05);
 }
 
-// Floor 1's graph 4 % too long: a rigid alignment that fits one end is 0.6-0.8 m off at
-// the other, beyond RANSAC's 0.3 m. With a distortion allowance the right candidates
-// from both ends form one set; those beyond the joint alignment keep their own
-// measurement, and with local translations the rest say where their own scans lie.
-TEST(FloorMatcher, ADistortionAllowanceKeepsRightCandidatesFromBothEndsOfABentFloor) {
-  const StretchedOfficePair pair(1.04);
-  struct Outcome {
-    std::size_t constraints = 0;
-    double worst = 0.0;
+// A corridor graph 1 % short: the rigid set anchors it over its first 10 m, where its
+// candidates agree; 60 m further on a right candidate is 0.7 m off the rigid alignment,
+// within 0.3 m + 2 % of 60 m. A candidate as far off beside the set, or one turned by
+// more than the rotation tolerance, gets no allowance; without ransac_distortion none does.
+TEST(FloorMatcher, ABentFloorsFarCandidateJoinsTheRigidSetButNotOneBesideIt) {
+  floor::FloorGraph g;
+  for (int i = 0; i <= 80; ++i) {
+    floor::FloorNode n;
+    n.id = i;
+    n.pose = Pose2(static_cast<double>(i), 0.0, 0.0);
+    g.nodes.push_back(n);
+  }
+  const Pose2 rigid(5.0, 2.0, 0.1);
+  auto candidate = [&](int node, const Pose2& alignment) {
+    Candidate c;
+    c.node_index = node;
+    c.alignment = alignment;
+    return c;
   };
-  auto run = [&](double distortion, bool local) {
-    FloorMatcherOptions o = fastOptions();
-    o.ransac_distortion = distortion;
-    o.local_constraint_translation = local;
-    const std::vector<double> e = pair.constraintErrors(matchFloors(pair.graphs, o));
-    Outcome out;
-    out.constraints = e.size();
-    if (!e.empty()) out.worst = *std::max_element(e.begin(), e.end());
-    std::printf("distortion %.2f, local translation %d: %zu constraints, worst %.3f m\n", distortion, local,
-                out.constraints, out.worst);
-    return out;
-  };
-  const Outcome rigid = run(0.0, false), bent = run(0.05, false), both = run(0.05, true);
-  EXPECT_GT(bent.constraints, rigid.constraints);
-  // The ones within RANSAC's tolerance of the joint alignment still go through it unless
-  // they take their translation from their own scans too.
-  EXPECT_LT(both.worst, 0.08);
-  EXPECT_LT(both.worst, 0.5 * rigid.worst);
+  const Pose2 shifted(rigid.x() + 0.7 * std::cos(rigid.theta()), rigid.y() + 0.7 * std::sin(rigid.theta()),
+                      rigid.theta());  // places every node 0.7 m further along
+  const std::vector<Candidate> cands{
+      candidate(0, rigid), candidate(5, rigid), candidate(10, rigid),  // the rigid set
+      candidate(70, shifted),                                          // 60 m on: joins
+      candidate(12, shifted),                                          // 2 m on: does not
+      candidate(75, Pose2(rigid.x(), rigid.y(), rigid.theta() + 0.08))};  // turned: does not
+  const std::vector<std::size_t> pool{0, 1, 2, 3, 4, 5}, core{0, 1, 2};
+  FloorMatcherOptions o;
+  o.ransac_distortion = 0.02;
+  EXPECT_EQ(bentFloorCandidates(cands, pool, core, g, o), (std::vector<std::size_t>{3}));
+  o.ransac_distortion = 0.0;
+  EXPECT_TRUE(bentFloorCandidates(cands, pool, core, g, o).empty());
+  o.ransac_distortion = 0.005;  // 0.3 + 0.3 m at 60 m: not enough for 0.7 m
+  EXPECT_TRUE(bentFloorCandidates(cands, pool, core, g, o).empty());
 }
 
 // When g_i's own sequences are not enough, g_ref's scans localised in g_i's map join the

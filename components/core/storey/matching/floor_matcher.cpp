@@ -186,15 +186,10 @@ std::vector<std::size_t> disjointSubset(const std::vector<Candidate>& cands,
 // Largest set of candidates (among `pool`) agreeing with one candidate's alignment,
 // counting candidates with overlapping scans once (the set returned is disjoint; `all`,
 // when given, receives every candidate agreeing with the winning hypothesis).
-// `distortion` is the allowance per metre between two candidates' nodes k (see
-// FloorMatcherOptions::ransac_distortion); rival sets and twins are searched rigidly (0):
-// a symmetric floor's twin is a rigid transform, and a bent floor's right candidates
-// belong to the largest set.
 std::vector<std::size_t> largestConsistentSet(const std::vector<Candidate>& cands,
                                               const std::vector<std::size_t>& pool,
                                               const floor::FloorGraph& graph,
-                                              const FloorMatcherOptions& o, double distortion,
-                                              std::mt19937_64* rng,
+                                              const FloorMatcherOptions& o, std::mt19937_64* rng,
                                               std::vector<std::size_t>* all = nullptr) {
   std::vector<std::size_t> hypotheses = pool;
   if (hypotheses.size() > static_cast<std::size_t>(o.ransac_iterations)) {
@@ -205,12 +200,10 @@ std::vector<std::size_t> largestConsistentSet(const std::vector<Candidate>& cand
   double best_score = -1.0;
   for (std::size_t h : hypotheses) {
     std::vector<std::size_t> consistent;
-    const Eigen::Vector2d at_h = graph.nodes[cands[h].node_index].pose.translation();
     for (std::size_t i : pool) {
       const Pose2& pk = graph.nodes[cands[i].node_index].pose;
-      const double tolerance =
-          o.ransac_translation_tolerance + distortion * (pk.translation() - at_h).norm();
-      if (agrees(cands[h].alignment, cands[i].alignment, pk, tolerance, o.ransac_rotation_tolerance))
+      if (agrees(cands[h].alignment, cands[i].alignment, pk, o.ransac_translation_tolerance,
+                 o.ransac_rotation_tolerance))
         consistent.push_back(i);
     }
     std::vector<std::size_t> set = disjointSubset(cands, consistent);
@@ -227,6 +220,28 @@ std::vector<std::size_t> largestConsistentSet(const std::vector<Candidate>& cand
 }
 
 }  // namespace
+
+std::vector<std::size_t> bentFloorCandidates(const std::vector<Candidate>& cands,
+                                             const std::vector<std::size_t>& pool,
+                                             const std::vector<std::size_t>& core,
+                                             const floor::FloorGraph& graph, const FloorMatcherOptions& o) {
+  std::vector<std::size_t> out;
+  if (o.ransac_distortion <= 0.0 || core.empty()) return out;
+  std::vector<Pose2> alignments;
+  for (std::size_t i : core) alignments.push_back(cands[i].alignment);
+  const Pose2 mean = meanAlignment(alignments);
+  for (std::size_t i : pool) {
+    if (std::find(core.begin(), core.end(), i) != core.end()) continue;
+    const Pose2& pk = graph.nodes[cands[i].node_index].pose;
+    double nearest = std::numeric_limits<double>::infinity();
+    for (std::size_t j : core)
+      nearest = std::min(nearest, (graph.nodes[cands[j].node_index].pose.translation() - pk.translation()).norm());
+    if (agrees(mean, cands[i].alignment, pk, o.ransac_translation_tolerance + o.ransac_distortion * nearest,
+               o.ransac_rotation_tolerance))
+      out.push_back(i);
+  }
+  return out;
+}
 
 double refineAlignment(const grid::LikelihoodField& field, const floor::FloorGraph& graph,
                        const std::vector<std::pair<int, int>>& ranges, int beams, int iterations,
@@ -686,8 +701,13 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
   for (std::size_t i = 0; i < result.candidates.size(); ++i)
     if (result.candidates[i].status == CandidateStatus::kOutlier) pool.push_back(i);
   std::vector<std::size_t> best_all;
-  const std::vector<std::size_t> best =
-      largestConsistentSet(result.candidates, pool, g, o, o.ransac_distortion, &rng, &best_all);
+  std::vector<std::size_t> best = largestConsistentSet(result.candidates, pool, g, o, &rng, &best_all);
+  const std::vector<std::size_t> bent = bentFloorCandidates(result.candidates, pool, best_all, g, o);
+  if (!bent.empty()) {
+    best_all.insert(best_all.end(), bent.begin(), bent.end());
+    std::sort(best_all.begin(), best_all.end());
+    best = disjointSubset(result.candidates, best_all);
+  }
   std::vector<std::size_t> rest, overlapping;
   for (std::size_t i : pool) {
     if (std::find(best_all.begin(), best_all.end(), i) == best_all.end())
@@ -695,7 +715,7 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
     else if (std::find(best.begin(), best.end(), i) == best.end())
       overlapping.push_back(i);
   }
-  const std::vector<std::size_t> second = largestConsistentSet(result.candidates, rest, g, o, 0.0, &rng);
+  const std::vector<std::size_t> second = largestConsistentSet(result.candidates, rest, g, o, &rng);
   auto markAll = [&](const std::vector<std::size_t>& which, CandidateStatus s,
                      const std::string& why) {
     for (std::size_t i : which) {
@@ -905,7 +925,7 @@ FloorCheck checkSelfSimilarity(const PreparedFloor& floor_data, const FloorMatch
   check.at_identity = static_cast<int>(at_home.size());
   std::mt19937_64 rng(seed);
   const std::vector<std::size_t> twin =
-      largestConsistentSet(own.candidates, elsewhere, *floor_data.graph, o, 0.0, &rng);
+      largestConsistentSet(own.candidates, elsewhere, *floor_data.graph, o, &rng);
   check.elsewhere = static_cast<int>(twin.size());
   check.self_similar =
       check.elsewhere >= 2 &&
@@ -991,11 +1011,11 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
   std::mt19937_64 rng(seed);
   std::vector<std::size_t> best_all;
   const std::vector<std::size_t> best =
-      largestConsistentSet(in_reference, pool, g, o, 0.0, &rng, &best_all);
+      largestConsistentSet(in_reference, pool, g, o, &rng, &best_all);
   std::vector<std::size_t> rest;
   for (std::size_t i : pool)
     if (std::find(best_all.begin(), best_all.end(), i) == best_all.end()) rest.push_back(i);
-  const std::vector<std::size_t> second = largestConsistentSet(in_reference, rest, g, o, 0.0, &rng);
+  const std::vector<std::size_t> second = largestConsistentSet(in_reference, rest, g, o, &rng);
   int from_via = 0;
   for (std::size_t i : best) from_via += i >= first_via;
   auto markAll = [&](const std::vector<std::size_t>& which, CandidateStatus st,

@@ -93,13 +93,13 @@ struct FloorMatcherOptions {
   int ransac_iterations = 500;
   double ransac_translation_tolerance = 0.3;  // metres
   double ransac_rotation_tolerance = 0.05;    // rad
-  // Floor graphs are not rigid (a bare corridor's length is off by up to ~1 %): two
-  // candidates also agree when their alignments differ at node k by up to this fraction
-  // of the distance between their nodes k, on top of the tolerance above. A candidate that
-  // agrees only through this allowance keeps its own measurement (not the joint
-  // alignment's), so the building graph learns where that part of the floor lies. Only
-  // the pair's largest set is searched so; rival sets (ambiguity), the self-check's twins
-  // and evidence combined through an aligned floor stay rigid.
+  // Floor graphs are not rigid (a bare corridor's length is off by up to ~1 %): after
+  // RANSAC, a candidate outside the largest set also joins it when it agrees with the
+  // set's mean alignment within ransac_translation_tolerance plus this fraction of the
+  // distance from its node k to the set's nearest node k (so only far from where the set
+  // anchors the floor). It keeps its own measurement, not the joint alignment's, so the
+  // building graph learns where that part of the floor lies. Rival sets (ambiguity), the
+  // self-check's twins and evidence combined through an aligned floor stay rigid.
   double ransac_distortion = 0.0;  // m per m
   int min_constraints = 3;
   // A floor whose second-largest consistent set (disjoint from the largest) has at least
@@ -305,6 +305,18 @@ Eigen::Matrix3d constraintInformation(const Candidate& c, const FloorMatcherOpti
 // reference, with one of its two sets.
 MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
                         const FloorMatcherOptions& options);
+
+// The candidates of `pool` outside the rigid set `core` (a RANSAC set: every candidate
+// agreeing with its hypothesis) that agree with the core's mean alignment within
+// ransac_translation_tolerance plus ransac_distortion x the distance from their node k to
+// the nearest core candidate's node k (graph = the graph their node k belongs to). A floor
+// graph bent between where the core anchors it and where they lie (a bare corridor 0.8 %
+// short) puts right candidates that far off the rigid model, while a candidate beside the
+// core gets no allowance.
+std::vector<std::size_t> bentFloorCandidates(const std::vector<Candidate>& cands,
+                                             const std::vector<std::size_t>& pool,
+                                             const std::vector<std::size_t>& core,
+                                             const floor::FloorGraph& graph, const FloorMatcherOptions& o);
 
 // Refines an alignment T (g_i frame in g_ref frame) so the scans of the node index
 // ranges [first, last], placed at T * pose, fit the field (Gauss-Newton on 1 - score).
