@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 
 #include "storey/eval/corridors.h"
 #include "test_support.h"
@@ -158,6 +159,14 @@ ExperimentOptions oneSeed(const std::string& experiment, std::uint64_t seed, int
   return options;
 }
 
+// One featureless seed end to end: its table, floors A and B.
+ExperimentTable featurelessRun(std::uint64_t seed, int domain_id) {
+  const auto tables = runExperiments(oneSeed("featureless", seed, domain_id));
+  if (tables.size() != 1u || tables.front().floors.size() != 2u || tables.front().floors[1].floor != "B")
+    throw std::runtime_error("featureless: expected one table with floors A and B");
+  return tables.front();
+}
+
 // One tower10 seed end to end: the table's figures are those of a direct evaluation of
 // the run's written trajectory against its ground truth.
 TEST(Experiments, Tower10TableAgreesWithDirectEvaluation) {
@@ -216,12 +225,8 @@ TEST(Experiments, Tower10TableAgreesWithDirectEvaluation) {
 // must not be taken for a symmetric floor (session 12's floor graphs made it one of the
 // self-check's near misses: no inter-floor constraint, floor B unplaced, 149 deg off).
 TEST(Experiments, FeaturelessFloorBIsPlacedOnSeed7) {
-  const auto tables = runExperiments(oneSeed("featureless", 7, 79));
-  ASSERT_EQ(tables.size(), 1u);
-  const ExperimentTable& table = tables.front();
-  ASSERT_EQ(table.floors.size(), 2u);
+  const ExperimentTable table = featurelessRun(7, 79);
   const FloorRow& b = table.floors[1];
-  ASSERT_EQ(b.floor, "B");
   EXPECT_GE(b.constraints.mean, 3.0);
   EXPECT_EQ(b.wrong, 0u);
   // Placed by its constraints: 0.138 m / 0.06 deg when written (unplaced: 1.17 m / 149 deg).
@@ -234,12 +239,8 @@ TEST(Experiments, FeaturelessFloorBIsPlacedOnSeed7) {
 // end, 0.5 m off the rigid alignment; B was placed 0.267 m off and kept its length.
 // ransac_distortion lets that candidate join (docs/floor_matcher.md).
 TEST(Experiments, FeaturelessSeed1CorrectsCorridorBThroughItsFarEnd) {
-  const auto tables = runExperiments(oneSeed("featureless", 1, 77));
-  ASSERT_EQ(tables.size(), 1u);
-  const ExperimentTable& table = tables.front();
-  ASSERT_EQ(table.floors.size(), 2u);
+  const ExperimentTable table = featurelessRun(1, 77);
   const FloorRow& b = table.floors[1];
-  ASSERT_EQ(b.floor, "B");
   EXPECT_EQ(b.wrong, 0u);
   // 0.013 m when written (session 13: 0.267 m).
   EXPECT_LT(b.translation_with.worst, 0.05);
