@@ -104,7 +104,7 @@ void printCandidateTruth(const matching::MatchResult& result,
       if (c.status == matching::CandidateStatus::kLowLikelihood ||
           c.status == matching::CandidateStatus::kPoorFit)
         continue;  // (underconstrained ones are shown: what the conditioning gate drops)
-      auto e = matching::alignmentError(c.alignment, c.reference_graph_id, c.graph_id, floors);
+      matching::ConstraintError e;
       const std::size_t si = c.reversed ? ri : gi;  // the graph whose scans were localised
       const std::size_t mi = c.reversed ? gi : ri;  // the graph whose map they were localised in
       const auto& nodes = floors.graphs[si].nodes;
@@ -127,6 +127,8 @@ void printCandidateTruth(const matching::MatchResult& result,
         e.translation = (placed.translation() - b.translation()).norm();
         e.rotation = std::abs(geometry::angleDiff(placed.theta(), b.theta()));
         truth = q.pose * q_true.between(b) * nodes[c.last_index].pose.inverse();
+      } else {
+        e = matching::alignmentError(c.alignment, c.reference_graph_id, c.graph_id, floors);
       }
       const bool bad = e.translation > 0.3 || e.rotation > 2.0 * M_PI / 180.0;
       std::cout << "  graph " << c.graph_id << " in " << c.reference_graph_id << " "

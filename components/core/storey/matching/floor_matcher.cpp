@@ -302,6 +302,16 @@ double refineAlignment(const grid::LikelihoodField& field, const floor::FloorGra
 
 namespace {
 
+// How a floor's scan points are fitted to another floor's points (the joint alignment,
+// and each constraint's own translation).
+grid::PointAlignmentOptions pointAlignmentOptions(const FloorMatcherOptions& o) {
+  grid::PointAlignmentOptions a;
+  a.max_iterations = std::max(1, o.refine_iterations);
+  a.max_correspondence_distance = o.point_correspondence_distance;
+  a.robust_distance = o.point_robust_distance;
+  return a;
+}
+
 void refineAlignmentOnPoints(const grid::PointMap& map, const floor::FloorGraph& graph,
                              const std::vector<std::pair<int, int>>& ranges,
                              const FloorMatcherOptions& o, Pose2* alignment) {
@@ -314,11 +324,7 @@ void refineAlignmentOnPoints(const grid::PointMap& map, const floor::FloorGraph&
         o.map.max_insert_range);
     points.insert(points.end(), more.begin(), more.end());
   }
-  grid::PointAlignmentOptions a;
-  a.max_iterations = std::max(1, o.refine_iterations);
-  a.max_correspondence_distance = o.point_correspondence_distance;
-  a.robust_distance = o.point_robust_distance;
-  const grid::PointAlignment fit = grid::alignToPoints(map, points, *alignment, a);
+  const grid::PointAlignment fit = grid::alignToPoints(map, points, *alignment, pointAlignmentOptions(o));
   // The likelihood field's refinement is already within a cell or two: a larger move
   // means the points found other walls, and the field's answer stands.
   const Pose2 moved = alignment->between(fit.pose);
@@ -339,10 +345,7 @@ Pose2 localTranslation(const grid::PointMap& map, const floor::FloorGraph& graph
   if (map.empty()) return joint;
   const std::vector<Eigen::Vector2d> points = floor::floorPoints(
       graph, static_cast<std::size_t>(first), static_cast<std::size_t>(last) + 1, o.map.max_insert_range);
-  grid::PointAlignmentOptions a;
-  a.max_iterations = std::max(1, o.refine_iterations);
-  a.max_correspondence_distance = o.point_correspondence_distance;
-  a.robust_distance = o.point_robust_distance;
+  grid::PointAlignmentOptions a = pointAlignmentOptions(o);
   a.rotation_prior_weight = 1e9;  // the heading is the joint alignment's, fixed
   const grid::PointAlignment fit = grid::alignToPoints(map, points, joint, a);
   const Pose2 moved = joint.between(fit.pose);
@@ -795,8 +798,10 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
     const floor::FloorGraph& ref = *reference.graph;
     for (std::size_t i : best) {
       Candidate& c = result.candidates[i];
-      // A candidate that joined only through the distortion allowance is where the rigid
-      // joint alignment is not: it keeps its own measurement, as a reversed one does.
+      // With the distortion allowance on, any accepted candidate the joint alignment does
+      // not place within RANSAC's tolerance (those that joined through the allowance, and
+      // a core one the refined joint moved away from) is where the rigid floor is not: it
+      // keeps its own measurement, as a reversed one does.
       const bool beyond_joint =
           !c.reversed && o.ransac_distortion > 0.0 &&
           !agrees(joint, c.alignment, g.nodes[c.node_index].pose, o.ransac_translation_tolerance,

@@ -47,16 +47,6 @@ SecurityOptions resolveSecurity(const ContextOptions& options) {
   }
 }
 
-std::string guidPrefixText(const eprosima::fastrtps::rtps::GuidPrefix_t& prefix) {
-  static const char* kHex = "0123456789abcdef";
-  std::string text;
-  for (unsigned char byte : prefix.value) {
-    text += kHex[byte >> 4];
-    text += kHex[byte & 15];
-  }
-  return text;
-}
-
 // Logs (debug) every remote participant this one discovers, drops or loses, so a process
 // that matches nobody can be told apart from one that matched and got nothing.
 class DiscoveryLogger : public fdds::DomainParticipantListener {
@@ -69,9 +59,9 @@ class DiscoveryLogger : public fdds::DomainParticipantListener {
                        : info.status == Info::DROPPED_PARTICIPANT   ? "dropped (lease expired)"
                                                                     : "changed";
     common::logDebug(common::str("dds: participant ", participant->get_qos().name().to_string(), " (",
-                                 guidPrefixText(participant->guid().guidPrefix), ") ", what, " participant ",
+                                 participant->guid().guidPrefix, ") ", what, " participant ",
                                  info.info.m_participantName.to_string(), " (",
-                                 guidPrefixText(info.info.m_guid.guidPrefix), ")"));
+                                 info.info.m_guid.guidPrefix, ")"));
   }
 };
 
