@@ -97,8 +97,9 @@ struct FloorMatcherOptions {
   // RANSAC, a candidate outside the largest set also joins it when it agrees with the
   // set's mean alignment within ransac_translation_tolerance plus this fraction of the
   // distance from its node k to the set's nearest node k (so only far from where the set
-  // anchors the floor). It keeps its own measurement, not the joint alignment's, so the
-  // building graph learns where that part of the floor lies. Rival sets (ambiguity), the
+  // anchors the floor). With this on, every accepted candidate that the joint alignment
+  // does not place within the RANSAC tolerance keeps its own measurement, not the joint
+  // alignment's, so the building graph learns where that part of the floor lies. Rival sets (ambiguity), the
   // self-check's twins and evidence combined through an aligned floor stay rigid.
   double ransac_distortion = 0.0;  // m per m
   int min_constraints = 3;
