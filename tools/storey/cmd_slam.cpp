@@ -109,6 +109,9 @@ int run_slam(Args& args) {
       .option("reference", "LOG", "log of the same scans whose poses are the reference")
       .option("max-scans", "N", "use only the first N scans (0: all)", "0")
       .flag("no-loop-closure", "disable loop closure")
+      .flag("no-reference-check",
+            "skip checking the reference poses against their own scans (the relation error is "
+            "then printed only over all pairs)")
       .flag("quiet", "log warnings only");
   if (!args.parse()) return 0;
   const std::string log_path = args.positional(0, "LOG");
@@ -236,6 +239,31 @@ int run_slam(Args& args) {
     printStats(report, "slam     far   ", errors.far);
     printStats(report, "odometry nearby", odo.nearby);
     printStats(report, "odometry far   ", odo.far);
+    if (!args.flagSet("no-reference-check")) {
+      const std::vector<mapping::ReferencePoseCheck> checks = mapping::checkReferencePoses(scans, reference);
+      std::vector<bool> contradicted(reference.size(), false);
+      std::size_t count = 0;
+      std::ofstream csv(out_dir + "/reference_check.csv");
+      csv << "scan,contradicted,matched,reference_score,match_score,offset_x,offset_y,offset_theta\n"
+          << std::setprecision(6);
+      for (const auto& c : checks) {
+        contradicted[c.index] = c.contradicted;
+        count += c.contradicted ? 1 : 0;
+        const Pose2 offset = reference[c.index].between(c.match);
+        csv << c.index << ',' << (c.contradicted ? 1 : 0) << ',' << (c.matched ? 1 : 0) << ',' << c.reference_score
+            << ',' << c.match_score << ',';
+        if (c.matched) csv << offset.x() << ',' << offset.y() << ',' << offset.theta() << '\n';
+        else csv << ",,\n";
+      }
+      const mapping::RelationErrors checked = mapping::relationErrors(trajectory, reference, 10.0, 5000, 1, contradicted);
+      const mapping::RelationErrors odo_checked = mapping::relationErrors(odometry, reference, 10.0, 5000, 1, contradicted);
+      report << "reference poses their own scans contradict: " << count << " of " << reference.size()
+             << " (reference_check.csv); the relation error without the pairs that use them:\n";
+      printStats(report, "slam     nearby", checked.nearby);
+      printStats(report, "slam     far   ", checked.far);
+      printStats(report, "odometry nearby", odo_checked.nearby);
+      printStats(report, "odometry far   ", odo_checked.far);
+    }
     // The k-th scan that became a node is node k (one floor, no relocalisation here).
     std::map<int, Pose2> node_reference;
     for (std::size_t i = 0, k = 0; i < run.status.size(); ++i)

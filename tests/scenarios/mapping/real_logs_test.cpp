@@ -1,8 +1,7 @@
 // The front end on real laser logs with odometry derived from the corrected poses plus
 // seeded noise (5 % of distance per axis, 2°/m + 2 % of the turn in heading), compared
-// with the corrected poses by the relation metric (Kümmerle et al. 2009). Only intel
-// and infinite-corridor run here (about 40 s together); docs/floor_mapper.md has every log,
-// run with `storey slam`.
+// with the corrected poses by the relation metric (Kümmerle et al. 2009). intel, csail
+// and infinite-corridor run here; docs/floor_mapper.md has every log, run with `storey slam`.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -54,7 +53,8 @@ std::vector<double> closureErrors(const FloorSlam& slam, const OfflineRun& run, 
 
 RelationErrors runAndEvaluate(const LogData& log, const std::vector<Pose2>& odometry,
                               const std::vector<Pose2>& reference, const char* name,
-                              const FloorSlamOptions& options = {}, std::vector<double>* closure_errors = nullptr) {
+                              const FloorSlamOptions& options = {}, std::vector<double>* closure_errors = nullptr,
+                              std::vector<Pose2>* trajectory = nullptr) {
   common::setLogLevel(common::LogLevel::kError);
   FloorSlam slam(options, "robot", 0, 0, 0.0);
   const OfflineRun run = runOffline(slam, log.scans, odometry);
@@ -69,6 +69,7 @@ RelationErrors runAndEvaluate(const LogData& log, const std::vector<Pose2>& odom
               slam.stats().loop_closures);
   EXPECT_EQ(slam.stats().rejected, 0u);
   if (closure_errors) *closure_errors = closureErrors(slam, run, reference);
+  if (trajectory) *trajectory = estimate;
   return e;
 }
 
@@ -110,6 +111,41 @@ TEST(RealLogs, IntelWithTheShippedConfig) {
   EXPECT_LT(e.nearby.rotation_mean * 180 / M_PI, 0.53);
   EXPECT_LT(e.far.translation_mean, 0.225);
   EXPECT_LT(e.far.rotation_mean * 180 / M_PI, 1.0);
+}
+
+TEST(RealLogs, CsailAgainstTheReferencePosesItsScansConfirm) {
+  // csail's corrected poses are wrong in places: scan 364's reference pose is 20° from
+  // where its scan fits its neighbours (score 0.26 there against 0.80), scans 397-399 are
+  // 11-12° off as a block, scan 42 11°. Our estimate follows the scans there, and those few
+  // relations carried csail's nearby rotation error above 0.5° (docs/floor_mapper.md,
+  // "The reference checked against its own scans"). The check finds them from the log
+  // alone; against the relations left, the front end meets the 0.03 m / 0.5° goal.
+  STOREY_REQUIRE_DATA(path, "carmen/csail-corrected.log.gz");
+  const LogData log = readLog(path);
+  ASSERT_EQ(log.scans.size(), 406u);
+  const std::vector<ReferencePoseCheck> checks = checkReferencePoses(log.scans, log.poses);
+  std::vector<bool> contradicted(log.poses.size(), false);
+  std::vector<std::size_t> flagged;
+  for (const auto& c : checks)
+    if (c.contradicted) {
+      contradicted[c.index] = true;
+      flagged.push_back(c.index);
+    }
+  EXPECT_EQ(flagged, (std::vector<std::size_t>{42, 364, 397, 399}));
+  const auto odometry = simulateOdometry(log.poses, OdometryNoise{}, 1);
+  std::vector<Pose2> estimate;
+  const RelationErrors all =
+      runAndEvaluate(log, odometry, log.poses, "csail (shipped config)", shippedOptions(), nullptr, &estimate);
+  const RelationErrors checked = relationErrors(estimate, log.poses, 10.0, 5000, 1, contradicted);
+  std::printf("csail against the checked reference: nearby %.4f m / %.3f deg (%zu pairs), far %.3f m / %.2f deg\n",
+              checked.nearby.translation_mean, checked.nearby.rotation_mean * 180 / M_PI, checked.nearby.count,
+              checked.far.translation_mean, checked.far.rotation_mean * 180 / M_PI);
+  EXPECT_EQ(checked.nearby.count, 397u);
+  // Achieved (seed 1): all pairs 0.0300 m / 0.626°; checked 0.0290 m / 0.458°, far 0.36 m.
+  EXPECT_GT(all.nearby.rotation_mean, checked.nearby.rotation_mean);
+  EXPECT_LT(checked.nearby.translation_mean, 0.03);
+  EXPECT_LT(checked.nearby.rotation_mean * 180 / M_PI, 0.5);
+  EXPECT_LT(checked.far.translation_mean, 0.5);
 }
 
 // infinite-corridor with the shipped config and odometry noise `seed`: the relation errors

@@ -1,10 +1,12 @@
-// Edge consistency against reference poses (mapping/evaluation.h).
+// Evaluation against reference poses (mapping/evaluation.h): edge consistency, the
+// relation error with left-out poses, and the check of reference poses against their scans.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <map>
 
 #include "storey/mapping/evaluation.h"
+#include "synthetic_world.h"
 
 namespace storey::mapping {
 namespace {
@@ -43,6 +45,68 @@ TEST(EdgeConsistency, NormalisesEachKindsErrorByItsInformation) {
   EXPECT_NEAR(result[1].mean_nees, 6.5, 1e-9);
   EXPECT_NEAR(result[1].rms_rotation_error, 0.03 / std::sqrt(2.0), 1e-9);
   EXPECT_NEAR(result[1].rms_rotation_sigma, 0.01, 1e-9);
+}
+
+TEST(RelationErrors, PairsWithALeftOutPoseAreNotCounted) {
+  std::vector<Pose2> reference, estimate;
+  for (int i = 0; i < 6; ++i) reference.emplace_back(i, 0.0, 0.0);
+  estimate = reference;
+  estimate[2] = Pose2(2.0, 0.1, 0.2);  // wrong: pairs (1, 2) and (2, 3) are off
+  const RelationErrors all = relationErrors(estimate, reference, 10.0, 100);
+  EXPECT_EQ(all.nearby.count, 5u);
+  EXPECT_GT(all.nearby.rotation_mean, 0.05);
+  std::vector<bool> left_out(reference.size(), false);
+  left_out[2] = true;
+  const RelationErrors checked = relationErrors(estimate, reference, 10.0, 100, 1, left_out);
+  EXPECT_EQ(checked.nearby.count, 3u);
+  EXPECT_NEAR(checked.nearby.translation_mean, 0.0, 1e-12);
+  EXPECT_NEAR(checked.nearby.rotation_mean, 0.0, 1e-12);
+  EXPECT_THROW(relationErrors(estimate, reference, 10.0, 100, 1, std::vector<bool>(3, false)),
+               std::invalid_argument);
+}
+
+// A walk through the office, scans ray-cast at the true poses.
+std::vector<Pose2> officeWalk() {
+  std::vector<Pose2> poses;
+  for (int i = 0; i < 24; ++i) poses.emplace_back(1.0 + 0.4 * i, 4.0 + 0.03 * i, 0.3 + 0.05 * i);
+  return poses;
+}
+
+TEST(ReferenceCheck, FindsTheReferencePosesTheirScansContradictAndNoOther) {
+  const test::World world = test::officeWorld();
+  const std::vector<Pose2> truth = officeWalk();
+  std::vector<sensor::LaserScan> scans;
+  for (std::size_t i = 0; i < truth.size(); ++i) scans.push_back(world.scan(truth[i], static_cast<double>(i)));
+  std::vector<Pose2> reference = truth;
+  reference[8] = truth[8] * Pose2(0.0, 0.0, 12.0 * M_PI / 180.0);  // a reference 12° off
+  reference[16] = truth[16] * Pose2(0.25, -0.2, 0.0);              // and one 0.32 m off
+  const std::vector<ReferencePoseCheck> checks = checkReferencePoses(scans, reference);
+  ASSERT_EQ(checks.size(), truth.size());
+  for (const auto& c : checks) {
+    SCOPED_TRACE("scan " + std::to_string(c.index));
+    const bool corrupted = c.index == 8 || c.index == 16;
+    EXPECT_EQ(c.contradicted, corrupted) << "score at the reference " << c.reference_score << ", at the match "
+                                         << c.match_score;
+    ASSERT_TRUE(c.matched);
+    if (!corrupted) continue;
+    // Where the reference is wrong, the match finds the true pose.
+    const Pose2 error = truth[c.index].between(c.match);
+    EXPECT_LT(error.translation().norm(), 0.05);
+    EXPECT_LT(std::abs(error.theta()), 1.0 * M_PI / 180.0);
+  }
+}
+
+TEST(ReferenceCheck, AReferenceMovedAlongABareCorridorIsNotContradicted) {
+  // The scans cannot tell where along the corridor they were taken, so they cannot
+  // contradict a reference pose moved along it.
+  const test::World world = test::corridorWorld();
+  std::vector<Pose2> truth;
+  for (int i = 0; i < 12; ++i) truth.emplace_back(0.5 * i, 0.0, 0.0);
+  std::vector<sensor::LaserScan> scans;
+  for (std::size_t i = 0; i < truth.size(); ++i) scans.push_back(world.scan(truth[i], static_cast<double>(i)));
+  std::vector<Pose2> reference = truth;
+  reference[6] = truth[6] * Pose2(0.3, 0.0, 0.0);
+  for (const auto& c : checkReferencePoses(scans, reference)) EXPECT_FALSE(c.contradicted) << "scan " << c.index;
 }
 
 }  // namespace

@@ -7,6 +7,9 @@
 
 #include <Eigen/LU>
 
+#include "storey/grid/occupancy_grid.h"
+#include "storey/mapping/scan_matcher.h"
+
 namespace storey::mapping {
 
 using geometry::Pose2;
@@ -91,14 +94,19 @@ struct Accumulator {
 }  // namespace
 
 RelationErrors relationErrors(const std::vector<Pose2>& estimate, const std::vector<Pose2>& reference,
-                              double far_distance, std::size_t far_pairs, std::uint64_t seed) {
+                              double far_distance, std::size_t far_pairs, std::uint64_t seed,
+                              const std::vector<bool>& left_out) {
   if (estimate.size() != reference.size())
     throw std::invalid_argument("relationErrors: estimate and reference differ in count");
+  if (!left_out.empty() && left_out.size() != reference.size())
+    throw std::invalid_argument("relationErrors: left_out and reference differ in count");
   Accumulator nearby, far;
   auto error = [&](std::size_t i, std::size_t j) {
     return reference[i].between(reference[j]).between(estimate[i].between(estimate[j]));
   };
-  for (std::size_t i = 0; i + 1 < estimate.size(); ++i) nearby.add(error(i, i + 1));
+  auto counted = [&](std::size_t i, std::size_t j) { return left_out.empty() || !(left_out[i] || left_out[j]); };
+  for (std::size_t i = 0; i + 1 < estimate.size(); ++i)
+    if (counted(i, i + 1)) nearby.add(error(i, i + 1));
   if (estimate.size() >= 2) {
     std::mt19937_64 rng(seed);
     std::uniform_int_distribution<std::size_t> pick(0, estimate.size() - 1);
@@ -106,10 +114,60 @@ RelationErrors relationErrors(const std::vector<Pose2>& estimate, const std::vec
     for (std::size_t tries = 0; tries < far_pairs * 20 && far.n < far_pairs; ++tries) {
       const std::size_t i = pick(rng), j = pick(rng);
       if ((reference[i].translation() - reference[j].translation()).norm() <= far_distance) continue;
+      if (!counted(i, j)) continue;
       far.add(error(i, j));
     }
   }
   return {nearby.stats(), far.stats()};
+}
+
+std::vector<ReferencePoseCheck> checkReferencePoses(const std::vector<sensor::LaserScan>& scans,
+                                                   const std::vector<Pose2>& reference,
+                                                   const ReferenceCheckOptions& options) {
+  if (scans.size() != reference.size())
+    throw std::invalid_argument("checkReferencePoses: scans and reference differ in count");
+  grid::OccupancyGridOptions grid_options;
+  grid_options.max_insert_range = options.max_insert_range;
+  const grid::LikelihoodFieldOptions field_options;
+  // A tight grid, as for the front end's local maps: room for the field's reach and the
+  // pyramid's widest block, not the default margin for growing.
+  const int pyramid_levels = 5;
+  grid_options.growth_margin =
+      field_options.max_distance + ((1 << (pyramid_levels - 1)) + 1) * grid_options.resolution;
+  const ScanMatcher matcher;
+  const auto meanScore = [](const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,
+                            const Pose2& pose) {
+    double sum = 0.0;
+    for (const auto& p : points) sum += field.interpolatedScore(pose.transformPoint(p));
+    return points.empty() ? 0.0 : sum / static_cast<double>(points.size());
+  };
+  std::vector<ReferencePoseCheck> checks(scans.size());
+  const long n = static_cast<long>(scans.size()), w = options.neighbours;
+  for (long k = 0; k < n; ++k) {
+    ReferencePoseCheck& check = checks[static_cast<std::size_t>(k)];
+    check.index = static_cast<std::size_t>(k);
+    std::vector<grid::OccupancyGrid::PosedScan> neighbours;
+    for (long j = std::max(0L, k - w); j <= std::min(n - 1, k + w); ++j)
+      if (j != k) neighbours.push_back({&scans[static_cast<std::size_t>(j)], reference[static_cast<std::size_t>(j)]});
+    if (neighbours.empty()) continue;
+    grid::OccupancyGrid grid(grid_options);
+    grid.insertScans(neighbours);
+    const MatchTarget target(grid, field_options, pyramid_levels);
+    const std::vector<Eigen::Vector2d> points =
+        filterPoints(scans[static_cast<std::size_t>(k)].pointsInRobotFrame(), matcher.options().point_filter_distance);
+    const Pose2& pose = reference[static_cast<std::size_t>(k)];
+    check.reference_score = meanScore(target.field(), points, pose);
+    const MatchResult match = matcher.match(target, points, pose, options.linear_window, options.angular_window);
+    if (!match.success) continue;
+    check.matched = true;
+    check.match = match.pose;
+    check.match_score = match.score;
+    const Pose2 offset = pose.between(match.pose);
+    const bool elsewhere = offset.translation().norm() >= options.min_translation ||
+                           std::abs(offset.theta()) >= options.min_rotation;
+    check.contradicted = elsewhere && check.reference_score < options.max_score_ratio * check.match_score;
+  }
+  return checks;
 }
 
 std::vector<EdgeConsistency> edgeConsistency(const floor::FloorGraph& graph,

@@ -48,10 +48,43 @@ struct RelationErrors {
   ErrorStats far;     // random pairs more than far_distance apart in the reference
 };
 // Relative pose error |(x_i⁻¹ x_j) ⊖ (r_i⁻¹ r_j)| per pair, translation and rotation.
+// Pairs with a pose marked in `left_out` (same size as the reference, or empty for none)
+// are not counted; far pairs are drawn until far_pairs others are found.
 RelationErrors relationErrors(const std::vector<geometry::Pose2>& estimate,
                               const std::vector<geometry::Pose2>& reference,
                               double far_distance = 10.0, std::size_t far_pairs = 5000,
-                              std::uint64_t seed = 1);
+                              std::uint64_t seed = 1, const std::vector<bool>& left_out = {});
+
+// Reference poses that their own scans contradict. The corrected logs are SLAM results
+// with errors of their own, and Kümmerle et al. 2009 had a person accept each reference
+// relation before using it; this is an automatic stand-in. Scan k is matched (ScanMatcher,
+// likelihood field) against its neighbours' scans k−W … k+W, without k, rendered at their
+// reference poses, in a window around its own reference pose. The reference pose is
+// contradicted when the match lies clearly elsewhere (at least min_translation or
+// min_rotation away) and the scan fits there clearly better: its mean score at the
+// reference pose is below max_score_ratio × the match's. It uses the log alone, never an
+// estimate, so it judges every estimate of the log the same way.
+struct ReferenceCheckOptions {
+  int neighbours = 5;             // W, scans on each side
+  double linear_window = 0.5;     // m, search half width around the reference pose
+  double angular_window = 0.5;    // rad
+  double min_translation = 0.1;   // m
+  double min_rotation = 2.0 * M_PI / 180.0;  // rad
+  double max_score_ratio = 0.7;
+  double max_insert_range = 20.0;  // m, farther returns are left out of the neighbours' map
+};
+struct ReferencePoseCheck {
+  std::size_t index = 0;
+  bool matched = false;            // the scan matched its neighbours somewhere in the window
+  geometry::Pose2 match;           // where
+  double reference_score = 0.0;    // mean per-point score at the reference pose
+  double match_score = 0.0;        // and at the match
+  bool contradicted = false;
+};
+// One check per scan, in order.
+std::vector<ReferencePoseCheck> checkReferencePoses(const std::vector<sensor::LaserScan>& scans,
+                                                   const std::vector<geometry::Pose2>& reference,
+                                                   const ReferenceCheckOptions& options = {});
 
 // Whether the graph's edges claim the accuracy they have: each edge's error against the
 // reference relative pose, normalised by its information (NEES; 3 on average for an edge
