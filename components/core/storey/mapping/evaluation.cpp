@@ -135,12 +135,6 @@ std::vector<ReferencePoseCheck> checkReferencePoses(const std::vector<sensor::La
   grid_options.growth_margin =
       field_options.max_distance + ((1 << (pyramid_levels - 1)) + 1) * grid_options.resolution;
   const ScanMatcher matcher;
-  const auto meanScore = [](const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,
-                            const Pose2& pose) {
-    double sum = 0.0;
-    for (const auto& p : points) sum += field.interpolatedScore(pose.transformPoint(p));
-    return points.empty() ? 0.0 : sum / static_cast<double>(points.size());
-  };
   std::vector<ReferencePoseCheck> checks(scans.size());
   const long n = static_cast<long>(scans.size()), w = options.neighbours;
   for (long k = 0; k < n; ++k) {

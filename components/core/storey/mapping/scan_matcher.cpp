@@ -384,8 +384,6 @@ MatchResult ScanMatcher::bestElsewhere(const MatchTarget& target, const std::vec
 }
 
 
-namespace {
-
 double meanScore(const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,
                  const Pose2& pose) {
   const double c = std::cos(pose.theta()), s = std::sin(pose.theta());
@@ -394,6 +392,8 @@ double meanScore(const grid::LikelihoodField& field, const std::vector<Eigen::Ve
     sum += field.interpolatedScore({c * p.x() - s * p.y() + pose.x(), s * p.x() + c * p.y() + pose.y()});
   return points.empty() ? 0.0 : sum / static_cast<double>(points.size());
 }
+
+namespace {
 
 // Laplace approximation σ² (JᵀWJ)⁻¹ from the point-to-line information `h_scan`, σ² the
 // weighted residual variance, floored: a near-perfect fit does not make the map's

@@ -115,6 +115,11 @@ struct MatchResult {
 double interpolatedDistance(const grid::LikelihoodField& field, const Eigen::Vector2d& p,
                             Eigen::Vector2d* gradient = nullptr);
 
+// Mean interpolated score of robot-frame `points` at `pose` (0 for no points): the
+// matcher's score of a pose, as its gates read it.
+double meanScore(const grid::LikelihoodField& field, const std::vector<Eigen::Vector2d>& points,
+                 const geometry::Pose2& pose);
+
 // Per-point residual r = D(T(ξ)·p), D the interpolated obstacle distance, of the refinement and its 1×3 Jacobian with respect
 // to ξ = (x, y, θ) of the robot pose. Exposed for the numeric-derivative test.
 double pointResidual(const grid::LikelihoodField& field, const geometry::Pose2& pose,
