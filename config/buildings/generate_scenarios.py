@@ -421,3 +421,25 @@ write("symmetric",
               ("elevator", "E", "F1"), ("go", (17.5, 8.2)), ("go", (17.5, 10)),
               ("go", (17.5, 14.8)), ("go", (17.5, 10)), ("go", (17.5, 8.2)), ("go", (2.5, 8.2)),
               ("go", (2.5, 5.2)), ("go", (2.5, 8.2))])])
+
+# symmetric_room: the same floors with one room that breaks the symmetry: a wall stub and a
+# cabinet in the south-west room that the north-east room lacks. Only the sequences that
+# see that room tell the right alignment from the 180 degree twin.
+symr_lines = ["  name: symmetric_room",
+              "  shafts:",
+              "    - " + shaft("E", "elevator", (10, 10), (2.4, 2), "south", width=1.0),
+              "  floors:",
+              floor_block("F0", 0.0, walls=sym_walls + [wall("stub", [(3.5, 0), (3.5, 2)])],
+                          doors=sym_doors, furniture=sym_furniture + [box("cabinet", (1.2, 1.5), (2, 1))]),
+              floor_block("F1", 3.5, like="F0")]
+write("symmetric_room",
+      ["The symmetric floors with one distinguishing room: a wall stub and a cabinet in the",
+       "south-west room that the north-east room lacks. It tells a floor from its 180 degree",
+       "twin only where it is seen: the matcher may align the floors through it, never wrongly."],
+      "\n".join(symr_lines),
+      [robot("robot1", "F0", (1, 10, 0),
+             [("go", (2.5, 10)), ("go", (2.5, 5.2)), ("go", (2.5, 8.2)), ("go", (17.5, 8.2)),
+              ("go", (17.5, 10)), ("go", (17.5, 14.8)), ("go", (17.5, 10)), ("go", (17.5, 8.2)),
+              ("elevator", "E", "F1"), ("go", (17.5, 8.2)), ("go", (17.5, 10)),
+              ("go", (17.5, 14.8)), ("go", (17.5, 10)), ("go", (17.5, 8.2)), ("go", (2.5, 8.2)),
+              ("go", (2.5, 5.2)), ("go", (2.5, 8.2))])])
