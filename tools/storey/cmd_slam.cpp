@@ -280,7 +280,9 @@ int run_slam(Args& args) {
   }
   std::cout << report.str();
   std::ofstream(out_dir + "/report.txt") << report.str();
-  std::cout << "wrote " << out_dir << "/{graph.g2o,map.pgm,map.yaml,map.png,trajectory.csv,report.txt}\n";
+  std::cout << "wrote " << out_dir << "/{graph.g2o,map.pgm,map.yaml,map.png,trajectory.csv,report.txt";
+  if (!reference.empty()) std::cout << (args.flagSet("no-reference-check") ? ",loop_closures.csv" : ",loop_closures.csv,reference_check.csv");
+  std::cout << "}\n";
   return 0;
 }
 
