@@ -404,6 +404,13 @@ sym_doors = [door("d1", (2, 7.5), (3, 7.5)), door("d2", (17, 12.5), (18, 12.5)),
              door("d5", (15, 7.5), (16, 7.5)), door("d6", (4, 12.5), (5, 12.5))]
 sym_furniture = [box("t1", (2.5, 4), (1.5, 0.8)), box("t2", (17.5, 16), (1.5, 0.8)),
                  box("t3", (15, 3), (1, 1)), box("t4", (5, 17), (1, 1))]
+# Both twin rooms (south-west and north-east) on both floors, the elevator in between.
+sym_robot = robot("robot1", "F0", (1, 10, 0),
+                  [("go", (2.5, 10)), ("go", (2.5, 5.2)), ("go", (2.5, 8.2)), ("go", (17.5, 8.2)),
+                   ("go", (17.5, 10)), ("go", (17.5, 14.8)), ("go", (17.5, 10)), ("go", (17.5, 8.2)),
+                   ("elevator", "E", "F1"), ("go", (17.5, 8.2)), ("go", (17.5, 10)),
+                   ("go", (17.5, 14.8)), ("go", (17.5, 10)), ("go", (17.5, 8.2)), ("go", (2.5, 8.2)),
+                   ("go", (2.5, 5.2)), ("go", (2.5, 8.2))])
 sym_lines = ["  name: symmetric",
              "  shafts:",
              "    - " + shaft("E", "elevator", (10, 10), (2.4, 2), "south", width=1.0),
@@ -415,12 +422,7 @@ write("symmetric",
        "the elevator door: global localisation stays bimodal, so the matcher must give no",
        "constraint rather than a wrong one. Two identical floors joined by the elevator."],
       "\n".join(sym_lines),
-      [robot("robot1", "F0", (1, 10, 0),
-             [("go", (2.5, 10)), ("go", (2.5, 5.2)), ("go", (2.5, 8.2)), ("go", (17.5, 8.2)),
-              ("go", (17.5, 10)), ("go", (17.5, 14.8)), ("go", (17.5, 10)), ("go", (17.5, 8.2)),
-              ("elevator", "E", "F1"), ("go", (17.5, 8.2)), ("go", (17.5, 10)),
-              ("go", (17.5, 14.8)), ("go", (17.5, 10)), ("go", (17.5, 8.2)), ("go", (2.5, 8.2)),
-              ("go", (2.5, 5.2)), ("go", (2.5, 8.2))])])
+      [sym_robot])
 
 # symmetric_room: the same floors with one room that breaks the symmetry: a wall stub and a
 # cabinet in the south-west room that the north-east room lacks. Only the sequences that
@@ -437,9 +439,4 @@ write("symmetric_room",
        "south-west room that the north-east room lacks. It tells a floor from its 180 degree",
        "twin only where it is seen: the matcher may align the floors through it, never wrongly."],
       "\n".join(symr_lines),
-      [robot("robot1", "F0", (1, 10, 0),
-             [("go", (2.5, 10)), ("go", (2.5, 5.2)), ("go", (2.5, 8.2)), ("go", (17.5, 8.2)),
-              ("go", (17.5, 10)), ("go", (17.5, 14.8)), ("go", (17.5, 10)), ("go", (17.5, 8.2)),
-              ("elevator", "E", "F1"), ("go", (17.5, 8.2)), ("go", (17.5, 10)),
-              ("go", (17.5, 14.8)), ("go", (17.5, 10)), ("go", (17.5, 8.2)), ("go", (2.5, 8.2)),
-              ("go", (2.5, 5.2)), ("go", (2.5, 8.2))])])
+      [sym_robot])
