@@ -354,6 +354,34 @@ TEST(FloorMatcher, SymmetricFloorsGiveNoConstraint) {
   EXPECT_TRUE(r.constraints.empty()) << report.str();
 }
 
+TEST(FloorMatcher, MatchedAnywayAFullySymmetricFloorStillGivesNoConstraint) {
+  // With match_self_similar the two self-similar floors are matched, but every sequence
+  // fits its twin alignment as well as its own (the floor is symmetric everywhere): each
+  // gated candidate is marked ambiguous and none becomes a constraint.
+  const std::vector<Eigen::Vector2d> path0{{1, 1.5}, {1, 6.5},  {7, 6.5},  {7, 4},   {9, 4},
+                                           {9, 6.5}, {15, 6.5}, {15, 1.5}, {9, 1.5}, {9, 4},
+                                           {7, 4},   {7, 1.5},  {1.5, 1.5}};
+  const std::vector<Eigen::Vector2d> path1{{2, 6.5}, {2, 2},  {6.5, 2}, {6.5, 4}, {9.5, 4},
+                                           {9.5, 2}, {14, 2}, {14, 6},  {9.5, 6}, {9.5, 4.2}};
+  std::vector<floor::FloorGraph> graphs{
+      driveFloor(symmetricFloor(), path0, Pose2(), 0, 0.0, 12),
+      driveFloor(symmetricFloor(), path1, Pose2(0.5, 0.2, -0.2), 1, 3.0, 13)};
+  FloorMatcherOptions o = fastOptions();
+  o.match_self_similar = true;
+  const MatchResult r = matchFloors(graphs, o);
+  std::ostringstream report;
+  printMatchReport(report, r);
+  EXPECT_TRUE(r.constraints.empty()) << report.str();
+  int twins = 0;
+  for (const auto& p : r.pairs)
+    for (const auto& c : p.candidates) twins += c.reason.find("twin alignment") != std::string::npos;
+  // The floors are found self-similar, matched anyway, and their candidates are refused
+  // as twins (not merely too few).
+  ASSERT_TRUE(r.floors[0].self_similar && r.floors[1].self_similar) << report.str();
+  EXPECT_FALSE(r.pairs.empty()) << report.str();
+  EXPECT_GT(twins, 0) << report.str();
+}
+
 // A bare corridor whose ends and lobby differ (featureless floor B in miniature): bare
 // stretches localise either way round, so the floor's own scans find a 180-degree twin,
 // but the sequences at the ends and the lobby do not fit it.

@@ -64,6 +64,7 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
   o.normal_tilt_stddev = node.getDouble("normal_tilt_stddev", o.normal_tilt_stddev, 0.0, 1.0);
   o.max_weak_sigma = node.getDouble("max_weak_sigma", o.max_weak_sigma, 0.0, 100.0);
   o.self_check = node.get<bool>("self_check", o.self_check);
+  o.match_self_similar = node.get<bool>("match_self_similar", o.match_self_similar);
   o.match_both_directions = node.get<bool>("match_both_directions", o.match_both_directions);
   o.backwards_sequences = node.get<bool>("backwards_sequences", o.backwards_sequences);
   o.wall_recheck = node.getDouble("wall_recheck", o.wall_recheck, 0.0, 1.0);
@@ -693,12 +694,45 @@ double weakDirectionAt(const Candidate& c, const Pose2& alignment, const Pose2& 
   return geometry::normalizeAngle(c.weak_direction + (c.reversed ? alignment.theta() : 0.0) - q.theta());
 }
 
+// Where either floor is self-similar, a gated candidate's alignment A has twins that
+// fit as well wherever the scans see only the symmetric part: T_ref·A and A·T_i. The
+// candidate stays in RANSAC only if its scans fit the other floor's map worse by
+// ambiguity_fit_margin at each twin (refined from there, so a twin gets its best chance)
+// than at A; otherwise it is marked ambiguous.
+void markTwinCandidates(const PreparedFloor& reference, const PreparedFloor& floor_data,
+                        const FloorMatcherOptions& o, PairResult* result) {
+  for (Candidate& c : result->candidates) {
+    if (c.status != CandidateStatus::kOutlier) continue;
+    std::vector<Pose2> twins;
+    if (reference.twin) twins.push_back(*reference.twin * c.alignment);
+    if (floor_data.twin) twins.push_back(c.alignment * *floor_data.twin);
+    // A reversed candidate's scans are g_ref's, localised in g_i's map (the inverse).
+    const PreparedFloor& map_floor = c.reversed ? floor_data : reference;
+    const floor::FloorGraph& scans = c.reversed ? *reference.graph : *floor_data.graph;
+    const std::vector<std::pair<int, int>> range{
+        {std::min(c.first_index, c.last_index), std::max(c.first_index, c.last_index)}};
+    Pose2 own = c.reversed ? c.alignment.inverse() : c.alignment;
+    const double at_own = refineAlignment(map_floor.map->field(), scans, range, o.refine_beams, 0, &own);
+    for (const Pose2& twin : twins) {
+      Pose2 placed = c.reversed ? twin.inverse() : twin;
+      const double at_twin =
+          refineAlignment(map_floor.map->field(), scans, range, o.refine_beams, o.refine_iterations, &placed);
+      if (at_own - at_twin > o.ambiguity_fit_margin) continue;
+      c.status = CandidateStatus::kAmbiguous;
+      c.reason = common::str("a self-similar floor's twin alignment fits its scans about as well (", at_twin,
+                             " against ", at_own, ")");
+      break;
+    }
+  }
+}
+
 void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& floor_data,
                          const FloorMatcherOptions& o, int count, std::mt19937_64* rng_ptr,
                          PairResult* result_ptr) {
   PairResult& result = *result_ptr;
   std::mt19937_64& rng = *rng_ptr;
   const floor::FloorGraph& g = *floor_data.graph;
+  if (reference.twin || floor_data.twin) markTwinCandidates(reference, floor_data, o, &result);
   // RANSAC over the candidates that passed the gate.
   std::vector<std::size_t> pool;
   for (std::size_t i = 0; i < result.candidates.size(); ++i)
@@ -1127,10 +1161,15 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
     });
   }
   // Reference: the floor with the most structure (occupied cells), ties by graph id;
-  // self-similar floors take no part.
+  // self-similar floors take no part, or, with match_self_similar, come last and are
+  // matched through the sequences that tell them from their twin.
   std::vector<int> order;
   for (int i = 0; i < n; ++i) {
     if (!result.floors[i].self_similar) continue;
+    if (o.match_self_similar) {
+      prepared[i].twin = result.floors[i].other;
+      continue;
+    }
     PairResult skipped;
     skipped.graph_id = graphs[i].graph_id;
     skipped.reference_graph_id = graphs[i].graph_id;
@@ -1141,13 +1180,14 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
     result.pairs.push_back(std::move(skipped));
   }
   for (int i = 0; i < n; ++i)
-    if (!result.floors[i].self_similar) order.push_back(i);
+    if (!result.floors[i].self_similar || o.match_self_similar) order.push_back(i);
   if (order.size() < 2) {
     result.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return result;
   }
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    if (result.floors[a].self_similar != result.floors[b].self_similar) return !result.floors[a].self_similar;
     if (prepared[a].structure != prepared[b].structure)
       return prepared[a].structure > prepared[b].structure;
     return graphs[a].graph_id < graphs[b].graph_id;

@@ -38,6 +38,7 @@
 #include <iosfwd>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -130,6 +131,13 @@ struct FloorMatcherOptions {
   // least max(2, ambiguity_ratio * that set) of its sequences at the identity fit worse
   // by that margin when placed by the other alignment (FloorCheck::refuted).
   bool self_check = true;
+  // A self-similar floor is matched anyway, through its sequences that tell it from its
+  // twin: a candidate of a pair where either floor is self-similar counts only if its
+  // scans fit the other floor's map worse by ambiguity_fit_margin at each twin of its
+  // alignment (the reference's twin composed on the left, the floor's own on the right)
+  // than at the alignment itself. Self-similar floors come last as references. Off: such
+  // floors get no constraint at all.
+  bool match_self_similar = false;
   // When a pair is not accepted (too few consistent candidates, or two rival sets), g_ref's
   // scans are also localised in g_i's map and those candidates, inverted, join the same
   // RANSAC: structure g_i's robot passed only briefly may be where g_ref's robot stayed.
@@ -265,6 +273,9 @@ struct PreparedFloor {
   double l_min = 0.0;         // learned quantile (before likelihood_scale)
   std::size_t structure = 0;  // occupied cells: how much there is to localise against
   grid::PointMap points;      // its scans' returns per cell (empty: point_cell_size 0)
+  // A self-similar floor's other alignment onto itself (FloorCheck::other), when it is
+  // matched anyway (FloorMatcherOptions::match_self_similar).
+  std::optional<geometry::Pose2> twin;
   // solidWalls() of the map and its WallModel, computed on first use (only pairs that
   // need more evidence use them); safe to call from several threads.
   const std::vector<std::uint8_t>& walls(const FloorMatcherOptions& options) const;
