@@ -232,13 +232,17 @@ int run_slam(Args& args) {
   else
     report << "odometry: as recorded\n";
   if (!reference.empty()) {
-    const mapping::RelationErrors errors = mapping::relationErrors(trajectory, reference);
-    const mapping::RelationErrors odo = mapping::relationErrors(odometry, reference);
+    // The estimate's and the odometry's relation errors, over the pairs without a left-out pose.
+    auto printRelations = [&](const std::vector<bool>& left_out) {
+      const mapping::RelationErrors errors = mapping::relationErrors(trajectory, reference, 10.0, 5000, 1, left_out);
+      const mapping::RelationErrors odo = mapping::relationErrors(odometry, reference, 10.0, 5000, 1, left_out);
+      printStats(report, "slam     nearby", errors.nearby);
+      printStats(report, "slam     far   ", errors.far);
+      printStats(report, "odometry nearby", odo.nearby);
+      printStats(report, "odometry far   ", odo.far);
+    };
     report << "relation error (Kümmerle et al. 2009) against the reference poses:\n";
-    printStats(report, "slam     nearby", errors.nearby);
-    printStats(report, "slam     far   ", errors.far);
-    printStats(report, "odometry nearby", odo.nearby);
-    printStats(report, "odometry far   ", odo.far);
+    printRelations({});
     if (!args.flagSet("no-reference-check")) {
       const std::vector<mapping::ReferencePoseCheck> checks = mapping::checkReferencePoses(scans, reference);
       std::vector<bool> contradicted(reference.size(), false);
@@ -255,14 +259,9 @@ int run_slam(Args& args) {
         if (c.matched) csv << offset.x() << ',' << offset.y() << ',' << offset.theta() << '\n';
         else csv << ",,\n";
       }
-      const mapping::RelationErrors checked = mapping::relationErrors(trajectory, reference, 10.0, 5000, 1, contradicted);
-      const mapping::RelationErrors odo_checked = mapping::relationErrors(odometry, reference, 10.0, 5000, 1, contradicted);
       report << "reference poses their own scans contradict: " << count << " of " << reference.size()
              << " (reference_check.csv); the relation error without the pairs that use them:\n";
-      printStats(report, "slam     nearby", checked.nearby);
-      printStats(report, "slam     far   ", checked.far);
-      printStats(report, "odometry nearby", odo_checked.nearby);
-      printStats(report, "odometry far   ", odo_checked.far);
+      printRelations(contradicted);
     }
     // The k-th scan that became a node is node k (one floor, no relocalisation here).
     std::map<int, Pose2> node_reference;

@@ -129,11 +129,9 @@ std::vector<ReferencePoseCheck> checkReferencePoses(const std::vector<sensor::La
   grid::OccupancyGridOptions grid_options;
   grid_options.max_insert_range = options.max_insert_range;
   const grid::LikelihoodFieldOptions field_options;
-  // A tight grid, as for the front end's local maps: room for the field's reach and the
-  // pyramid's widest block, not the default margin for growing.
+  // A tight grid, as for the front end's local maps.
   const int pyramid_levels = 5;
-  grid_options.growth_margin =
-      field_options.max_distance + ((1 << (pyramid_levels - 1)) + 1) * grid_options.resolution;
+  grid_options.growth_margin = MatchTarget::gridMargin(field_options, grid_options.resolution, pyramid_levels);
   const ScanMatcher matcher;
   std::vector<ReferencePoseCheck> checks(scans.size());
   const long n = static_cast<long>(scans.size()), w = options.neighbours;

@@ -312,11 +312,8 @@ MatchTarget buildTarget(const floor::FloorGraph& graph, const std::vector<std::s
   grid::OccupancyGridOptions go;
   go.resolution = o.resolution;
   go.max_insert_range = o.max_insert_range;
-  // The grid reaches as far beyond the returns as the search can look: the field's cap
-  // (beyond it the score is ~0, as outside the grid), plus the pyramid's widest block (a
-  // block starting outside the grid reads 0 there, which must not hide the cells it covers
-  // inside). Fields and pyramid then cost a fraction of the default room to grow.
-  go.growth_margin = o.field.max_distance + ((1 << (std::max(1, pyramid_levels) - 1)) + 1) * o.resolution;
+  // The grid reaches as far beyond the returns as the search can look.
+  go.growth_margin = MatchTarget::gridMargin(o.field, o.resolution, pyramid_levels);
   grid::OccupancyGrid map(go);
   std::vector<grid::OccupancyGrid::PosedScan> scans;
   for (std::size_t i : indices) scans.push_back({&graph.nodes[i].scan, graph.nodes[i].pose});

@@ -52,6 +52,11 @@ ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node, const 
   return o;
 }
 
+double MatchTarget::gridMargin(const grid::LikelihoodFieldOptions& options, double resolution,
+                               int pyramid_levels) {
+  return options.max_distance + ((1 << (std::max(1, pyramid_levels) - 1)) + 1) * resolution;
+}
+
 MatchTarget::MatchTarget(const grid::OccupancyGrid& grid, const grid::LikelihoodFieldOptions& options,
                          int pyramid_levels)
     : field_(grid, options, grid::LikelihoodField::LogLikelihoodTable::kSkip) {

@@ -81,6 +81,11 @@ class MatchTarget {
   MatchTarget() = default;
   MatchTarget(const grid::OccupancyGrid& grid, const grid::LikelihoodFieldOptions& options,
               int pyramid_levels = 7);
+  // The room a target's grid needs beyond its returns (OccupancyGridOptions::growth_margin):
+  // the field's cap (beyond it the score is ~0, as outside the grid) plus the pyramid's
+  // widest block (a block starting outside the grid reads 0 there, which must not hide the
+  // cells it covers inside). Fields and pyramid then cost a fraction of the default room.
+  static double gridMargin(const grid::LikelihoodFieldOptions& options, double resolution, int pyramid_levels);
   bool empty() const { return field_.frame().width == 0; }
   const grid::LikelihoodField& field() const { return field_; }
   // The map's scan points (same frame) for the sub-cell refinement; none by default.
