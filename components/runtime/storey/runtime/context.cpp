@@ -94,8 +94,11 @@ Context::Context(const ContextOptions& options) {
   const std::string qos_file = resolveQosFile(options.qos_profiles_file);
   loadQosProfiles(qos_file);
   auto* factory = fdds::DomainParticipantFactory::get_instance();
-  // The default QoS, not PARTICIPANT_QOS_DEFAULT, so XML defaults apply.
+  // A participant profile named kParticipantProfile in the file, if there is one (its
+  // transports, discovery lease). Fast DDS 2.9 does not apply a file's
+  // is_default_profile participant to the default QoS, so it is looked up by name.
   fdds::DomainParticipantQos qos = factory->get_default_participant_qos();
+  factory->get_participant_qos_from_profile(kParticipantProfile, qos);
   qos.name(options.participant_name);
   const SecurityOptions security = resolveSecurity(options);
   for (const auto& [name, value] : securityProperties(security)) {

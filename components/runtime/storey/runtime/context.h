@@ -29,6 +29,10 @@ enum class TopicKind {
   kGraph,   // reliable, transient local, keep all
 };
 
+// The participant profile a QoS file may hold for every storey participant (the fault
+// tests' file sets UDP only and a 3 s lease); without it, Fast DDS' defaults.
+inline constexpr const char* kParticipantProfile = "storey_participant";
+
 struct ContextOptions {
   // < 0: ROS_DOMAIN_ID from the environment, else 0.
   int domain_id = -1;
