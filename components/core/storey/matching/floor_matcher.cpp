@@ -718,6 +718,7 @@ void markTwinCandidates(const PreparedFloor& reference, const PreparedFloor& flo
       const double at_twin =
           refineAlignment(map_floor.map->field(), scans, range, o.refine_beams, o.refine_iterations, &placed);
       if (at_own - at_twin > o.ambiguity_fit_margin) continue;
+      c.fits_twin = true;
       c.status = CandidateStatus::kAmbiguous;
       c.reason = common::str("a self-similar floor's twin alignment fits its scans about as well (", at_twin,
                              " against ", at_own, ")");
@@ -877,8 +878,10 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
     // independent evidence about the same alignment (shared structure that g_i's robot
     // passed only briefly may be where g_ref's robot spent longer).
     PairResult reverse;
+    // Gated candidates are decided again with the new evidence; a twin's stays ambiguous
+    // (the test would give the same answer, and it must not spend the recheck budget).
     for (Candidate& c : result.candidates)
-      if (passedGate(c.status)) c.status = CandidateStatus::kOutlier;
+      if (passedGate(c.status) && !c.fits_twin) c.status = CandidateStatus::kOutlier;
     // The first pass's candidates that saw through walls are rechecked now (the recheck
     // is costly, so only a pair that needs more evidence pays for it).
     for (Candidate& c : result.candidates)

@@ -203,6 +203,9 @@ struct Candidate {
   double weak_direction = 0.0;
   std::size_t particles = 0;  // filter size at convergence
   double mass_within = 0.0;
+  // A self-similar floor's twin alignment fits its scans about as well (then kAmbiguous
+  // for good: a pair's second pass does not test it again).
+  bool fits_twin = false;
   CandidateStatus status = CandidateStatus::kOutlier;
   std::string reason;
 };
