@@ -124,6 +124,12 @@ bool passedGate(CandidateStatus s) {
          s != CandidateStatus::kUnderconstrained;
 }
 
+// A candidate's scans as one node range in graph order, for refineAlignment (a backwards
+// sequence's first index is its later node).
+std::vector<std::pair<int, int>> orderedRange(const Candidate& c) {
+  return {{std::min(c.first_index, c.last_index), std::max(c.first_index, c.last_index)}};
+}
+
 double quantile(std::vector<double> values, double q) {
   if (values.empty()) return 0.0;
   std::sort(values.begin(), values.end());
@@ -709,8 +715,7 @@ void markTwinCandidates(const PreparedFloor& reference, const PreparedFloor& flo
     // A reversed candidate's scans are g_ref's, localised in g_i's map (the inverse).
     const PreparedFloor& map_floor = c.reversed ? floor_data : reference;
     const floor::FloorGraph& scans = c.reversed ? *reference.graph : *floor_data.graph;
-    const std::vector<std::pair<int, int>> range{
-        {std::min(c.first_index, c.last_index), std::max(c.first_index, c.last_index)}};
+    const std::vector<std::pair<int, int>> range = orderedRange(c);
     Pose2 own = c.reversed ? c.alignment.inverse() : c.alignment;
     const double at_own = refineAlignment(map_floor.map->field(), scans, range, o.refine_beams, 0, &own);
     for (const Pose2& twin : twins) {
@@ -932,8 +937,7 @@ int refutingSequences(const PreparedFloor& floor_data, const std::vector<Candida
   int refuting = 0;
   for (std::size_t i : home) {
     const Candidate& c = candidates[i];
-    const std::vector<std::pair<int, int>> range{
-        {std::min(c.first_index, c.last_index), std::max(c.first_index, c.last_index)}};
+    const std::vector<std::pair<int, int>> range = orderedRange(c);
     Pose2 identity, placed = twin;
     const double at_home =
         refineAlignment(floor_data.map->field(), *floor_data.graph, range, o.refine_beams, 0, &identity);
