@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "synthetic_world.h"
@@ -50,7 +51,7 @@ struct Robot {
     sessions.beginTransit();
     odometry = odometry * Pose2(0.3, 0.1, 1.0);
     truth = arrival;
-    sessions.endTransit(floor, height);
+    sessions.endTransit(floor, height, t);
   }
 };
 
@@ -160,6 +161,51 @@ TEST(FloorSessions, SymmetricFloorGivesANewGraphNotAWrongTie) {
     EXPECT_EQ(stats.global_relocalizations, 0u) << "seed " << seed;
     EXPECT_EQ(robot.sessions.retired().size(), 1u) << "seed " << seed;
     EXPECT_FALSE(robot.sessions.current().floorGraph().nodes.empty());
+  }
+}
+
+// The detector decides a ride's end seconds after it, when the robot may have left the
+// cabin: the scans between the end and the decision belong to the floor reached, and the
+// ones before the end (still riding) to none.
+TEST(FloorSessions, ScansAfterTheRidesEndGoToTheFloorReached) {
+  for (const bool map_arrival_scans : {true, false}) {
+    FloorSlamOptions options;
+    options.map_arrival_scans = map_arrival_scans;
+    Robot robot(options, Pose2(1, 8, 0));
+    robot.drive(asymmetricFloor(), legs({{1, 8}, {8, 8}}, 0.0));
+    robot.sessions.beginTransit();
+    // Riding (in the cabin of floor 0's map: these must go nowhere).
+    robot.drive(asymmetricFloor(), legs({{8, 8}, {8.6, 8}}, 0.0));
+    const double ride_end = robot.t;
+    // Out on floor 1 before the detector has decided.
+    robot.odometry = robot.odometry * Pose2(0.3, 0.1, 1.0);
+    robot.truth = Pose2(1, 1, 0.5);
+    const auto arrival = legs({{1, 1}, {4, 1}}, 0.5);
+    const auto held = robot.drive(upperFloor(), arrival);
+    for (const auto& r : held) EXPECT_EQ(r.status, ScanStatus::kSkipped);
+    const std::size_t floor0_nodes = robot.sessions.floors().at(0)->floorGraph().nodes.size();
+    robot.sessions.endTransit(1, 3.0, ride_end);
+    EXPECT_EQ(robot.sessions.floors().at(0)->floorGraph().nodes.size(), floor0_nodes);
+    robot.drive(upperFloor(), legs({{4, 1}, {6, 1}, {6, 4}}, 0.0));
+    robot.sessions.flush();
+    const auto& graph = robot.sessions.floors().at(1)->floorGraph();
+    ASSERT_FALSE(graph.nodes.empty());
+    if (map_arrival_scans) {
+      // The first node is the first scan after the end (the floor's frame), and the
+      // arrival is mapped where it was.
+      EXPECT_NEAR(graph.nodes.front().stamp, ride_end + 0.1, 1e-9);
+      std::size_t checked = 0;
+      for (const auto& node : graph.nodes) {
+        const long k = std::lround((node.stamp - ride_end) / 0.1) - 1;
+        if (k < 0 || k >= static_cast<long>(arrival.size())) continue;
+        const Pose2 expected = arrival.front().between(arrival[static_cast<std::size_t>(k)]);
+        EXPECT_LT((node.pose.translation() - expected.translation()).norm(), 0.1) << "node at " << node.stamp;
+        ++checked;
+      }
+      EXPECT_GE(checked, 10u);  // 3 m at 0.2 m a node
+    } else {
+      EXPECT_GT(graph.nodes.front().stamp, ride_end + 0.1 * arrival.size());
+    }
   }
 }
 

@@ -8,6 +8,10 @@ namespace storey::mapping {
 
 using common::str;
 
+namespace {
+constexpr double kHeldTransitSeconds = 60.0;
+}  // namespace
+
 FloorSessions::FloorSessions(FloorSlamOptions options, std::string robot, int initial_floor,
                              double initial_height)
     : options_(std::move(options)), robot_(std::move(robot)), current_floor_(initial_floor) {
@@ -21,6 +25,12 @@ ScanResult FloorSessions::addScan(const sensor::LaserScan& scan, const geometry:
   ScanResult r;
   r.pose = current().currentPose();
   if (in_transit_) {
+    if (options_.map_arrival_scans) {
+      transit_scans_.push_back({scan, odometry});
+      // Only scans after the ride's end are kept, and the detector decides an end within
+      // seconds (the sequencer holds scans at most max_floor_detector_lag for it).
+      while (transit_scans_.front().scan.stamp < scan.stamp - kHeldTransitSeconds) transit_scans_.pop_front();
+    }
     r.status = ScanStatus::kSkipped;
     r.reason = "in transit";
     return r;
@@ -98,13 +108,25 @@ void FloorSessions::openNewGraphOfCurrentFloor(const std::string& why) {
 
 void FloorSessions::beginTransit() {
   if (in_transit_) return;
+  transit_scans_.clear();
   // Leaving before the floor was recognised: keep what was seen, in a graph of its own.
   if (relocalizer_) openNewGraphOfCurrentFloor("left again before localising");
   in_transit_ = true;
   exit_pose_[current_floor_] = current().currentPose();
 }
 
-void FloorSessions::endTransit(int floor_id, double floor_height) {
+void FloorSessions::endTransit(int floor_id, double floor_height, double end_stamp) {
+  std::deque<HeldScan> arrival;
+  arrival.swap(transit_scans_);
+  while (!arrival.empty() && !(arrival.front().scan.stamp > end_stamp)) arrival.pop_front();
+  switchFloorAfterTransit(floor_id, floor_height);
+  if (!arrival.empty())
+    common::logDebug(str("floor_sessions[", robot_, "]: ", arrival.size(), " scans after the ride's end at ",
+                         end_stamp, " mapped on floor ", current_floor_));
+  for (const auto& held : arrival) addScan(held.scan, held.odometry);
+}
+
+void FloorSessions::switchFloorAfterTransit(int floor_id, double floor_height) {
   if (!in_transit_) exit_pose_[current_floor_] = current().currentPose();
   in_transit_ = false;
   if (floor_id == current_floor_) {

@@ -8,6 +8,7 @@
 // on a guess.
 #pragma once
 
+#include <deque>
 #include <map>
 #include <memory>
 #include <string>
@@ -29,16 +30,20 @@ class FloorSessions {
                 double initial_height = 0.0);
   ~FloorSessions();
 
-  // Passes the scan to the current floor's front end; while in transit, scans are
-  // ignored (returned as kSkipped with the reason "in transit"); while relocalising they
-  // are buffered (kSkipped, "relocalising") and added once it is decided.
+  // Passes the scan to the current floor's front end; while in transit, scans are held
+  // (returned as kSkipped with the reason "in transit") until the ride's end is known;
+  // while relocalising they are buffered (kSkipped, "relocalising") and added once it is
+  // decided.
   ScanResult addScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry);
 
   // A ride or stair climb started: stop mapping until it ends.
   void beginTransit();
-  // It ended on `floor_id`. The same floor resumes as it was; another floor is opened or
-  // resumed (after relocalisation).
-  void endTransit(int floor_id, double floor_height);
+  // It ended on `floor_id` at `end_stamp`. The same floor resumes as it was; another
+  // floor is opened or resumed (after relocalisation). The detector decides an end some
+  // seconds after it (the barometer must settle), when the robot has often left the
+  // cabin: the held scans stamped after `end_stamp` are mapped on the floor reached
+  // (options.map_arrival_scans), the others dropped.
+  void endTransit(int floor_id, double floor_height, double end_stamp);
   // End of input: a relocalisation still undecided gets one last check of the filter's
   // estimate, else falls back to a new graph (so no scan is lost); the current floor is
   // optimised.
@@ -60,6 +65,7 @@ class FloorSessions {
 
  private:
   void openNewGraphOfCurrentFloor(const std::string& why);
+  void switchFloorAfterTransit(int floor_id, double floor_height);
   int resumeRelocalized();  // the relocaliser succeeded: resume the floor's graph
 
   FloorSlamOptions options_;
@@ -74,6 +80,11 @@ class FloorSessions {
   int next_graph_id_ = 0;
   int arrivals_ = 0;  // seeds differ per arrival
   bool in_transit_ = false;
+  struct HeldScan {
+    sensor::LaserScan scan;
+    geometry::Pose2 odometry;
+  };
+  std::deque<HeldScan> transit_scans_;  // while in transit, the last kHeldTransitSeconds
 };
 
 }  // namespace storey::mapping

@@ -171,6 +171,7 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
   o.jump_angular_window = node.getDouble("jump_angular_window", o.jump_angular_window, 0.0, M_PI);
   o.degenerate_ratio = node.getDouble("degenerate_ratio", o.degenerate_ratio, 0.0, 1e6);
   o.max_tracking_chi2 = node.getDouble("max_tracking_chi2", o.max_tracking_chi2, 0.0, 1e12);
+  o.map_arrival_scans = node.get<bool>("map_arrival_scans", o.map_arrival_scans);
   node.finish();
   return o;
 }

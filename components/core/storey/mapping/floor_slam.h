@@ -169,6 +169,10 @@ struct FloorSlamOptions {
   // by their information, not the match's alone (solution remapping for degenerate
   // directions). 0: the match's position always.
   double degenerate_ratio = 0.1;
+  // Scans stamped after a ride's end but before the detector decided it (the robot is
+  // often out of the cabin by then, looking at the landing that floors share) are mapped
+  // on the floor reached (FloorSessions); false drops them as in transit.
+  bool map_arrival_scans = true;
   // A tracking match that disagrees with the odometry step by more than this χ² (3 dof;
   // the odometry model's and the match's covariance together) is not used: the node is
   // placed by odometry, as when no match is found. A scan that fits a wrong part of the

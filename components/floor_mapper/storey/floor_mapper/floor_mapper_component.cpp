@@ -200,7 +200,7 @@ void FloorMapperComponent::applyFloorEvent(const detection::FloorEvent& event) {
   if (event.type == detection::FloorEventType::kTransitStarted) {
     sessions_->beginTransit();
   } else {
-    sessions_->endTransit(event.floor_id, event.floor_height);
+    sessions_->endTransit(event.floor_id, event.floor_height, event.stamp);
     publishUpdates();  // the floor just left was optimised once more
   }
 }
