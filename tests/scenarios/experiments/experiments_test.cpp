@@ -141,7 +141,10 @@ TEST(Experiments, UnknownExperimentIsAnError) {
     FAIL();
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("tower11"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("buildings"), std::string::npos);  // where names come from
   }
+  options.experiment = "../buildings/small2";  // a name, not a path
+  EXPECT_THROW(runExperiments(options), std::invalid_argument);
   options.experiment = "tower10";
   options.domain_id = 230;
   options.jobs = 4;
@@ -219,6 +222,31 @@ TEST(Experiments, Tower10TableAgreesWithDirectEvaluation) {
   text << md.rdbuf();
   for (const auto& row : table.floors) EXPECT_NE(text.str().find("| " + row.floor + " |"), std::string::npos);
   EXPECT_NE(text.str().find("every floor within 0.05 m / 0.2 deg"), std::string::npos);
+}
+
+// Any other building of config/buildings/ runs the same way, every floor judged against
+// the alignment goal (small2, the bundled building: about 6 s).
+TEST(Experiments, AnyBuildingRunsWithEveryFloorJudged) {
+  const ExperimentOptions options = oneSeed("small2", 1, 76);
+  const auto tables = runExperiments(options);
+  ASSERT_EQ(tables.size(), 1u);
+  const ExperimentTable& table = tables.front();
+  EXPECT_EQ(table.spec.name, "small2");
+  EXPECT_TRUE(table.spec.floor_goal);
+  ASSERT_EQ(table.floors.size(), 2u);
+  EXPECT_EQ(table.floors[0].floor, "F0");
+  EXPECT_EQ(table.floors[1].floor, "F1");
+  EXPECT_EQ(table.wrong, 0u);
+  // 0.001 m / 0.048 deg at worst when written.
+  for (const auto& row : table.floors) {
+    EXPECT_TRUE(row.goal_met) << row.floor;
+    EXPECT_LT(row.translation_with.worst, row.translation_without.worst) << row.floor;
+  }
+  EXPECT_TRUE(fs::exists(fs::path(options.output_dir) / "small2" / "seed_1" / "report.html"));
+  std::ifstream md(fs::path(options.output_dir) / "experiments.md");
+  std::stringstream text;
+  text << md.rdbuf();
+  EXPECT_NE(text.str().find("Not one of the paper's experiments"), std::string::npos);
 }
 
 // featureless seed 7, end to end: floor B, a bare corridor whose ends and lobby differ,

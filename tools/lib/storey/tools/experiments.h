@@ -46,7 +46,9 @@ struct ExperimentGoals {
 };
 
 struct ExperimentOptions {
-  std::string experiment = "all";  // a name of paperExperiments() or "all"
+  // A name of paperExperiments(), "all", or the name of any other building in
+  // <config>/buildings/ (3 seeds by default, every floor judged against the goal).
+  std::string experiment = "all";
   int seeds = 0;                   // 0: each experiment's default (9, 10)
   std::uint64_t first_seed = 1;    // seeds first_seed .. first_seed + seeds - 1
   std::string output_dir = "out/experiments";  // <dir>/<experiment>/seed_<n>/ per run
