@@ -206,6 +206,16 @@ TEST(FloorSessions, ScansAfterTheRidesEndGoToTheFloorReached) {
     } else {
       EXPECT_GT(graph.nodes.front().stamp, ride_end + 0.1 * arrival.size());
     }
+    // Back on floor 0, a known floor: scans in the cabin look like any shaft, so the ones
+    // before the decision are not fed to the global localisation.
+    robot.sessions.beginTransit();
+    const double second_end = robot.t;
+    robot.odometry = robot.odometry * Pose2(0.3, 0.1, 1.0);
+    robot.truth = Pose2(15, 3, M_PI);
+    robot.drive(asymmetricFloor(), legs({{15, 3}, {12, 3}}, M_PI));
+    robot.sessions.endTransit(0, 0.0, second_end);
+    ASSERT_TRUE(robot.sessions.relocalizing());
+    EXPECT_TRUE(robot.sessions.relocalizer()->buffer().empty());
   }
 }
 

@@ -120,9 +120,12 @@ void FloorSessions::endTransit(int floor_id, double floor_height, double end_sta
   arrival.swap(transit_scans_);
   while (!arrival.empty() && !(arrival.front().scan.stamp > end_stamp)) arrival.pop_front();
   switchFloorAfterTransit(floor_id, floor_height);
-  if (!arrival.empty())
-    common::logDebug(str("floor_sessions[", robot_, "]: ", arrival.size(), " scans after the ride's end at ",
-                         end_stamp, " mapped on floor ", current_floor_));
+  // Only a graph that starts here takes them. Localising in a known map, the scans in the
+  // cabin are a box with a door like every shaft of the floor: on corridors3 they tied
+  // the return to the stairwell's landing, 40 m off, as unique.
+  if (arrival.empty() || relocalizer_ || !current().floorGraph().nodes.empty()) return;
+  common::logDebug(str("floor_sessions[", robot_, "]: ", arrival.size(), " scans after the ride's end at ",
+                       end_stamp, " start floor ", current_floor_, "'s graph"));
   for (const auto& held : arrival) addScan(held.scan, held.odometry);
 }
 

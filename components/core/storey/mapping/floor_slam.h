@@ -170,8 +170,9 @@ struct FloorSlamOptions {
   // directions). 0: the match's position always.
   double degenerate_ratio = 0.1;
   // Scans stamped after a ride's end but before the detector decided it (the robot is
-  // often out of the cabin by then, looking at the landing that floors share) are mapped
-  // on the floor reached (FloorSessions); false drops them as in transit.
+  // often out of the cabin by then, looking at the landing that floors share) start the
+  // graph of a floor reached for the first time (FloorSessions; not a relocalisation in
+  // a known floor, where the cabin looks like any shaft); false drops them as in transit.
   bool map_arrival_scans = true;
   // A tracking match that disagrees with the odometry step by more than this χ² (3 dof;
   // the odometry model's and the match's covariance together) is not used: the node is
