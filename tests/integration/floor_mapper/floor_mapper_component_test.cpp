@@ -164,6 +164,26 @@ TEST(FloorMapperComponent, BadParametersNameTheKey) {
   }
 }
 
+// Floor-graph ids are keys across the fleet: each robot's mapper starts its own range.
+TEST(FloorMapperComponent, RobotsGetDistinctFloorGraphIdRanges) {
+  std::set<int> bases;
+  for (int i = 1; i <= 30; ++i) {
+    const int base = floorGraphIdBase("robot" + std::to_string(i));
+    EXPECT_EQ(base % 1000, 0);
+    EXPECT_GE(base, 0);
+    EXPECT_LE(base, 1048575 * 1000);  // graph id * 1000000 + node stays within int64 node ids
+    bases.insert(base);
+  }
+  EXPECT_EQ(bases.size(), 30u);
+  EXPECT_EQ(floorGraphIdBase("robot1"), floorGraphIdBase("robot1"));  // deterministic
+  const auto options = readFloorMapperComponentOptions(
+      common::ConfigNode::loadString("{robot: r, first_floor_graph_id: 7000, slam: {}}", "p.yaml"));
+  EXPECT_EQ(options.first_floor_graph_id, 7000);
+  EXPECT_THROW(readFloorMapperComponentOptions(
+                   common::ConfigNode::loadString("{robot: r, first_floor_graph_id: -2, slam: {}}", "p.yaml")),
+               common::ConfigError);
+}
+
 TEST(FloorMapperComponent, RegisteredInTheCatalog) {
   runtime::ComponentRegistry registry;
   catalog::registerStoreyComponents(registry);

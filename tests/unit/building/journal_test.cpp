@@ -165,6 +165,28 @@ TEST(Journal, DeltaWithUnknownNodeIsRejected) {
   EXPECT_EQ(building.floorGraphs().at(0).edges.size(), 2u);
 }
 
+// Two robots' mappers that used the same floor-graph id would have their graphs merged
+// (nodes of one dropped as already present): the second is rejected, naming both robots.
+TEST(Journal, AnotherRobotsDeltaUnderTheSameGraphIdIsRejected) {
+  BuildingGraph building;
+  applyDelta(building, makeDelta(0, 0, 3));
+  FloorGraphDelta other = makeDelta(0, 0, 3);
+  other.robot = "robot_b";
+  try {
+    applyDelta(building, other);
+    FAIL() << "robot_b's delta merged into robot_a's graph";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("robot_a"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("robot_b"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(building.floorGraphs().at(0).robot, "robot_a");
+  EXPECT_EQ(building.floorGraphs().at(0).nodes.size(), 3u);
+  // Under its own id it is taken.
+  other.graph_id = 1000;
+  applyDelta(building, other);
+  EXPECT_EQ(building.floorGraphs().size(), 2u);
+}
+
 TEST(Journal, RebuildSkipsARecordItCannotApplyNamingItAndKeepsTheRest) {
   const std::string path = test::makeTempDir() + "/journal.bin";
   {

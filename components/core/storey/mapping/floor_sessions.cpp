@@ -13,8 +13,9 @@ constexpr double kHeldTransitSeconds = 60.0;
 }  // namespace
 
 FloorSessions::FloorSessions(FloorSlamOptions options, std::string robot, int initial_floor,
-                             double initial_height)
-    : options_(std::move(options)), robot_(std::move(robot)), current_floor_(initial_floor) {
+                             double initial_height, int first_graph_id)
+    : options_(std::move(options)), robot_(std::move(robot)), current_floor_(initial_floor),
+      next_graph_id_(first_graph_id) {
   floors_[initial_floor] =
       std::make_unique<FloorSlam>(options_, robot_, next_graph_id_++, initial_floor, initial_height);
 }

@@ -26,8 +26,10 @@ struct FloorSessionStats {
 
 class FloorSessions {
  public:
+  // Graph ids are first_graph_id, +1, ... (unique across a fleet: see the floor_mapper
+  // component's first_floor_graph_id).
   FloorSessions(FloorSlamOptions options, std::string robot, int initial_floor = 0,
-                double initial_height = 0.0);
+                double initial_height = 0.0, int first_graph_id = 0);
   ~FloorSessions();
 
   // Passes the scan to the current floor's front end; while in transit, scans are held

@@ -26,6 +26,7 @@ FloorMapperComponentOptions readFloorMapperComponentOptions(const common::Config
   }
   o.initial_floor = node.getInt("initial_floor", o.initial_floor, -1000, 1000);
   o.initial_height = node.getDouble("initial_height", o.initial_height, -1e4, 1e4);
+  o.first_floor_graph_id = node.getInt("first_floor_graph_id", o.first_floor_graph_id, -1, 2000000000L);
   o.input.max_odometry_gap = node.getDouble("max_odometry_gap", o.input.max_odometry_gap, 1e-3, 60.0);
   o.input.wait_for_floor_detector = node.get<bool>("wait_for_floor_detector", o.input.wait_for_floor_detector);
   o.input.max_floor_detector_lag =
@@ -34,6 +35,12 @@ FloorMapperComponentOptions readFloorMapperComponentOptions(const common::Config
   o.slam = mapping::readFloorSlamOptions(node.child("slam"));
   node.finish();
   return o;
+}
+
+int floorGraphIdBase(const std::string& robot) {
+  std::uint32_t hash = 2166136261u;
+  for (const unsigned char c : robot) hash = (hash ^ c) * 16777619u;
+  return static_cast<int>(hash % (1u << 20)) * 1000;
 }
 
 FloorMapperComponent::FloorMapperComponent(runtime::Context& context, const common::ConfigNode& parameters,
@@ -59,8 +66,10 @@ void FloorMapperComponent::onConfigure() {
   options_ = readFloorMapperComponentOptions(parameters());
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    const int first_graph_id = options_.first_floor_graph_id >= 0 ? static_cast<int>(options_.first_floor_graph_id)
+                                                                   : floorGraphIdBase(options_.robot);
     sessions_ = std::make_unique<mapping::FloorSessions>(options_.slam, options_.robot, options_.initial_floor,
-                                                         options_.initial_height);
+                                                         options_.initial_height, first_graph_id);
     // Inputs are queued, not mapped, until activate (nothing is published before it).
     sequencer_ = std::make_unique<mapping::InputSequencer>(
         options_.input,

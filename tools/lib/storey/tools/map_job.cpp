@@ -137,6 +137,11 @@ MapJobResult runMapJob(const MapJobOptions& options) {
     std::string origin;  // "file:line" of the robot model's section
   };
   std::map<std::string, MapperTuning> mapper_tuning;
+  // Simulated fleets: each detector numbers floors from where its robot starts, so robots
+  // starting on different floors would give one floor different ids. As a fleet operator
+  // configures it, every robot gets the building's floor heights and its start floor.
+  std::vector<double> fleet_floor_heights;
+  std::map<std::string, int> fleet_start_floor;  // robot → index into fleet_floor_heights
   auto phase_start = Clock::now();
   for (std::size_t k = 0; k < inputs.size(); ++k) {
     const MapInput& input = inputs[k];
@@ -161,6 +166,13 @@ MapJobResult runMapJob(const MapJobOptions& options) {
       for (const auto& robot : scenario.robots)
         if (robot.model.floor_mapper.IsMap())
           mapper_tuning[robot.name] = {robot.model.floor_mapper, robot.model.floor_mapper_origin};
+      if (scenario.robots.size() > 1) {
+        const auto& floors = scenario.building.floors;  // ordered by height
+        for (const auto& f : floors) fleet_floor_heights.push_back(f.height);
+        for (const auto& robot : scenario.robots)
+          for (std::size_t i = 0; i < floors.size(); ++i)
+            if (floors[i].id == robot.start_floor) fleet_start_floor[robot.name] = static_cast<int>(i);
+      }
       p.recording = (recording / "bag").string();
     } else {
       p.recording = input.path;
@@ -203,7 +215,14 @@ MapJobResult runMapJob(const MapJobOptions& options) {
     if (!robot_input[robot]->floor) {
       pipeline.push_back(registry.create("floor_detector", context,
                                          componentParameters(config_dir, "floor_detector",
-                                                             [&](YAML::Node& n) { n["robot"] = robot; }),
+                                                             [&](YAML::Node& n) {
+                                                               n["robot"] = robot;
+                                                               const auto start = fleet_start_floor.find(robot);
+                                                               if (start == fleet_start_floor.end()) return;
+                                                               YAML::Node floors = n["detector"]["floors"];
+                                                               floors["heights"] = fleet_floor_heights;
+                                                               floors["initial_floor"] = start->second;
+                                                             }),
                                          "floor_detector_" + robot));
     }
   }
@@ -213,6 +232,11 @@ MapJobResult runMapJob(const MapJobOptions& options) {
         componentParameters(config_dir, "floor_mapper", [&](YAML::Node& n) {
           if (tuning != mapper_tuning.end()) common::overlayYaml(n, tuning->second.parameters);
           n["robot"] = robot;
+          const auto start = fleet_start_floor.find(robot);
+          if (start != fleet_start_floor.end()) {
+            n["initial_floor"] = start->second;
+            n["initial_height"] = fleet_floor_heights[static_cast<std::size_t>(start->second)];
+          }
         });
     pipeline.push_back(registry.create("floor_mapper", context, parameters, "floor_mapper_" + robot));
     if (tuning != mapper_tuning.end()) {
