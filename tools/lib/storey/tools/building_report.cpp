@@ -18,6 +18,30 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// The building graph's node ids are floor-graph id x 1000000 + node id, and floor-graph ids
+// are spread out per robot (floor_mapper first_floor_graph_id): far beyond the 32-bit
+// vertex ids g2o tools read. The file numbers the floor graphs by rank instead (the order
+// of building.yaml's floor_graphs): rank x 1000000 + node id.
+graph::PoseGraph withRankedGraphIds(const graph::PoseGraph& graph) {
+  constexpr graph::NodeId kStride = 1000000;
+  std::map<graph::NodeId, graph::NodeId> rank;
+  for (const auto& node : graph.nodes()) rank.emplace(node.id / kStride, 0);
+  graph::NodeId next = 0;
+  for (auto& [floor_graph, r] : rank) r = next++;
+  auto renumber = [&](graph::NodeId id) { return rank.at(id / kStride) * kStride + id % kStride; };
+  graph::PoseGraph out;
+  for (auto node : graph.nodes()) {
+    node.id = renumber(node.id);
+    out.addNode(node);
+  }
+  for (auto edge : graph.edges()) {
+    edge.from = renumber(edge.from);
+    edge.to = renumber(edge.to);
+    out.addEdge(edge);
+  }
+  return out;
+}
+
 void drawLine(grid::Image& image, int x0, int y0, int x1, int y1, const std::array<std::uint8_t, 3>& colour) {
   const int dx = std::abs(x1 - x0), dy = -std::abs(y1 - y0);
   const int sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
@@ -141,7 +165,7 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
   building::writeBuildingYaml((fs::path(dir) / "building.yaml").string(), solution, floors);
   add("building.yaml");
   if (!graph.empty()) {
-    graph::writeG2o(graph.poseGraphAt(solution), (fs::path(dir) / "graph.g2o").string());
+    graph::writeG2o(withRankedGraphIds(graph.poseGraphAt(solution)), (fs::path(dir) / "graph.g2o").string());
     add("graph.g2o");
   }
   eval::writeTrajectoryCsv((fs::path(dir) / "trajectory.csv").string(), trajectoryRows(graph, solution));
