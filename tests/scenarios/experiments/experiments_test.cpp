@@ -267,6 +267,18 @@ TEST(Experiments, FleetMapsEveryRobotsFloorsIntoOneBuilding) {
   std::set<std::string> robots;
   for (const auto& g : written["floor_graphs"]) robots.insert(g["robot"].as<std::string>());
   EXPECT_EQ(robots.size(), 3u);
+  // graph.g2o stays readable by g2o tools (32-bit vertex ids): floor graphs by rank.
+  std::ifstream g2o(fs::path(table.runs.front().output_dir) / "graph.g2o");
+  std::set<long long> ranks;
+  std::string tag;
+  long long id = 0;
+  for (std::string line; std::getline(g2o, line);) {
+    std::istringstream in(line);
+    if (!(in >> tag) || tag != "VERTEX_SE2" || !(in >> id)) continue;
+    EXPECT_LE(id, 2147483647LL);
+    ranks.insert(id / 1000000);
+  }
+  EXPECT_EQ(ranks, (std::set<long long>{0, 1, 2, 3, 4, 5}));
   EXPECT_EQ(table.wrong, 0u);
   for (const auto& row : table.floors) {
     EXPECT_GE(row.constraints.mean, 3.0) << row.floor;
