@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "storey/eval/corridors.h"
+#include "storey/graph/graph_io.h"
 #include "test_support.h"
 
 namespace storey::tools {
@@ -268,15 +269,11 @@ TEST(Experiments, FleetMapsEveryRobotsFloorsIntoOneBuilding) {
   for (const auto& g : written["floor_graphs"]) robots.insert(g["robot"].as<std::string>());
   EXPECT_EQ(robots.size(), 3u);
   // graph.g2o stays readable by g2o tools (32-bit vertex ids): floor graphs by rank.
-  std::ifstream g2o(fs::path(table.runs.front().output_dir) / "graph.g2o");
+  const graph::PoseGraph g2o = graph::readG2o((fs::path(table.runs.front().output_dir) / "graph.g2o").string());
   std::set<long long> ranks;
-  std::string tag;
-  long long id = 0;
-  for (std::string line; std::getline(g2o, line);) {
-    std::istringstream in(line);
-    if (!(in >> tag) || tag != "VERTEX_SE2" || !(in >> id)) continue;
-    EXPECT_LE(id, 2147483647LL);
-    ranks.insert(id / 1000000);
+  for (const auto& node : g2o.nodes()) {
+    EXPECT_LE(node.id, 2147483647LL);
+    ranks.insert(node.id / 1000000);
   }
   EXPECT_EQ(ranks, (std::set<long long>{0, 1, 2, 3, 4, 5}));
   EXPECT_EQ(table.wrong, 0u);

@@ -49,9 +49,13 @@ struct Robot {
   // A ride: the odometry goes on (the robot turns and moves in the cabin/stairs).
   void ride(int floor, double height, const Pose2& arrival) {
     sessions.beginTransit();
+    arriveAt(arrival);
+    sessions.endTransit(floor, height, t);
+  }
+  // Out of the cabin at `arrival` (on the floor reached), whether or not it is decided.
+  void arriveAt(const Pose2& arrival) {
     odometry = odometry * Pose2(0.3, 0.1, 1.0);
     truth = arrival;
-    sessions.endTransit(floor, height, t);
   }
 };
 
@@ -178,8 +182,7 @@ TEST(FloorSessions, ScansAfterTheRidesEndGoToTheFloorReached) {
     robot.drive(asymmetricFloor(), legs({{8, 8}, {8.6, 8}}, 0.0));
     const double ride_end = robot.t;
     // Out on floor 1 before the detector has decided.
-    robot.odometry = robot.odometry * Pose2(0.3, 0.1, 1.0);
-    robot.truth = Pose2(1, 1, 0.5);
+    robot.arriveAt(Pose2(1, 1, 0.5));
     const auto arrival = legs({{1, 1}, {4, 1}}, 0.5);
     const auto held = robot.drive(upperFloor(), arrival);
     for (const auto& r : held) EXPECT_EQ(r.status, ScanStatus::kSkipped);
@@ -210,8 +213,7 @@ TEST(FloorSessions, ScansAfterTheRidesEndGoToTheFloorReached) {
     // before the decision are not fed to the global localisation.
     robot.sessions.beginTransit();
     const double second_end = robot.t;
-    robot.odometry = robot.odometry * Pose2(0.3, 0.1, 1.0);
-    robot.truth = Pose2(15, 3, M_PI);
+    robot.arriveAt(Pose2(15, 3, M_PI));
     robot.drive(asymmetricFloor(), legs({{15, 3}, {12, 3}}, M_PI));
     robot.sessions.endTransit(0, 0.0, second_end);
     ASSERT_TRUE(robot.sessions.relocalizing());

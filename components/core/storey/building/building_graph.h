@@ -81,8 +81,10 @@ class BuildingGraph {
   // The building's pose graph with the poses of `solution` (e.g. for g2o export).
   graph::PoseGraph poseGraphAt(const BuildingSolution& solution) const;
 
+  // Node ids of the building's pose graph: floor-graph id x kGraphIdStride + node id.
+  static constexpr graph::NodeId kGraphIdStride = 1000000;
   static graph::NodeId globalId(int graph_id, int node_id) {
-    return static_cast<graph::NodeId>(graph_id) * 1000000 + node_id;
+    return static_cast<graph::NodeId>(graph_id) * kGraphIdStride + node_id;
   }
 
  private:

@@ -166,12 +166,7 @@ JournalRecord decodeRecord(const std::uint8_t* data, std::size_t size) {
 
 void checkDelta(const BuildingGraph& building, const FloorGraphDelta& delta) {
   auto existing = building.floorGraphs().find(delta.graph_id);
-  if (existing != building.floorGraphs().end() && existing->second.robot != delta.robot) {
-    std::ostringstream out;
-    out << "floor graph " << delta.graph_id << " belongs to robot '" << existing->second.robot
-        << "', not '" << delta.robot << "' (floor-graph ids must be unique across robots)";
-    throw std::invalid_argument(out.str());
-  }
+  if (existing != building.floorGraphs().end()) floor::requireSameRobot(existing->second, delta.robot);
   std::set<int> known;
   if (existing != building.floorGraphs().end())
     for (const auto& node : existing->second.nodes) known.insert(node.id);

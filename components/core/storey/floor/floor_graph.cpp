@@ -2,8 +2,16 @@
 
 #include <algorithm>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 namespace storey::floor {
+
+void requireSameRobot(const FloorGraph& graph, const std::string& robot) {
+  if (graph.robot == robot) return;
+  throw std::invalid_argument("floor graph " + std::to_string(graph.graph_id) + " belongs to robot '" + graph.robot +
+                              "', not '" + robot + "' (floor-graph ids must be unique across robots)");
+}
 
 const char* edgeKindName(EdgeKind kind) {
   switch (kind) {

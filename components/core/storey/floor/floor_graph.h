@@ -50,6 +50,11 @@ struct FloorGraph {
   int nearestNodeIndex(const Eigen::Vector2d& point, std::size_t first, std::size_t end) const;
 };
 
+// Floor-graph ids are keys across the fleet: an update from `robot` for `graph`, which
+// already holds another robot's nodes, is rejected (std::invalid_argument naming both)
+// rather than merged.
+void requireSameRobot(const FloorGraph& graph, const std::string& robot);
+
 // The occupancy map of a floor graph: every node's scan inserted at its pose.
 grid::OccupancyGrid renderFloorMap(const FloorGraph& graph, const grid::OccupancyGridOptions& options);
 

@@ -17,9 +17,7 @@ void applyUpdate(const storey_msgs::msg::FloorGraphUpdate& m,
       "floor graph " + std::to_string(id) + " update " + std::to_string(m.sequence_number());
   requireFinite(m.floor_height(), where + ": floor_height");
   floor::FloorGraph g = graphs->count(id) ? graphs->at(id) : floor::FloorGraph{};
-  if (graphs->count(id) && g.robot != m.robot())
-    throw std::invalid_argument(where + ": belongs to robot '" + g.robot + "', not '" + m.robot() +
-                                "' (floor-graph ids must be unique across robots)");
+  if (graphs->count(id)) floor::requireSameRobot(g, m.robot());
   g.robot = m.robot();
   g.graph_id = id;
   g.floor_id = m.floor_id();

@@ -18,12 +18,12 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// The building graph's node ids are floor-graph id x 1000000 + node id, and floor-graph ids
-// are spread out per robot (floor_mapper first_floor_graph_id): far beyond the 32-bit
-// vertex ids g2o tools read. The file numbers the floor graphs by rank instead (the order
-// of building.yaml's floor_graphs): rank x 1000000 + node id.
+// The building graph's node ids are BuildingGraph::globalId(floor-graph id, node id), and
+// floor-graph ids are spread out per robot (floor_mapper first_floor_graph_id): far beyond
+// the 32-bit vertex ids g2o tools read. The file numbers the floor graphs by rank instead
+// (the order of building.yaml's floor_graphs).
 graph::PoseGraph withRankedGraphIds(const graph::PoseGraph& graph) {
-  constexpr graph::NodeId kStride = 1000000;
+  constexpr graph::NodeId kStride = building::BuildingGraph::kGraphIdStride;
   std::map<graph::NodeId, graph::NodeId> rank;
   for (const auto& node : graph.nodes()) rank.emplace(node.id / kStride, 0);
   graph::NodeId next = 0;

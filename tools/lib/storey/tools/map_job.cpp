@@ -167,11 +167,9 @@ MapJobResult runMapJob(const MapJobOptions& options) {
         if (robot.model.floor_mapper.IsMap())
           mapper_tuning[robot.name] = {robot.model.floor_mapper, robot.model.floor_mapper_origin};
       if (scenario.robots.size() > 1) {
-        const auto& floors = scenario.building.floors;  // ordered by height
-        for (const auto& f : floors) fleet_floor_heights.push_back(f.height);
+        for (const auto& f : scenario.building.floors) fleet_floor_heights.push_back(f.height);  // by height
         for (const auto& robot : scenario.robots)
-          for (std::size_t i = 0; i < floors.size(); ++i)
-            if (floors[i].id == robot.start_floor) fleet_start_floor[robot.name] = static_cast<int>(i);
+          fleet_start_floor[robot.name] = scenario.building.floorIndex(robot.start_floor);
       }
       p.recording = (recording / "bag").string();
     } else {
