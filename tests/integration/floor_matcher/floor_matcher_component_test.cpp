@@ -108,6 +108,34 @@ TEST(FloorMatcherComponent, PublishesCorrectConstraintsForTwoFloors) {
   matcher.cleanup();
 }
 
+// A one-floor building (a single log mapped with `storey map`): the pass finds nothing to
+// match, and a flush must see that at once instead of waiting out its timeout (it waited
+// the whole 600 s of storey map's until session 18).
+TEST(FloorMatcherComponent, FlushReturnsWhenOnlyOneFloorGraphExists) {
+  const matching::SimulatedFloors floors = small2(5);
+  runtime::Context context(onDomain(217));
+  FloorMatcherComponent matcher(context, common::ConfigNode::loadString("{min_nodes: 10}"),
+                                "floor_matcher");
+  matcher.configure();
+  matcher.activate();
+  FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
+  const auto& g0 = floors.graphs[0];
+  graphs.publish(toUpdate(g0, 0, g0.nodes.size(), 0));
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (std::chrono::steady_clock::now() < deadline && matcher.stats().updates_accepted < 1)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_EQ(matcher.stats().updates_accepted, 1u);
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_TRUE(matcher.flush(120.0));
+  const double waited =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_LT(waited, 30.0) << "the flush waited for a pass that had ended";
+  EXPECT_EQ(matcher.stats().constraints_published, 0u);
+  matcher.deactivate();
+  matcher.cleanup();
+}
+
 TEST(FloorMatcherComponent, BadUpdatesAreRejectedAndCounted) {
   runtime::Context context(onDomain(216));
   FloorMatcherComponent matcher(context, common::ConfigNode::loadString("{}"), "floor_matcher");

@@ -152,6 +152,7 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   if (graphs.size() < 2) {
     logInfo(str(name(), ": matched ", graphs.size(), " floor graphs: fewer than two have ", options_.min_nodes,
                 " nodes"));
+    changed_.notify_all();  // a flush waits for this pass (a one-floor building ends here)
     return;
   }
   busy_ = true;
