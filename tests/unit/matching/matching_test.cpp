@@ -602,6 +602,30 @@ TEST(FloorMatcher, ConstraintInformationIsWeakAlongTheUnpinnedDirection) {
   EXPECT_NEAR(constraintInformation(c, o)(1, 1), 400.0, 1e-9);
 }
 
+// The joint alignment of a set fitted in both directions: weighted means of translation
+// and heading. Two alignments that agree where the scans lie (here 41 m from the floor's
+// origin) and differ by 0.01 rad keep that place within a millimetre.
+TEST(FloorMatcher, CombinedAlignmentsAreWeightedMeansThatKeepWhereTheyAgree) {
+  const Eigen::Vector2d centre(40.0, 10.0);
+  const geometry::Pose2 a(3.0, -2.0, 0.50);
+  const geometry::Pose2 same = combineAlignments(a, 5, a, 2);
+  EXPECT_NEAR(same.x(), a.x(), 1e-12);
+  EXPECT_NEAR(same.y(), a.y(), 1e-12);
+  EXPECT_NEAR(same.theta(), a.theta(), 1e-12);
+  // b: a turned by 0.01 rad about where a puts the centre, then moved 0.03 m along x.
+  const Eigen::Vector2d at = a.transformPoint(centre);
+  const geometry::Pose2 b = geometry::Pose2(0.03, 0.0, 0.0) * geometry::Pose2(at.x(), at.y(), 0.01) *
+                            geometry::Pose2(-at.x(), -at.y(), 0.0) * a;
+  const geometry::Pose2 ab = combineAlignments(a, 3, b, 1);
+  EXPECT_NEAR(ab.theta(), 0.50 + 0.01 / 4.0, 1e-6);
+  EXPECT_NEAR(ab.x(), (3 * a.x() + b.x()) / 4, 1e-12);
+  const Eigen::Vector2d placed = ab.transformPoint(centre);
+  EXPECT_NEAR(placed.x(), at.x() + 0.03 / 4.0, 1e-3);
+  EXPECT_NEAR(placed.y(), at.y(), 1e-3);
+  // Reversed weights: the heading moves to b's side.
+  EXPECT_NEAR(combineAlignments(a, 1, b, 3).theta(), 0.50 + 0.03 / 4.0, 1e-6);
+}
+
 TEST(ConstraintJudgement, AnErrorAlongAClaimedWeakDirectionIsNotWrongAcrossItIs) {
   FloorMatcherOptions o;
   Candidate c;

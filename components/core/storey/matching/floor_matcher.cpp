@@ -43,6 +43,8 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
   o.point_cell_size = node.getDouble("point_cell_size", o.point_cell_size, 0.0, 1.0);
   o.point_refinement_whole_floor =
       node.get<bool>("point_refinement_whole_floor", o.point_refinement_whole_floor);
+  o.joint_alignment_both_directions =
+      node.get<bool>("joint_alignment_both_directions", o.joint_alignment_both_directions);
   o.local_constraint_translation =
       node.get<bool>("local_constraint_translation", o.local_constraint_translation);
   o.point_normal_radius = node.getDouble("point_normal_radius", o.point_normal_radius, 0.01, 5.0);
@@ -157,6 +159,13 @@ Pose2 meanAlignment(const std::vector<Pose2>& poses) {
   }
   const double n = static_cast<double>(poses.size());
   return Pose2(x / n, y / n, std::atan2(s, c));
+}
+
+// Scans in a set of node ranges [first, last].
+int scanCount(const std::vector<std::pair<int, int>>& ranges) {
+  int n = 0;
+  for (const auto& [first, last] : ranges) n += last - first + 1;
+  return n;
 }
 
 // The candidates of `set` whose scans are pairwise disjoint, as many as possible (per
@@ -815,17 +824,25 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
       alignments.push_back(c.alignment);
       (c.reversed ? reversed_ranges : ranges).emplace_back(c.first_index, c.last_index);
     }
-    Pose2 joint = meanAlignment(alignments);
-    if (!ranges.empty()) {
+    const Pose2 mean = meanAlignment(alignments);
+    Pose2 forward = mean, backward = mean;
+    if (!ranges.empty()) {  // g_i's scans in g_ref's map
       refineAlignment(reference.map->field(), g, ranges, o.refine_beams, o.refine_iterations,
-                      &joint);
-      refineAlignmentOnPoints(reference.points, g, ranges, o, &joint);
-    } else {  // only g_ref's scans localised: fit them in g_i's map
-      Pose2 inverse = joint.inverse();
+                      &forward);
+      refineAlignmentOnPoints(reference.points, g, ranges, o, &forward);
+    }
+    if (!reversed_ranges.empty() && (ranges.empty() || o.joint_alignment_both_directions)) {
+      Pose2 inverse = mean.inverse();  // g_ref's scans in g_i's map
       refineAlignment(floor_data.map->field(), *reference.graph, reversed_ranges, o.refine_beams,
                       o.refine_iterations, &inverse);
       refineAlignmentOnPoints(floor_data.points, *reference.graph, reversed_ranges, o, &inverse);
-      joint = inverse.inverse();
+      backward = inverse.inverse();
+    }
+    Pose2 joint = forward;
+    if (ranges.empty()) {
+      joint = backward;
+    } else if (!reversed_ranges.empty() && o.joint_alignment_both_directions) {
+      joint = combineAlignments(forward, scanCount(ranges), backward, scanCount(reversed_ranges));
     }
     result.alignment = joint;
     // Each accepted constraint is re-expressed through the joint alignment, which fits
@@ -1131,6 +1148,13 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
 }
 
 }  // namespace
+
+Pose2 combineAlignments(const Pose2& a, double weight_a, const Pose2& b, double weight_b) {
+  const double sum = weight_a + weight_b;
+  return Pose2((weight_a * a.x() + weight_b * b.x()) / sum, (weight_a * a.y() + weight_b * b.y()) / sum,
+               std::atan2(weight_a * std::sin(a.theta()) + weight_b * std::sin(b.theta()),
+                          weight_a * std::cos(a.theta()) + weight_b * std::cos(b.theta())));
+}
 
 Eigen::Matrix3d constraintInformation(const Candidate& c, const FloorMatcherOptions& o) {
   // Never quite zero along the weak direction: a floor held only by corridor constraints

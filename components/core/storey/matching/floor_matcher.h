@@ -81,6 +81,12 @@ struct FloorMatcherOptions {
   // point_cell_size 0 leaves the alignment at the likelihood field's refinement.
   double point_cell_size = 0.05;
   bool point_refinement_whole_floor = true;
+  // The joint alignment of a set with candidates of both directions: g_i's scans fitted in
+  // g_ref's map and g_ref's scans fitted in g_i's map, the two combined by their scan
+  // counts (false: g_i's scans only, when there are any). A set whose forward scans all
+  // lie in an elevator cabin, where a floor graph's headings are the least sure (glass3),
+  // then also rests on the corridor scans of the other floor.
+  bool joint_alignment_both_directions = true;
   double point_normal_radius = 0.2;
   double point_correspondence_distance = 0.15;
   double point_robust_distance = 0.05;
@@ -307,6 +313,13 @@ PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor,
 // The self-similarity check of one floor (see FloorMatcherOptions::self_check).
 FloorCheck checkSelfSimilarity(const PreparedFloor& floor, const FloorMatcherOptions& options,
                                std::uint64_t seed);
+
+// Two alignments of one floor, weighted (by the scans that fitted each): translation by
+// the weighted mean, heading by the weighted circular mean. Two alignments that agree
+// where the scans lie differ in translation by their heading difference times the lever
+// arm from the floor's origin; the weighted means keep that place to first order.
+geometry::Pose2 combineAlignments(const geometry::Pose2& a, double weight_a, const geometry::Pose2& b,
+                                  double weight_b);
 
 // The information of an accepted candidate's constraint over (dx, dy, dθ) in the frame of
 // its reference node (see FloorMatcherOptions::constraint_sigma_xy).
