@@ -132,6 +132,9 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
     l.submap_half_nodes = n.getInt("submap_half_nodes", l.submap_half_nodes, 0, 10000);
     l.submap_reuse_nodes = n.getInt("submap_reuse_nodes", l.submap_reuse_nodes, 0, 10000);
     l.min_score = n.getDouble("min_score", l.min_score, 0.0, 1.0);
+    l.point_polish_translation =
+        n.getDouble("point_polish_translation", l.point_polish_translation, 0.0, 10.0);
+    l.point_polish_rotation = n.getDouble("point_polish_rotation", l.point_polish_rotation, 0.0, M_PI);
     l.max_chi2 = n.getDouble("max_chi2", l.max_chi2, 0.0, 1e12);
     l.ambiguity_distance = n.getDouble("ambiguity_distance", l.ambiguity_distance, 0.0, 100.0);
     l.ambiguity_ratio = n.getDouble("ambiguity_ratio", l.ambiguity_ratio, 0.0, 1.0);
@@ -229,6 +232,9 @@ struct FloorSlam::Impl {
     ScanMatcherOptions loop = o.loop_closure.matcher;
     loop.min_score = std::min(loop.min_score, o.loop_closure.min_score);
     loop_matcher = ScanMatcher(loop);
+    ScanMatcherOptions polish = loop;
+    polish.point_refinement = true;
+    polish_matcher = ScanMatcher(polish);
     loop.translation_penalty = 0.0;  // a cluster's rival anywhere in the region counts alike
     loop.rotation_penalty = 0.0;
     loop.min_score = 0.05;  // scores are compared with each other, not with a bar
@@ -236,6 +242,7 @@ struct FloorSlam::Impl {
   }
   ScanMatcher matcher;
   ScanMatcher loop_matcher;
+  ScanMatcher polish_matcher;  // the loop matcher's options, refining on points
   ScanMatcher reloc_matcher;
   ScanMatcher verify_matcher;  // a cluster's scans over the region its graph allows
   graph::Optimizer optimizer;
@@ -625,9 +632,17 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
     tie(floor_graph_.nodes[floor_graph_.nearestNodeIndex(check.pose.translation(), last_candidate + 1)],
         check.pose, check.covariance);
   };
-  const MatchResult match = s.loop_matcher.match(target, points, prediction, linear, angular);
+  MatchResult match = s.loop_matcher.match(target, points, prediction, linear, angular);
   if (match.success) attempt.score = match.score;
   if (!match.success || match.score < o.min_score) return false;
+  if (o.point_polish_translation > 0.0 && !target.points().empty()) {
+    const MatchResult polished = s.polish_matcher.refineOnPoints(target, points, match.pose);
+    const Pose2 moved = match.pose.between(polished.pose);
+    if (polished.success && polished.pose.isFinite() &&
+        moved.translation().norm() <= o.point_polish_translation &&
+        std::abs(moved.theta()) <= o.point_polish_rotation)
+      match.pose = polished.pose;
+  }
 
   Eigen::Matrix3d covariance = match.covariance;
   if (o.ambiguity_distance > 0.0) {
@@ -938,7 +953,8 @@ const MatchTarget& FloorSlam::loopTarget(int candidate, std::size_t last_candida
   cached.poses.clear();
   for (std::size_t i = cached.first; i < cached.end; ++i) cached.poses.push_back(floor_graph_.nodes[i].pose);
   cached.target =
-      buildTarget(floor_graph_, cached.first, cached.end, options_.local_map, kWideSearchLevels, impl_->loop_matcher);
+      buildTarget(floor_graph_, cached.first, cached.end, options_.local_map, kWideSearchLevels,
+                  o.point_polish_translation > 0.0 ? impl_->polish_matcher : impl_->loop_matcher);
   ++stats_.loop_maps_built;
   return cached.target;
 }

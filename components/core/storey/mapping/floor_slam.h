@@ -128,6 +128,13 @@ struct LoopClosureOptions {
   // for a cluster. 0: off.
   double single_unique_distance = 0.0;  // m
   double single_unique_ratio = 0.9;
+  // A closure's pose from the likelihood field is then refined on the candidate map's
+  // points (point-to-line, as tracking) and the refined pose is kept when it moved at most
+  // this far; its covariance stays the field's. In a 2 m elevator cabin the field's
+  // refinement left closures about 1 deg off, all to one side (docs/floor_mapper.md,
+  // session 18). 0: off.
+  double point_polish_translation = 0.0;  // m
+  double point_polish_rotation = 0.0;     // rad
   // For closures (windows from the options above). They refine on the likelihood field
   // (ScanMatcherOptions::point_refinement false): on the points, closures in the ring
   // corridor of FloorSlam.LoopClosureCorrectsDrift landed 1.5-1.9 m wrong.

@@ -792,14 +792,24 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
     fit_second = fitOf(second, &align_second);
     return fit_best >= fit_second + o.ambiguity_fit_margin;
   };
+  // A second set smaller than the ratio, but large enough to be accepted alone, whose
+  // alignment the whole floor fits better: the count of sequences alone does not decide
+  // (fleet seed 1: robot 2's F2 had 9 sequences 6 m along a periodic row of rooms and 4
+  // at the true place).
+  auto secondFitsTheWholeFloorBetter = [&]() {
+    if (static_cast<int>(second.size()) < o.min_constraints || fit_best >= 0.0) return false;
+    wholeFloorPrefersBest();
+    return fit_second > fit_best;
+  };
   if (static_cast<int>(best.size()) < o.min_constraints) {
     result.reason = common::str("largest consistent set has ", best.size(), " of ", pool.size(),
                                 " gated candidates (need ", o.min_constraints, ")");
     markAll(pool, CandidateStatus::kTooFew, result.reason);
-  } else if (second.size() >= 2 &&
-             static_cast<double>(second.size()) >=
-                 o.ambiguity_ratio * static_cast<double>(best.size()) &&
-             !wholeFloorPrefersBest()) {
+  } else if ((second.size() >= 2 &&
+              static_cast<double>(second.size()) >=
+                  o.ambiguity_ratio * static_cast<double>(best.size()) &&
+              !wholeFloorPrefersBest()) ||
+             secondFitsTheWholeFloorBetter()) {
     result.ambiguous = true;
     result.set_alignments = {align_best, align_second};
     result.reason =
