@@ -42,6 +42,19 @@ storey_msgs::msg::FloorGraphUpdate toUpdate(const floor::FloorGraph& g, std::siz
   return u;
 }
 
+// An active matcher component with a publisher of floor-graph updates, discovered.
+struct RunningMatcher {
+  RunningMatcher(runtime::Context& context, const std::string& parameters)
+      : matcher(context, common::ConfigNode::loadString(parameters), "floor_matcher"),
+        graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph) {
+    matcher.configure();
+    matcher.activate();
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
+  }
+  FloorMatcherComponent matcher;
+  FloorGraphPublisher graphs;
+};
+
 matching::SimulatedFloors small2(std::uint64_t seed) {
   const auto scenario = sim::loadScenario(test::sourceDir() + "/config/buildings/small2.yaml");
   matching::SimulatedFloorsOptions so;
@@ -62,13 +75,9 @@ TEST(FloorMatcherComponent, PublishesCorrectConstraintsForTwoFloors) {
             std::lock_guard<std::mutex> lock(mutex);
             received.push_back(c);
           });
-  FloorMatcherComponent matcher(
-      context, common::ConfigNode::loadString("{min_nodes: 10, floor_matcher: {seed: 3}}"),
-      "floor_matcher");
-  matcher.configure();
-  matcher.activate();
-  FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
+  RunningMatcher running(context, "{min_nodes: 10, floor_matcher: {seed: 3}}");
+  FloorMatcherComponent& matcher = running.matcher;
+  FloorGraphPublisher& graphs = running.graphs;
   // The first graph in two updates (the second only adds nodes), then the other one.
   const auto& g0 = floors.graphs[0];
   graphs.publish(toUpdate(g0, 0, g0.nodes.size() / 2, 0));
@@ -114,14 +123,10 @@ TEST(FloorMatcherComponent, PublishesCorrectConstraintsForTwoFloors) {
 TEST(FloorMatcherComponent, FlushReturnsWhenOnlyOneFloorGraphExists) {
   const matching::SimulatedFloors floors = small2(5);
   runtime::Context context(onDomain(217));
-  FloorMatcherComponent matcher(context, common::ConfigNode::loadString("{min_nodes: 10}"),
-                                "floor_matcher");
-  matcher.configure();
-  matcher.activate();
-  FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
+  RunningMatcher running(context, "{min_nodes: 10}");
+  FloorMatcherComponent& matcher = running.matcher;
   const auto& g0 = floors.graphs[0];
-  graphs.publish(toUpdate(g0, 0, g0.nodes.size(), 0));
+  running.graphs.publish(toUpdate(g0, 0, g0.nodes.size(), 0));
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
   while (std::chrono::steady_clock::now() < deadline && matcher.stats().updates_accepted < 1)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -138,11 +143,9 @@ TEST(FloorMatcherComponent, FlushReturnsWhenOnlyOneFloorGraphExists) {
 
 TEST(FloorMatcherComponent, BadUpdatesAreRejectedAndCounted) {
   runtime::Context context(onDomain(216));
-  FloorMatcherComponent matcher(context, common::ConfigNode::loadString("{}"), "floor_matcher");
-  matcher.configure();
-  matcher.activate();
-  FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  RunningMatcher running(context, "{}");
+  FloorMatcherComponent& matcher = running.matcher;
+  FloorGraphPublisher& graphs = running.graphs;
   floor::FloorGraph g;
   g.graph_id = 4;
   for (int i = 0; i < 3; ++i) {

@@ -8,9 +8,9 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
-#include <sstream>
 #include <stdexcept>
 
+#include "storey/building/building_graph.h"
 #include "storey/eval/corridors.h"
 #include "storey/graph/graph_io.h"
 #include "test_support.h"
@@ -273,7 +273,7 @@ TEST(Experiments, FleetMapsEveryRobotsFloorsIntoOneBuilding) {
   std::set<long long> ranks;
   for (const auto& node : g2o.nodes()) {
     EXPECT_LE(node.id, 2147483647LL);
-    ranks.insert(node.id / 1000000);
+    ranks.insert(node.id / building::BuildingGraph::kGraphIdStride);
   }
   EXPECT_EQ(ranks, (std::set<long long>{0, 1, 2, 3, 4, 5}));
   EXPECT_EQ(table.wrong, 0u);

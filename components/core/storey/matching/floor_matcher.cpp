@@ -148,16 +148,19 @@ bool agrees(const Pose2& a, const Pose2& b, const Pose2& node_pose, double tol_t
          std::abs(normalizeAngle(pa.theta() - pb.theta())) <= tol_r;
 }
 
-// Mean of alignments: translation averaged, heading by circular mean.
-Pose2 meanAlignment(const std::vector<Pose2>& poses) {
-  double x = 0, y = 0, c = 0, s = 0;
-  for (const auto& p : poses) {
-    x += p.x();
-    y += p.y();
-    c += std::cos(p.theta());
-    s += std::sin(p.theta());
+// Mean of alignments: translation averaged, heading by circular mean; each weighted by
+// `weights` when given (else alike).
+Pose2 meanAlignment(const std::vector<Pose2>& poses, const std::vector<double>& weights = {}) {
+  double x = 0, y = 0, c = 0, s = 0, n = 0;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    const Pose2& p = poses[i];
+    const double w = weights.empty() ? 1.0 : weights[i];
+    x += w * p.x();
+    y += w * p.y();
+    c += w * std::cos(p.theta());
+    s += w * std::sin(p.theta());
+    n += w;
   }
-  const double n = static_cast<double>(poses.size());
   return Pose2(x / n, y / n, std::atan2(s, c));
 }
 
@@ -792,24 +795,25 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
     fit_second = fitOf(second, &align_second);
     return fit_best >= fit_second + o.ambiguity_fit_margin;
   };
-  // A second set smaller than the ratio, but large enough to be accepted alone, whose
-  // alignment the whole floor fits better: the count of sequences alone does not decide
-  // (fleet seed 1: robot 2's F2 had 9 sequences 6 m along a periodic row of rooms and 4
-  // at the true place).
-  auto secondFitsTheWholeFloorBetter = [&]() {
-    if (static_cast<int>(second.size()) < o.min_constraints || fit_best >= 0.0) return false;
-    wholeFloorPrefersBest();
-    return fit_second > fit_best;
+  // A rival by count (second.size() of at least ambiguity_ratio of the largest) makes the
+  // pair ambiguous unless the whole floor prefers the largest set by ambiguity_fit_margin.
+  // A smaller second set large enough to be accepted alone is a rival too, when the whole
+  // floor fits its alignment better: the count of sequences alone does not decide (fleet
+  // seed 1: robot 2's F2 had 9 sequences 6 m along a periodic row of rooms and 4 at the
+  // true place).
+  const bool rival_by_count =
+      second.size() >= 2 &&
+      static_cast<double>(second.size()) >= o.ambiguity_ratio * static_cast<double>(best.size());
+  const bool rival_by_size = static_cast<int>(second.size()) >= o.min_constraints;
+  auto rivalStands = [&]() {
+    const bool prefers_best = wholeFloorPrefersBest();
+    return rival_by_count ? !prefers_best : fit_second > fit_best;
   };
   if (static_cast<int>(best.size()) < o.min_constraints) {
     result.reason = common::str("largest consistent set has ", best.size(), " of ", pool.size(),
                                 " gated candidates (need ", o.min_constraints, ")");
     markAll(pool, CandidateStatus::kTooFew, result.reason);
-  } else if ((second.size() >= 2 &&
-              static_cast<double>(second.size()) >=
-                  o.ambiguity_ratio * static_cast<double>(best.size()) &&
-              !wholeFloorPrefersBest()) ||
-             secondFitsTheWholeFloorBetter()) {
+  } else if ((rival_by_count || rival_by_size) && rivalStands()) {
     result.ambiguous = true;
     result.set_alignments = {align_best, align_second};
     result.reason =
@@ -834,26 +838,26 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
       alignments.push_back(c.alignment);
       (c.reversed ? reversed_ranges : ranges).emplace_back(c.first_index, c.last_index);
     }
+    const bool use_forward = !ranges.empty();
+    const bool use_backward = !reversed_ranges.empty() && (!use_forward || o.joint_alignment_both_directions);
     const Pose2 mean = meanAlignment(alignments);
     Pose2 forward = mean, backward = mean;
-    if (!ranges.empty()) {  // g_i's scans in g_ref's map
+    if (use_forward) {  // g_i's scans in g_ref's map
       refineAlignment(reference.map->field(), g, ranges, o.refine_beams, o.refine_iterations,
                       &forward);
       refineAlignmentOnPoints(reference.points, g, ranges, o, &forward);
     }
-    if (!reversed_ranges.empty() && (ranges.empty() || o.joint_alignment_both_directions)) {
-      Pose2 inverse = mean.inverse();  // g_ref's scans in g_i's map
+    if (use_backward) {  // g_ref's scans in g_i's map
+      Pose2 inverse = mean.inverse();
       refineAlignment(floor_data.map->field(), *reference.graph, reversed_ranges, o.refine_beams,
                       o.refine_iterations, &inverse);
       refineAlignmentOnPoints(floor_data.points, *reference.graph, reversed_ranges, o, &inverse);
       backward = inverse.inverse();
     }
-    Pose2 joint = forward;
-    if (ranges.empty()) {
-      joint = backward;
-    } else if (!reversed_ranges.empty() && o.joint_alignment_both_directions) {
-      joint = combineAlignments(forward, scanCount(ranges), backward, scanCount(reversed_ranges));
-    }
+    const Pose2 joint =
+        use_forward && use_backward
+            ? combineAlignments(forward, scanCount(ranges), backward, scanCount(reversed_ranges))
+            : (use_forward ? forward : backward);
     result.alignment = joint;
     // Each accepted constraint is re-expressed through the joint alignment, which fits
     // every inlier's scans at once: one candidate's own refinement may be off by a few
@@ -1160,10 +1164,7 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
 }  // namespace
 
 Pose2 combineAlignments(const Pose2& a, double weight_a, const Pose2& b, double weight_b) {
-  const double sum = weight_a + weight_b;
-  return Pose2((weight_a * a.x() + weight_b * b.x()) / sum, (weight_a * a.y() + weight_b * b.y()) / sum,
-               std::atan2(weight_a * std::sin(a.theta()) + weight_b * std::sin(b.theta()),
-                          weight_a * std::cos(a.theta()) + weight_b * std::cos(b.theta())));
+  return meanAlignment({a, b}, {weight_a, weight_b});
 }
 
 Eigen::Matrix3d constraintInformation(const Candidate& c, const FloorMatcherOptions& o) {

@@ -140,6 +140,9 @@ void FloorMatcherComponent::workerLoop() {
     changed_.wait(lock, [this] { return stop_ || pending_; });
     if (stop_) return;
     matchOnce(lock);
+    // A flush waits for the pass, whichever way it ended (a one-floor building matches
+    // nothing and returns early).
+    changed_.notify_all();
   }
 }
 
@@ -152,7 +155,6 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   if (graphs.size() < 2) {
     logInfo(str(name(), ": matched ", graphs.size(), " floor graphs: fewer than two have ", options_.min_nodes,
                 " nodes"));
-    changed_.notify_all();  // a flush waits for this pass (a one-floor building ends here)
     return;
   }
   busy_ = true;
@@ -191,7 +193,6 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
               " constraints, ", out.size(), " new, published (", result.seconds, " s)"));
   lock.lock();
   busy_ = false;
-  changed_.notify_all();
 }
 
 bool FloorMatcherComponent::flush(double timeout_s) {
