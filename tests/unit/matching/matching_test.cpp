@@ -626,6 +626,129 @@ TEST(FloorMatcher, CombinedAlignmentsAreWeightedMeansThatKeepWhereTheyAgree) {
   EXPECT_NEAR(combineAlignments(a, 1, b, 3).theta(), 0.50 + 0.03 / 4.0, 1e-6);
 }
 
+// Three office floors for the path through an aligned graph: C (graph 2) is matched
+// against the reference A (graph 0) and against B (graph 1), whose alignment into A's
+// frame is known. The candidates are made by hand (no filter runs), so the test is about
+// what combineThroughAligned does with them.
+struct ThreeFloors {
+  Pose2 frame_b{1.3, -0.7, 0.3};   // B's graph frame in A's
+  Pose2 frame_c{-0.8, 0.5, -0.2};  // C's graph frame in A's: the alignment sought
+  std::vector<floor::FloorGraph> graphs;
+  FloorMatcherOptions options = fastOptions();
+  std::vector<PreparedFloor> prepared;
+
+  ThreeFloors() {
+    graphs = {driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 8),
+              driveFloor(officeFloor(1), officePath(1), frame_b, 1, 3.2, 9),
+              driveFloor(officeFloor(1), officePath(0), frame_c, 2, 6.4, 10)};
+    for (const auto& g : graphs) prepared.push_back(prepareFloor(g, options));
+  }
+  const floor::FloorGraph& c() const { return graphs[2]; }
+  Pose2 cInB() const { return frame_b.inverse() * frame_c; }
+
+  // A candidate that passed the gate and was too few alone: C's nodes [first, first + 4]
+  // localised in `map`'s map at `alignment` (C's frame into map's), or, reversed, map's
+  // nodes [first, first + 4] localised in C's map (alignment still C's frame into map's).
+  Candidate gated(const floor::FloorGraph& map, int first, const Pose2& alignment, bool reversed) const {
+    const floor::FloorGraph& g = c();
+    Candidate k;
+    k.reference_graph_id = map.graph_id;
+    k.graph_id = g.graph_id;
+    k.first_index = first;
+    k.last_index = first + 4;
+    k.reversed = reversed;
+    k.alignment = alignment;
+    k.likelihood = 1.0;
+    k.status = CandidateStatus::kTooFew;
+    int q = 0, node_k = 0;  // map's node, C's node
+    if (reversed) {
+      q = first;
+      node_k = g.nearestNodeIndex((alignment.inverse() * map.nodes[q].pose).translation());
+    } else {
+      node_k = first;
+      q = map.nearestNodeIndex((alignment * g.nodes[node_k].pose).translation());
+    }
+    k.node_index = node_k;
+    k.node_id = g.nodes[node_k].id;
+    k.reference_node_id = map.nodes[q].id;
+    k.measurement = map.nodes[q].pose.between(alignment * g.nodes[node_k].pose);
+    return k;
+  }
+  PairResult pair(int reference_graph_id, std::vector<Candidate> candidates) const {
+    PairResult p;
+    p.reference_graph_id = reference_graph_id;
+    p.graph_id = 2;
+    p.candidates = std::move(candidates);
+    return p;
+  }
+  PairResult combine(const PairResult& direct, const PairResult& via) const {
+    return combineThroughAligned(direct, via, frame_b, prepared[0], prepared[1], prepared[2], options, 5);
+  }
+  // Translation error of an alignment of C where C's nodes lie (their centroid), and heading error.
+  std::pair<double, double> errors(const Pose2& alignment) const {
+    Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+    for (const auto& n : c().nodes) centroid += n.pose.translation();
+    centroid /= static_cast<double>(c().nodes.size());
+    return {(alignment.transformPoint(centroid) - frame_c.transformPoint(centroid)).norm(),
+            angleError(alignment, frame_c)};
+  }
+};
+
+// Two candidates against the reference (A's scans in C's map) and two against the aligned
+// graph (C's scans in B's map), all 0.7 degrees and 6 cm off: together enough, and the
+// joint alignment is refined on all four's scans, each in the map it was localised in.
+// Refined on the reference's forward scans alone, as before, there were none here, and
+// the candidates' mean stood.
+TEST(FloorMatcher, EvidenceThroughAnAlignedFloorIsRefinedOnEveryInliersScans) {
+  ThreeFloors f;
+  const Pose2 off(0.06, -0.04, 0.012);
+  const PairResult direct = f.pair(0, {f.gated(f.graphs[0], 10, f.frame_c * off, true),
+                                       f.gated(f.graphs[0], 60, f.frame_c * off, true)});
+  const PairResult via = f.pair(1, {f.gated(f.graphs[1], 20, f.cInB() * off, false),
+                                    f.gated(f.graphs[1], 70, f.cInB() * off, false)});
+  const PairResult both = f.combine(direct, via);
+  ASSERT_TRUE(both.accepted) << both.reason;
+  int accepted = 0;
+  for (const auto& k : both.candidates) accepted += k.status == CandidateStatus::kAccepted;
+  EXPECT_EQ(accepted, 4);
+  const auto [metres, radians] = f.errors(both.alignment);
+  EXPECT_LT(metres, 0.02);
+  EXPECT_LT(radians, 0.002);
+
+  f.options.joint_alignment_both_directions = false;  // the mean stands: as far off as the candidates
+  const PairResult forward_only = f.combine(direct, via);
+  ASSERT_TRUE(forward_only.accepted);
+  EXPECT_NEAR(f.errors(forward_only.alignment).second, 0.012, 1e-6);
+}
+
+// Four candidates at the true alignment against a second consistent set 2 m along the
+// corridor: the rival rule of a direct pair, the whole floor fitted in both maps. Three
+// rivals fit it worse (the larger set wins); five outnumber the truth, and the floor is
+// ambiguous rather than placed by the larger, wrong set.
+TEST(FloorMatcher, ARivalSetThroughAnAlignedFloorIsJudgedByTheWholeFloorsFit) {
+  const ThreeFloors f;
+  const Pose2 shifted_in_a = Pose2(2.0, 0.0, 0.0) * f.frame_c;
+  const Pose2 shifted_in_b = f.frame_b.inverse() * shifted_in_a;
+  const PairResult direct = f.pair(0, {f.gated(f.graphs[0], 0, f.frame_c, false),
+                                       f.gated(f.graphs[0], 30, f.frame_c, false)});
+  std::vector<Candidate> via_candidates{f.gated(f.graphs[1], 60, f.cInB(), false),
+                                        f.gated(f.graphs[1], 90, f.cInB(), false)};
+  for (int first : {10, 40, 75}) via_candidates.push_back(f.gated(f.graphs[1], first, shifted_in_b, false));
+  const PairResult three = f.combine(direct, f.pair(1, via_candidates));
+  ASSERT_TRUE(three.accepted) << three.reason;
+  for (std::size_t i = 0; i < three.candidates.size(); ++i) {
+    const bool right = i < 4;  // the two direct ones, then the via pair's first two
+    EXPECT_EQ(three.candidates[i].status == CandidateStatus::kAccepted, right) << i << ": " << three.reason;
+  }
+  EXPECT_LT(f.errors(three.alignment).first, 0.05);
+
+  for (int first : {50, 100}) via_candidates.push_back(f.gated(f.graphs[1], first, shifted_in_b, false));
+  const PairResult five = f.combine(direct, f.pair(1, via_candidates));
+  EXPECT_FALSE(five.accepted) << five.reason;
+  EXPECT_TRUE(five.ambiguous) << five.reason;
+  for (const auto& k : five.candidates) EXPECT_NE(k.status, CandidateStatus::kAccepted);
+}
+
 TEST(ConstraintJudgement, AnErrorAlongAClaimedWeakDirectionIsNotWrongAcrossItIs) {
   FloorMatcherOptions o;
   Candidate c;

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <iomanip>
 #include <limits>
 #include <map>
@@ -351,6 +352,34 @@ void refineAlignmentOnPoints(const grid::PointMap& map, const floor::FloorGraph&
       moved.translation().norm() <= 2.0 * o.point_correspondence_distance &&
       std::abs(moved.theta()) <= o.ransac_rotation_tolerance)
     *alignment = fit.pose;
+}
+
+// `alignment` (scans_graph's frame into map_floor's) refined on scans_graph's scans
+// `ranges` in map_floor's map: on the likelihood field, then on its points.
+Pose2 refinedOnScans(const PreparedFloor& map_floor, const floor::FloorGraph& scans_graph,
+                     const std::vector<std::pair<int, int>>& ranges, const FloorMatcherOptions& o,
+                     Pose2 alignment) {
+  refineAlignment(map_floor.map->field(), scans_graph, ranges, o.refine_beams, o.refine_iterations,
+                  &alignment);
+  refineAlignmentOnPoints(map_floor.points, scans_graph, ranges, o, &alignment);
+  return alignment;
+}
+
+// Whether a second consistent set makes a pair ambiguous. A rival by count (at least
+// ambiguity_ratio of the largest set, and 2 or more) stands unless the whole floor fits
+// the largest set's alignment better by ambiguity_fit_margin; a smaller second set large
+// enough to be accepted alone stands when the whole floor fits it better (fleet seed 1:
+// robot 2's F2 had 9 sequences 6 m along a periodic row of rooms and 4 at the true
+// place). `fits()` returns the whole floor's fit at the two sets' alignments; it is only
+// called for a rival.
+bool secondSetStands(std::size_t best, std::size_t second, const FloorMatcherOptions& o,
+                     const std::function<std::pair<double, double>()>& fits) {
+  const bool rival_by_count =
+      second >= 2 && static_cast<double>(second) >= o.ambiguity_ratio * static_cast<double>(best);
+  const bool rival_by_size = static_cast<int>(second) >= o.min_constraints;
+  if (!rival_by_count && !rival_by_size) return false;
+  const auto [fit_best, fit_second] = fits();
+  return rival_by_count ? fit_best < fit_second + o.ambiguity_fit_margin : fit_second > fit_best;
 }
 
 // The translation of `joint` that best fits one candidate's own scans (nodes first..last)
@@ -783,7 +812,7 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
   // otherwise the floor is ambiguous.
   double fit_best = -1.0, fit_second = -1.0;
   Pose2 align_best, align_second;
-  auto wholeFloorPrefersBest = [&]() {
+  auto wholeFloorFits = [&]() {
     auto fitOf = [&](const std::vector<std::size_t>& set, Pose2* a) {
       std::vector<Pose2> alignments;
       for (std::size_t i : set) alignments.push_back(result.candidates[i].alignment);
@@ -793,27 +822,13 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
     };
     fit_best = fitOf(best, &align_best);
     fit_second = fitOf(second, &align_second);
-    return fit_best >= fit_second + o.ambiguity_fit_margin;
-  };
-  // A rival by count (second.size() of at least ambiguity_ratio of the largest) makes the
-  // pair ambiguous unless the whole floor prefers the largest set by ambiguity_fit_margin.
-  // A smaller second set large enough to be accepted alone is a rival too, when the whole
-  // floor fits its alignment better: the count of sequences alone does not decide (fleet
-  // seed 1: robot 2's F2 had 9 sequences 6 m along a periodic row of rooms and 4 at the
-  // true place).
-  const bool rival_by_count =
-      second.size() >= 2 &&
-      static_cast<double>(second.size()) >= o.ambiguity_ratio * static_cast<double>(best.size());
-  const bool rival_by_size = static_cast<int>(second.size()) >= o.min_constraints;
-  auto rivalStands = [&]() {
-    const bool prefers_best = wholeFloorPrefersBest();
-    return rival_by_count ? !prefers_best : fit_second > fit_best;
+    return std::make_pair(fit_best, fit_second);
   };
   if (static_cast<int>(best.size()) < o.min_constraints) {
     result.reason = common::str("largest consistent set has ", best.size(), " of ", pool.size(),
                                 " gated candidates (need ", o.min_constraints, ")");
     markAll(pool, CandidateStatus::kTooFew, result.reason);
-  } else if ((rival_by_count || rival_by_size) && rivalStands()) {
+  } else if (secondSetStands(best.size(), second.size(), o, wholeFloorFits)) {
     result.ambiguous = true;
     result.set_alignments = {align_best, align_second};
     result.reason =
@@ -842,18 +857,9 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
     const bool use_backward = !reversed_ranges.empty() && (!use_forward || o.joint_alignment_both_directions);
     const Pose2 mean = meanAlignment(alignments);
     Pose2 forward = mean, backward = mean;
-    if (use_forward) {  // g_i's scans in g_ref's map
-      refineAlignment(reference.map->field(), g, ranges, o.refine_beams, o.refine_iterations,
-                      &forward);
-      refineAlignmentOnPoints(reference.points, g, ranges, o, &forward);
-    }
-    if (use_backward) {  // g_ref's scans in g_i's map
-      Pose2 inverse = mean.inverse();
-      refineAlignment(floor_data.map->field(), *reference.graph, reversed_ranges, o.refine_beams,
-                      o.refine_iterations, &inverse);
-      refineAlignmentOnPoints(floor_data.points, *reference.graph, reversed_ranges, o, &inverse);
-      backward = inverse.inverse();
-    }
+    if (use_forward) forward = refinedOnScans(reference, g, ranges, o, mean);  // g_i's scans in g_ref's map
+    if (use_backward)  // g_ref's scans in g_i's map
+      backward = refinedOnScans(floor_data, *reference.graph, reversed_ranges, o, mean.inverse()).inverse();
     const Pose2 joint =
         use_forward && use_backward
             ? combineAlignments(forward, scanCount(ranges), backward, scanCount(reversed_ranges))
@@ -1053,14 +1059,7 @@ void parallelFor(int n, int threads, F job) {
 
 }  // namespace
 
-namespace {
-
-// A floor g_i that failed against the reference for too few consistent candidates, and
-// failed again against a graph g_r already aligned to the reference (T_r): the two pairs'
-// candidates are evidence about one alignment of g_i in the reference frame (g_r's mapped
-// through T_r, the loop T_ref,i = T_r * T_r,i). One RANSAC over both; when it finds
-// min_constraints disjoint candidates (and no rival set), the floor is accepted with
-// constraints to both graphs. Returns the combined pair (accepted or not).
+// The loop T_ref,i = T_r * T_r,i closed over two pairs that each had too few (see the header).
 PairResult combineThroughAligned(const PairResult& direct, const PairResult& via, const Pose2& t_r,
                                  const PreparedFloor& reference, const PreparedFloor& aligned,
                                  const PreparedFloor& floor_data, const FloorMatcherOptions& o,
@@ -1110,11 +1109,29 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
     markAll(pool, CandidateStatus::kTooFew, out.reason);
     return out;
   }
-  if (second.size() >= 2 &&
-      static_cast<double>(second.size()) >= o.ambiguity_ratio * static_cast<double>(best.size())) {
+  // The rival rule of decideConsistentSet, the whole floor fitted in both maps (g_i shares
+  // structure with each): the sum of its fits in the reference's and in the aligned graph's.
+  double fit_best = -1.0, fit_second = -1.0;
+  auto wholeFloorFits = [&]() {
+    const int count = static_cast<int>(g.nodes.size());
+    auto fitOf = [&](const std::vector<std::size_t>& set) {
+      std::vector<Pose2> alignments;
+      for (std::size_t i : set) alignments.push_back(in_reference[i].alignment);
+      Pose2 in_ref = meanAlignment(alignments);
+      Pose2 in_r = t_r.inverse() * in_ref;
+      const int beams = o.refine_beams / 3 + 1;
+      return refineAlignment(reference.map->field(), g, {{0, count - 1}}, beams, o.refine_iterations, &in_ref) +
+             refineAlignment(aligned.map->field(), g, {{0, count - 1}}, beams, o.refine_iterations, &in_r);
+    };
+    fit_best = fitOf(best);
+    fit_second = fitOf(second);
+    return std::make_pair(fit_best, fit_second);
+  };
+  if (secondSetStands(best.size(), second.size(), o, wholeFloorFits)) {
     out.ambiguous = true;
     out.reason = common::str("with ", via_name, " (aligned): two disjoint consistent sets of ",
-                             best.size(), " and ", second.size());
+                             best.size(), " and ", second.size(), ", whole-floor fit ", fit_best,
+                             " vs ", fit_second);
     markAll(pool, CandidateStatus::kAmbiguous, out.reason);
     return out;
   }
@@ -1128,20 +1145,38 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
       markAll({i}, CandidateStatus::kOutlier,
               "agrees, but its scans overlap an inlier's (counted once)");
   markAll(best, CandidateStatus::kAccepted, "inlier of the consistent set over both graphs");
-  // The joint alignment: the inliers' scans of g_i that were localised in the reference's
-  // map refine it there; without any, their mean stands.
+  // The joint alignment: refined on the inliers' scans in the map each was localised in
+  // (g_i's in the reference's or the aligned graph's map; theirs in g_i's, inverted), and
+  // the refinements combined by scan count. Without joint_alignment_both_directions, on
+  // g_i's scans in the reference's map alone, as before; without any, their mean stands.
   std::vector<Pose2> alignments;
-  std::vector<std::pair<int, int>> ranges;
+  for (std::size_t i : best) alignments.push_back(in_reference[i].alignment);
+  const Pose2 mean = meanAlignment(alignments);
+  const floor::FloorGraph& r_graph = *aligned.graph;
+  // Node ranges per (map, direction): [0] g_i in the reference, [1] the reference in g_i,
+  // [2] g_i in the aligned graph, [3] the aligned graph in g_i.
+  std::vector<std::pair<int, int>> ranges[4];
   for (std::size_t i : best) {
-    alignments.push_back(in_reference[i].alignment);
-    if (i < first_via && !out.candidates[i].reversed)
-      ranges.emplace_back(out.candidates[i].first_index, out.candidates[i].last_index);
+    const Candidate& c = out.candidates[i];
+    const int group = (i >= first_via ? 2 : 0) + (c.reversed ? 1 : 0);
+    ranges[group].emplace_back(c.first_index, c.last_index);
   }
-  Pose2 joint = meanAlignment(alignments);
-  if (!ranges.empty()) {
-    refineAlignment(reference.map->field(), g, ranges, o.refine_beams, o.refine_iterations, &joint);
-    refineAlignmentOnPoints(reference.points, g, ranges, o, &joint);
+  std::vector<Pose2> refined;
+  std::vector<double> weights;
+  auto add = [&](int group, const Pose2& a) {
+    refined.push_back(a);
+    weights.push_back(scanCount(ranges[group]));
+  };
+  if (!ranges[0].empty()) add(0, refinedOnScans(reference, g, ranges[0], o, mean));
+  if (o.joint_alignment_both_directions) {
+    const Pose2 mean_in_r = t_r.inverse() * mean;
+    if (!ranges[1].empty())
+      add(1, refinedOnScans(floor_data, *reference.graph, ranges[1], o, mean.inverse()).inverse());
+    if (!ranges[2].empty()) add(2, t_r * refinedOnScans(aligned, g, ranges[2], o, mean_in_r));
+    if (!ranges[3].empty())
+      add(3, t_r * refinedOnScans(floor_data, r_graph, ranges[3], o, mean_in_r.inverse()).inverse());
   }
+  const Pose2 joint = refined.empty() ? mean : meanAlignment(refined, weights);
   out.alignment = joint;
   const Pose2 joint_in_r = t_r.inverse() * joint;
   for (std::size_t i : best) {
@@ -1160,8 +1195,6 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
   }
   return out;
 }
-
-}  // namespace
 
 Pose2 combineAlignments(const Pose2& a, double weight_a, const Pose2& b, double weight_b) {
   return meanAlignment({a, b}, {weight_a, weight_b});

@@ -310,6 +310,18 @@ double learnLikelihoodThreshold(const floor::FloorGraph& graph, const FloorMatch
 PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor,
                      const FloorMatcherOptions& options, std::uint64_t seed);
 
+// Evidence through an aligned graph: g_i (`floor`) failed against the reference for too
+// few consistent candidates (`direct`) and again against g_r (`aligned`), whose accepted
+// alignment into the reference's frame is `t_r` (`via`). One RANSAC over both pairs'
+// candidates, g_r's mapped through t_r; accepted with min_constraints disjoint candidates
+// and no standing rival set (the whole floor fitted in both maps decides, as in a pair),
+// then the joint alignment is refined on every inlier's scans in the map it was localised
+// in. matchFloors calls it; declared here for tests.
+PairResult combineThroughAligned(const PairResult& direct, const PairResult& via,
+                                 const geometry::Pose2& t_r, const PreparedFloor& reference,
+                                 const PreparedFloor& aligned, const PreparedFloor& floor,
+                                 const FloorMatcherOptions& options, std::uint64_t seed);
+
 // The self-similarity check of one floor (see FloorMatcherOptions::self_check).
 FloorCheck checkSelfSimilarity(const PreparedFloor& floor, const FloorMatcherOptions& options,
                                std::uint64_t seed);
