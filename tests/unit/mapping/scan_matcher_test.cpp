@@ -83,6 +83,44 @@ TEST(ScanMatcher, RecoversOffsetInRoom) {
   }
 }
 
+// Posts of 4 cm around the robot and no wall: the map's points keep no line-like cell
+// (a post fills a cell or two, too few for a normal), so a point refinement has nothing to pair with. The match then
+// refines on the likelihood field (field_fallback) instead of failing.
+TEST(ScanMatcher, AMapWithoutLinesFallsBackToTheField) {
+  test::World world;
+  for (int k = 0; k < 40; ++k) {
+    const double a = 0.157 * k + 0.05 * (k % 3), r = 2.0 + 0.5 * (k % 5);
+    const double x = 5 + r * std::cos(a), y = 4 + r * std::sin(a);
+    world.addBox(x, y, x + 0.04, y + 0.04);
+  }
+  MatchTarget target = targetFrom(world, {Pose2(5, 4, 0), Pose2(5.3, 3.8, 1.5)});
+  std::vector<Eigen::Vector2d> map_points;
+  for (const Pose2& p : {Pose2(5, 4, 0), Pose2(5.3, 3.8, 1.5)})
+    for (const auto& q : p.transformPoints(world.scan(p, 0.0).pointsInRobotFrame())) map_points.push_back(q);
+  target.setPoints(grid::PointMap(map_points, 0.05, 0.2));
+  int line_cells = 0;
+  for (const auto& c : target.points().cells()) line_cells += !c.normal.isZero();
+  EXPECT_LT(line_cells, 5) << "of " << target.points().size();
+
+  const Pose2 truth(5.2, 4.1, 0.4);
+  const auto points = world.scan(truth, 0.0).pointsInRobotFrame();
+  ASSERT_GE(points.size(), 30u);
+  const Pose2 prediction = truth * Pose2(0.1, -0.08, 0.05);
+  ScanMatcherOptions o;
+  o.point_refinement = true;
+  o.min_points = 10;
+  const MatchResult on_points = ScanMatcher(o).match(target, points, prediction);
+  EXPECT_FALSE(on_points.success);
+  EXPECT_LT(on_points.line_weight, 3.0);
+  EXPECT_GE(on_points.line_weight, 0.0);
+  o.field_fallback = true;
+  const MatchResult r = ScanMatcher(o).match(target, points, prediction);
+  ASSERT_TRUE(r.success) << r.problem;
+  EXPECT_EQ(r.line_weight, -1.0);  // refined on the field
+  EXPECT_LT((r.pose.translation() - truth.translation()).norm(), 0.05) << r.pose;
+  EXPECT_LT(std::abs(geometry::angleDiff(r.pose.theta(), truth.theta())), 1.0 * M_PI / 180);
+}
+
 TEST(ScanMatcher, CorrelativeSearchIsExactOnTheGrid) {
   const test::World world = test::officeWorld();
   const MatchTarget target = targetFrom(world, {Pose2(4, 4, 0)});
@@ -182,10 +220,11 @@ TEST(ScanMatcher, FilterPointsKeepsOnePerNeighbourhood) {
 }
 
 TEST(ScanMatcher, OptionsAreReadStrictly) {
-  const auto node = common::ConfigNode::loadString("linear_window: 0.5\nmin_score: 0.4\n");
+  const auto node = common::ConfigNode::loadString("linear_window: 0.5\nmin_score: 0.4\nfield_fallback: true\n");
   const ScanMatcherOptions o = readScanMatcherOptions(node);
   EXPECT_DOUBLE_EQ(o.linear_window, 0.5);
   EXPECT_DOUBLE_EQ(o.min_score, 0.4);
+  EXPECT_TRUE(o.field_fallback);
   EXPECT_THROW(readScanMatcherOptions(common::ConfigNode::loadString("linear_windw: 0.5\n")),
                common::ConfigError);
   EXPECT_THROW(readScanMatcherOptions(common::ConfigNode::loadString("min_score: 2\n")), common::ConfigError);

@@ -34,6 +34,7 @@ ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node, const 
   o.max_rotation_stddev = node.getDouble("max_rotation_stddev", o.max_rotation_stddev, 1e-4, 1e3);
   o.robust_distance = node.getDouble("robust_distance", o.robust_distance, 1e-3, 10.0);
   o.point_refinement = node.get<bool>("point_refinement", o.point_refinement);
+  o.field_fallback = node.get<bool>("field_fallback", o.field_fallback);
   o.max_correspondence_distance =
       node.getDouble("max_correspondence_distance", o.max_correspondence_distance, 1e-3, 10.0);
   o.point_robust_distance = node.getDouble("point_robust_distance", o.point_robust_distance, 1e-4, 10.0);
@@ -180,6 +181,9 @@ std::vector<Eigen::Vector2d> pointNormals(const std::vector<Eigen::Vector2d>& po
 ScanMatcher::ScanMatcher(ScanMatcherOptions options) : options_(options) {}
 
 namespace {
+
+// Weighted point-to-line pairs a point refinement needs.
+constexpr double kMinLineWeight = 3.0;
 
 // A disc of positions left out of the search, in cells relative to the prediction.
 struct ExcludedDisc {
@@ -554,9 +558,10 @@ MatchResult ScanMatcher::refineOnPoints(const MatchTarget& target, const std::ve
   result.covariance = options_.map_normal_information
                           ? matchCovariance(fit.information, fit.weighted_r2, fit.weight_sum, options_)
                           : fieldCovariance(target.field(), points, pose, options_);
-  result.success = fit.weight_sum >= 3.0 && pose.isFinite() && result.covariance.allFinite();
+  result.line_weight = fit.weight_sum;
+  result.success = fit.weight_sum >= kMinLineWeight && pose.isFinite() && result.covariance.allFinite();
   if (!result.success)
-    result.problem = fit.weight_sum < 3.0 ? "too few points near the map's points" : "refinement diverged";
+    result.problem = fit.weight_sum < kMinLineWeight ? "too few points near the map's points" : "refinement diverged";
   return result;
 }
 
@@ -569,6 +574,11 @@ MatchResult ScanMatcher::match(const MatchTarget& target, const std::vector<Eige
   MatchResult fine = options_.point_refinement && !target.points().empty()
                          ? refineOnPoints(target, points, coarse.pose)
                          : refine(target.field(), points, coarse.pose);
+  // Curved walls and clutter keep no normals: the field still knows where the scan lies
+  // (csail's start area: field score 0.72, 3 of 172 points on line-like cells).
+  if (options_.field_fallback && !fine.success && fine.line_weight >= 0.0 &&
+      fine.line_weight < kMinLineWeight)
+    fine = refine(target.field(), points, coarse.pose);
   fine.correlative_score = coarse.correlative_score;
   fine.candidates_scored = coarse.candidates_scored;
   // The refinement must stay within the window and must not lose the match.

@@ -45,6 +45,9 @@ struct ScanMatcherOptions {
   // Off by default; config/floor_mapper.yaml turns it on for tracking (docs/floor_mapper.md
   // has the figures, and the synthetic ring where it does worse).
   bool point_refinement = false;
+  // Where fewer than 3 of the scan's points (weighted) pair with line-like map cells
+  // (curved walls, clutter), match() refines on the field instead of failing.
+  bool field_fallback = false;
   double max_correspondence_distance = 0.15;  // m, scan point to the map's nearest mean
   double point_robust_distance = 0.05;        // m, Cauchy width on point-to-line distances
   // The information of a point-refined match: from the scan's own normals as for the
@@ -112,6 +115,9 @@ struct MatchResult {
   double score = 0;              // mean interpolated score after refinement
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
   int points = 0;
+  // Refined on the target's points: the weight of the point-to-line pairs (-1: refined on
+  // the likelihood field).
+  double line_weight = -1.0;
   long candidates_scored = 0;  // leaves and bounds evaluated (for speed figures)
 };
 
