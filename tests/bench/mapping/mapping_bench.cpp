@@ -1,7 +1,12 @@
 // Speed of the scan matcher's stages and of building a match target, on scans ray-cast in
-// the synthetic office of the unit tests (361 beams, 20 m).
+// the synthetic office of the unit tests (361 beams, 20 m), and of the whole front end.
 #include <benchmark/benchmark.h>
 
+#include <cmath>
+
+#include "storey/common/config.h"
+#include "storey/mapping/evaluation.h"
+#include "storey/mapping/floor_slam.h"
 #include "storey/mapping/scan_matcher.h"
 #include "synthetic_world.h"
 
@@ -55,6 +60,57 @@ void BM_Refine(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(matcher.refine(target.field(), points, truth * Pose2(0.03, -0.02, 0.01)));
 }
 BENCHMARK(BM_Refine)->Unit(benchmark::kMicrosecond);
+
+// The whole front end (tracking, loop closure, optimisation) over a ring corridor of 24 m x
+// 16 m driven once and a half with 3 deg/m heading noise, with config/floor_mapper.yaml's
+// options; range(0) = 1 turns on the loop closures' point polish (as config/robots/
+// default.yaml does for the simulated robots; docs/floor_mapper.md, session 18). Figures:
+// scans per second and closures accepted; the ratio of the two runs is the polish's cost.
+void BM_FrontEndRing(benchmark::State& state) {
+  test::World world;
+  world.addBox(0, 0, 24, 16);
+  world.addBox(2, 2, 22, 14);
+  world.addBox(6, 0.05, 6.4, 0.4);
+  world.addBox(15, 15.6, 15.5, 15.95);
+  world.addBox(23.6, 7, 23.95, 7.4);
+  world.addBox(0.05, 10, 0.4, 10.6);
+  world.addBox(11, 1.7, 11.5, 2.0);
+  std::vector<Pose2> truth;
+  const std::vector<Eigen::Vector2d> corners{{1, 1}, {23, 1}, {23, 15}, {1, 15}, {1, 1}, {23, 1}, {23, 15}};
+  for (std::size_t i = 0; i + 1 < corners.size(); ++i) {
+    const Eigen::Vector2d d = corners[i + 1] - corners[i];
+    const double heading = std::atan2(d.y(), d.x());
+    if (!truth.empty())
+      for (int k = 1; k <= 3; ++k)
+        truth.emplace_back(corners[i].x(), corners[i].y(),
+                           truth.back().theta() + geometry::angleDiff(heading, truth.back().theta()) / (4 - k));
+    const int n = static_cast<int>(std::ceil(d.norm() / 0.25));
+    for (int k = truth.empty() ? 0 : 1; k <= n; ++k)
+      truth.emplace_back(corners[i].x() + d.x() * k / n, corners[i].y() + d.y() * k / n, heading);
+  }
+  std::vector<sensor::LaserScan> scans;
+  for (std::size_t i = 0; i < truth.size(); ++i) scans.push_back(world.scan(truth[i], 0.1 * static_cast<double>(i)));
+  OdometryNoise noise;
+  noise.rotation_per_meter = 3.0 * M_PI / 180;
+  const std::vector<Pose2> odometry = simulateOdometry(truth, noise, 11);
+  FloorSlamOptions options = readFloorSlamOptions(
+      common::ConfigNode::loadFile(std::string(STOREY_SOURCE_DIR) + "/config/floor_mapper.yaml").child("slam"));
+  if (state.range(0) == 1) {
+    options.loop_closure.point_polish_translation = 0.05;
+    options.loop_closure.point_polish_rotation = 0.03;
+  }
+  std::size_t closures = 0;
+  for (auto _ : state) {
+    FloorSlam slam(options, "robot", 0, 0, 0.0);
+    benchmark::DoNotOptimize(runOffline(slam, scans, odometry).trajectory.size());
+    closures = slam.stats().loop_closures;
+  }
+  state.counters["scans"] = static_cast<double>(scans.size());
+  state.counters["closures"] = static_cast<double>(closures);
+  state.counters["scans_per_s"] =
+      benchmark::Counter(static_cast<double>(scans.size()), benchmark::Counter::kIsIterationInvariantRate);
+}
+BENCHMARK(BM_FrontEndRing)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace storey::mapping
