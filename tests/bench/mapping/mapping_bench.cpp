@@ -2,8 +2,6 @@
 // the synthetic office of the unit tests (361 beams, 20 m), and of the whole front end.
 #include <benchmark/benchmark.h>
 
-#include <cmath>
-
 #include "storey/common/config.h"
 #include "storey/mapping/evaluation.h"
 #include "storey/mapping/floor_slam.h"
@@ -67,27 +65,9 @@ BENCHMARK(BM_Refine)->Unit(benchmark::kMicrosecond);
 // default.yaml does for the simulated robots; docs/floor_mapper.md, session 18). Figures:
 // scans per second and closures accepted; the ratio of the two runs is the polish's cost.
 void BM_FrontEndRing(benchmark::State& state) {
-  test::World world;
-  world.addBox(0, 0, 24, 16);
-  world.addBox(2, 2, 22, 14);
-  world.addBox(6, 0.05, 6.4, 0.4);
-  world.addBox(15, 15.6, 15.5, 15.95);
-  world.addBox(23.6, 7, 23.95, 7.4);
-  world.addBox(0.05, 10, 0.4, 10.6);
-  world.addBox(11, 1.7, 11.5, 2.0);
-  std::vector<Pose2> truth;
-  const std::vector<Eigen::Vector2d> corners{{1, 1}, {23, 1}, {23, 15}, {1, 15}, {1, 1}, {23, 1}, {23, 15}};
-  for (std::size_t i = 0; i + 1 < corners.size(); ++i) {
-    const Eigen::Vector2d d = corners[i + 1] - corners[i];
-    const double heading = std::atan2(d.y(), d.x());
-    if (!truth.empty())
-      for (int k = 1; k <= 3; ++k)
-        truth.emplace_back(corners[i].x(), corners[i].y(),
-                           truth.back().theta() + geometry::angleDiff(heading, truth.back().theta()) / (4 - k));
-    const int n = static_cast<int>(std::ceil(d.norm() / 0.25));
-    for (int k = truth.empty() ? 0 : 1; k <= n; ++k)
-      truth.emplace_back(corners[i].x() + d.x() * k / n, corners[i].y() + d.y() * k / n, heading);
-  }
+  const test::World world = test::ringCorridorWorld();
+  const std::vector<Pose2> truth =
+      test::pathThrough({{1, 1}, {23, 1}, {23, 15}, {1, 15}, {1, 1}, {23, 1}, {23, 15}});
   std::vector<sensor::LaserScan> scans;
   for (std::size_t i = 0; i < truth.size(); ++i) scans.push_back(world.scan(truth[i], 0.1 * static_cast<double>(i)));
   OdometryNoise noise;

@@ -16,24 +16,7 @@ namespace {
 
 using geometry::Pose2;
 
-// Poses along straight legs between waypoints (turning on the spot at each), `step` apart.
-std::vector<Pose2> path(const std::vector<Eigen::Vector2d>& waypoints, double step = 0.25) {
-  std::vector<Pose2> poses;
-  for (std::size_t i = 0; i + 1 < waypoints.size(); ++i) {
-    const Eigen::Vector2d d = waypoints[i + 1] - waypoints[i];
-    const double heading = std::atan2(d.y(), d.x());
-    if (!poses.empty()) {
-      // Turn in a few steps.
-      const double turn = geometry::angleDiff(heading, poses.back().theta());
-      for (int k = 1; k <= 3; ++k)
-        poses.emplace_back(waypoints[i].x(), waypoints[i].y(), poses.back().theta() + turn / 3);
-    }
-    const int n = static_cast<int>(std::ceil(d.norm() / step));
-    for (int k = poses.empty() ? 0 : 1; k <= n; ++k)
-      poses.emplace_back(waypoints[i].x() + d.x() * k / n, waypoints[i].y() + d.y() * k / n, heading);
-  }
-  return poses;
-}
+using test::pathThrough;
 
 struct WorldRun {
   std::vector<Pose2> truth, odometry, estimate;
@@ -88,7 +71,7 @@ double maxTranslationError(const WorldRun& run) {
 
 TEST(FloorSlam, TracksThroughAnOfficeWithNoisyOdometry) {
   const test::World world = test::officeWorld();
-  const auto truth = path({{1, 1}, {4.5, 1}, {4.5, 4.5}, {8, 4}, {11, 1}, {11, 4.5}, {6, 7}, {1, 7}, {1, 1}});
+  const auto truth = pathThrough({{1, 1}, {4.5, 1}, {4.5, 4.5}, {8, 4}, {11, 1}, {11, 4.5}, {6, 7}, {1, 7}, {1, 1}});
   const WorldRun run = runWorld(world, truth, FloorSlamOptions{}, 7);
   const RelationErrors slam = relationErrors(run.estimate, run.truth);
   const RelationErrors odo = relationErrors(run.odometry, run.truth);
@@ -105,7 +88,7 @@ TEST(FloorSlam, AlongABareCorridorOdometryDecides) {
   // frontier; with the degenerate direction taken from odometry the track moves as the
   // robot does, without it it stalls. (Poses as tracked, before any optimisation.)
   const test::World world = test::corridorWorld();
-  const auto truth = path({{-30, 0}, {10, 0}});
+  const auto truth = pathThrough({{-30, 0}, {10, 0}});
   const auto odometry = simulateOdometry(truth, OdometryNoise{}, 3);
   auto track = [&](double degenerate_ratio) {
     FloorSlamOptions options;
@@ -272,17 +255,8 @@ TEST(FloorSlam, AMatchThatDisagreesWithOdometryIsNotUsedWhenGated) {
 }
 
 TEST(FloorSlam, LoopClosureCorrectsDrift) {
-  // A ring corridor around a block: 24 m x 16 m outside, 2 m wide, with a few doors and
-  // pillars so that it is not featureless.
-  test::World world;
-  world.addBox(0, 0, 24, 16);
-  world.addBox(2, 2, 22, 14);
-  world.addBox(6, 0.05, 6.4, 0.4);
-  world.addBox(15, 15.6, 15.5, 15.95);
-  world.addBox(23.6, 7, 23.95, 7.4);
-  world.addBox(0.05, 10, 0.4, 10.6);
-  world.addBox(11, 1.7, 11.5, 2.0);
-  const auto truth = path({{1, 1}, {23, 1}, {23, 15}, {1, 15}, {1, 1}, {12, 1}});
+  const test::World world = test::ringCorridorWorld();
+  const auto truth = pathThrough({{1, 1}, {23, 1}, {23, 15}, {1, 15}, {1, 1}, {12, 1}});
   OdometryNoise noise;
   noise.rotation_per_meter = 3.0 * M_PI / 180;
   FloorSlamOptions with;
@@ -338,7 +312,7 @@ TEST(FloorSlam, ALargeDriftIsClosedByClosuresThatAgree) {
   world.addBox(1.6, 7, 1.95, 7.5);
   world.addBox(0.05, 3, 0.4, 3.4);
   world.addWall(0.5, 0, 0.5, 0.4);
-  const auto truth = path({{1, 1}, {39, 1}, {39, 13}, {1, 13}, {1, 1}, {10, 1}});
+  const auto truth = pathThrough({{1, 1}, {39, 1}, {39, 13}, {1, 13}, {1, 1}, {10, 1}});
   // Slip on the first leg: every step there 8 % longer than driven. (Built step by step: until
   // session 12 each slipped step was undone by the next, so the slip was nearly nil.)
   const std::vector<Pose2> simulated = simulateOdometry(truth, OdometryNoise{}, 5);
@@ -402,7 +376,7 @@ test::World ringWithPillars(double period, double first_pillar) {
 
 // Once round the ring and back along the bottom leg to x = 28.
 std::vector<Pose2> ringPath() {
-  return path({{1, 1}, {kRingLength - 1, 1}, {kRingLength - 1, 13}, {1, 13}, {1, 1}, {28, 1}});
+  return pathThrough({{1, 1}, {kRingLength - 1, 1}, {kRingLength - 1, 13}, {1, 13}, {1, 1}, {28, 1}});
 }
 
 // Simulated odometry (seed 5) whose steps on the bare top leg are scaled by `slip`, built

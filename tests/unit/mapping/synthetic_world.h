@@ -78,4 +78,37 @@ inline World corridorWorld() {
   return w;
 }
 
+// A ring corridor around a block: 24 m x 16 m outside, 2 m wide, with a few doors and
+// pillars so that it is not featureless (the loop-closure test and the front-end bench).
+inline World ringCorridorWorld() {
+  World w;
+  w.addBox(0, 0, 24, 16);
+  w.addBox(2, 2, 22, 14);
+  w.addBox(6, 0.05, 6.4, 0.4);
+  w.addBox(15, 15.6, 15.5, 15.95);
+  w.addBox(23.6, 7, 23.95, 7.4);
+  w.addBox(0.05, 10, 0.4, 10.6);
+  w.addBox(11, 1.7, 11.5, 2.0);
+  return w;
+}
+
+// Poses along straight legs between waypoints (turning on the spot at each in three
+// steps), `step` apart.
+inline std::vector<geometry::Pose2> pathThrough(const std::vector<Eigen::Vector2d>& waypoints, double step = 0.25) {
+  std::vector<geometry::Pose2> poses;
+  for (std::size_t i = 0; i + 1 < waypoints.size(); ++i) {
+    const Eigen::Vector2d d = waypoints[i + 1] - waypoints[i];
+    const double heading = std::atan2(d.y(), d.x());
+    if (!poses.empty()) {
+      const double turn = geometry::angleDiff(heading, poses.back().theta());
+      for (int k = 1; k <= 3; ++k)
+        poses.emplace_back(waypoints[i].x(), waypoints[i].y(), poses.back().theta() + turn / 3);
+    }
+    const int n = static_cast<int>(std::ceil(d.norm() / step));
+    for (int k = poses.empty() ? 0 : 1; k <= n; ++k)
+      poses.emplace_back(waypoints[i].x() + d.x() * k / n, waypoints[i].y() + d.y() * k / n, heading);
+  }
+  return poses;
+}
+
 }  // namespace storey::mapping::test
