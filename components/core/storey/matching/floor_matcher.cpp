@@ -365,6 +365,16 @@ Pose2 refinedOnScans(const PreparedFloor& map_floor, const floor::FloorGraph& sc
   return alignment;
 }
 
+// The fit of *all* of `scans_graph`'s scans in map_floor's map, `alignment` (their
+// frame into map_floor's) refined from where it is, on a third of the refinement's beams:
+// how rival alignments (and a floor's twin) are told apart.
+double wholeFloorFit(const PreparedFloor& map_floor, const floor::FloorGraph& scans_graph,
+                     const FloorMatcherOptions& o, Pose2* alignment) {
+  const int count = static_cast<int>(scans_graph.nodes.size());
+  return refineAlignment(map_floor.map->field(), scans_graph, {{0, count - 1}}, o.refine_beams / 3 + 1,
+                         o.refine_iterations, alignment);
+}
+
 // Whether a second consistent set makes a pair ambiguous. A rival by count (at least
 // ambiguity_ratio of the largest set, and 2 or more) stands unless the whole floor fits
 // the largest set's alignment better by ambiguity_fit_margin; a smaller second set large
@@ -774,7 +784,7 @@ void markTwinCandidates(const PreparedFloor& reference, const PreparedFloor& flo
 }
 
 void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& floor_data,
-                         const FloorMatcherOptions& o, int count, std::mt19937_64* rng_ptr,
+                         const FloorMatcherOptions& o, std::mt19937_64* rng_ptr,
                          PairResult* result_ptr) {
   PairResult& result = *result_ptr;
   std::mt19937_64& rng = *rng_ptr;
@@ -817,8 +827,7 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
       std::vector<Pose2> alignments;
       for (std::size_t i : set) alignments.push_back(result.candidates[i].alignment);
       *a = meanAlignment(alignments);
-      return refineAlignment(reference.map->field(), g, {{0, count - 1}}, o.refine_beams / 3 + 1,
-                             o.refine_iterations, a);
+      return wholeFloorFit(reference, g, o, a);
     };
     fit_best = fitOf(best, &align_best);
     fit_second = fitOf(second, &align_second);
@@ -909,12 +918,11 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
   result.reference_graph_id = ref.graph_id;
   result.graph_id = g.graph_id;
   result.l_min = o.likelihood_scale * std::min(reference.l_min, floor_data.l_min);
-  const int count = static_cast<int>(g.nodes.size());
   std::mt19937_64 rng(seed);
   std::uint64_t evaluations = 0;
   result.candidates = localiseSequences(reference, floor_data, result.l_min, o, seed, false, false,
                                         &result, &evaluations);
-  decideConsistentSet(reference, floor_data, o, count, &rng, &result);
+  decideConsistentSet(reference, floor_data, o, &rng, &result);
   if (!result.accepted && both_directions && ref.graph_id != g.graph_id) {
     // Too few or two rival consistent sets: g_ref's scans localised in g_i's map are
     // independent evidence about the same alignment (shared structure that g_i's robot
@@ -948,7 +956,7 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
     for (const Candidate& r : back) result.candidates.push_back(reverseCandidate(r, ref, g));
     result.ambiguous = false;
     result.set_alignments.clear();
-    decideConsistentSet(reference, floor_data, o, count, &rng, &result);
+    decideConsistentSet(reference, floor_data, o, &rng, &result);
     result.sequences += reverse.sequences;
     result.not_converged += reverse.not_converged;
     result.reversed_candidates = static_cast<int>(back.size());
@@ -1017,15 +1025,11 @@ FloorCheck checkSelfSimilarity(const PreparedFloor& floor_data, const FloorMatch
     // As for two rival sets in a pair: a floor is self-similar only if the other
     // alignment fits *all* its scans about as well as the identity. A symmetric floor
     // maps onto itself; a corridor whose ends differ fits only locally.
-    const int count = static_cast<int>(floor_data.graph->nodes.size());
     std::vector<Pose2> alignments;
     for (std::size_t i : twin) alignments.push_back(own.candidates[i].alignment);
     Pose2 other = meanAlignment(alignments), identity;
-    const int beams = o.refine_beams / 3 + 1;
-    check.fit_elsewhere = refineAlignment(floor_data.map->field(), *floor_data.graph,
-                                          {{0, count - 1}}, beams, o.refine_iterations, &other);
-    check.fit_identity = refineAlignment(floor_data.map->field(), *floor_data.graph,
-                                         {{0, count - 1}}, beams, o.refine_iterations, &identity);
+    check.fit_elsewhere = wholeFloorFit(floor_data, *floor_data.graph, o, &other);
+    check.fit_identity = wholeFloorFit(floor_data, *floor_data.graph, o, &identity);
     check.other = other;
     // A twin must also explain the sequences that found their own place: placed by it,
     // their scans fit about as well as at home on a symmetric floor (all but those at the
@@ -1113,15 +1117,12 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
   // structure with each): the sum of its fits in the reference's and in the aligned graph's.
   double fit_best = -1.0, fit_second = -1.0;
   auto wholeFloorFits = [&]() {
-    const int count = static_cast<int>(g.nodes.size());
     auto fitOf = [&](const std::vector<std::size_t>& set) {
       std::vector<Pose2> alignments;
       for (std::size_t i : set) alignments.push_back(in_reference[i].alignment);
       Pose2 in_ref = meanAlignment(alignments);
       Pose2 in_r = t_r.inverse() * in_ref;
-      const int beams = o.refine_beams / 3 + 1;
-      return refineAlignment(reference.map->field(), g, {{0, count - 1}}, beams, o.refine_iterations, &in_ref) +
-             refineAlignment(aligned.map->field(), g, {{0, count - 1}}, beams, o.refine_iterations, &in_r);
+      return wholeFloorFit(reference, g, o, &in_ref) + wholeFloorFit(aligned, g, o, &in_r);
     };
     fit_best = fitOf(best);
     fit_second = fitOf(second);
