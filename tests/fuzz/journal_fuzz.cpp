@@ -1,5 +1,5 @@
 // The graph server's journal record decoder (storey::building decodeRecord): raw bytes,
-// or a valid encoded delta/constraint patched by the input (fuzz_support.h).
+// or a valid encoded delta/constraint/retraction patched by the input (fuzz_support.h).
 #include <cstdint>
 #include <stdexcept>
 #include <vector>
@@ -9,9 +9,18 @@
 
 namespace {
 
-std::vector<std::uint8_t> sampleRecord(bool constraint) {
+std::vector<std::uint8_t> sampleRecord(int kind) {
   using namespace storey;
-  if (constraint) {
+  if (kind == 2) {
+    building::ConstraintRetraction r;
+    r.graph_from = 1;
+    r.node_from = 4;
+    r.graph_to = 2;
+    r.node_to = 7;
+    r.reason = "placed 3 m away";
+    return building::encodeRecord(building::JournalRecord(r));
+  }
+  if (kind == 1) {
     building::InterGraphConstraint c;
     c.id = 3;
     c.graph_from = 1;
@@ -51,10 +60,10 @@ std::vector<std::uint8_t> sampleRecord(bool constraint) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static const std::vector<std::uint8_t> samples[2] = {sampleRecord(false), sampleRecord(true)};
+  static const std::vector<std::uint8_t> samples[3] = {sampleRecord(0), sampleRecord(1), sampleRecord(2)};
   std::vector<std::uint8_t> bytes;
   if (size > 0 && (data[0] & 1)) {
-    bytes = storey::fuzz::patchSample(samples[(data[0] >> 1) & 1], data + 1, size - 1);
+    bytes = storey::fuzz::patchSample(samples[(data[0] >> 1) % 3], data + 1, size - 1);
   } else {
     bytes.assign(data, data + size);
   }

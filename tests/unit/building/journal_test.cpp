@@ -94,10 +94,7 @@ TEST(Journal, RestartRebuildsTheSameBuilding) {
   JournalWriter reopened(path, false);
   EXPECT_FALSE(reopened.hadTornTail());
   BuildingGraph rebuilt;
-  for (const auto& record : reopened.existing()) {
-    if (const auto* d = std::get_if<FloorGraphDelta>(&record)) applyDelta(rebuilt, *d);
-    else rebuilt.addConstraint(std::get<InterGraphConstraint>(record));
-  }
+  for (const auto& record : reopened.existing()) applyRecord(rebuilt, record);
   ASSERT_EQ(rebuilt.floorGraphs().size(), 2u);
   EXPECT_EQ(rebuilt.floorGraphs().at(0).nodes.size(), 6u);
   EXPECT_EQ(rebuilt.floorGraphs().at(0).edges.size(), 5u);
@@ -105,6 +102,44 @@ TEST(Journal, RestartRebuildsTheSameBuilding) {
   const auto a = original.optimize(), b = rebuilt.optimize();
   EXPECT_DOUBLE_EQ(a.final_chi2, b.final_chi2);
   EXPECT_DOUBLE_EQ(a.placement(1)->transform.x(), b.placement(1)->transform.x());
+}
+
+TEST(Journal, RetractionsRoundTripAndARestartDoesNotBringTheConstraintBack) {
+  ConstraintRetraction r;
+  r.graph_from = 0;
+  r.node_from = 1;
+  r.graph_to = 1;
+  r.node_to = 2;
+  r.reason = "the new pass places node 2 of graph 1 3 m away";
+  const auto bytes = encodeRecord(r);
+  const auto back = std::get<ConstraintRetraction>(decodeRecord(bytes.data(), bytes.size()));
+  EXPECT_EQ(back.graph_to, 1);
+  EXPECT_EQ(back.node_to, 2);
+  EXPECT_EQ(back.reason, r.reason);
+
+  const std::string path = test::makeTempDir() + "/journal.bin";
+  {
+    JournalWriter writer(path, true);
+    for (int g : {0, 1}) writer.append(makeDelta(g, 0, 4));
+    InterGraphConstraint wrong, kept;
+    wrong.graph_from = kept.graph_from = 0;
+    wrong.graph_to = kept.graph_to = 1;
+    wrong.node_from = 1;
+    wrong.node_to = 2;
+    kept.node_from = 3;
+    kept.node_to = 3;
+    writer.append(wrong);
+    writer.append(kept);
+    writer.append(r);
+  }
+  const JournalBuilding rebuilt = rebuildFromJournal(path);
+  EXPECT_TRUE(rebuilt.skipped.empty());
+  ASSERT_EQ(rebuilt.graph.constraints().size(), 1u);
+  EXPECT_EQ(rebuilt.graph.constraints()[0].node_from, 3);
+  // A retraction of a constraint the graph does not hold changes nothing.
+  BuildingGraph copy = rebuilt.graph;
+  EXPECT_EQ(copy.retractConstraint(r), 0u);
+  EXPECT_EQ(copy.constraints().size(), 1u);
 }
 
 TEST(Journal, TornTailIsDroppedAndAppendingContinues) {

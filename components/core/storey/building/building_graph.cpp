@@ -1,5 +1,6 @@
 #include "storey/building/building_graph.h"
 
+#include <algorithm>
 #include <cmath>
 #include <queue>
 #include <set>
@@ -41,6 +42,14 @@ floor::FloorGraph& BuildingGraph::floorGraphForUpdate(int graph_id) {
   floor::FloorGraph& graph = graphs_[graph_id];
   graph.graph_id = graph_id;
   return graph;
+}
+
+std::size_t BuildingGraph::retractConstraint(const ConstraintRetraction& retraction) {
+  const std::size_t before = constraints_.size();
+  constraints_.erase(std::remove_if(constraints_.begin(), constraints_.end(),
+                                    [&](const InterGraphConstraint& c) { return retraction.retracts(c); }),
+                     constraints_.end());
+  return before - constraints_.size();
 }
 
 void BuildingGraph::addConstraint(const InterGraphConstraint& c) {

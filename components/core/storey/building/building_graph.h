@@ -29,6 +29,19 @@ struct InterGraphConstraint {
   Eigen::Matrix3d information = Eigen::Matrix3d::Identity();
 };
 
+// Withdraws every constraint between these two nodes (the matcher no longer stands behind
+// it). Constraints are named by their nodes, not their ids: ids restart with the matcher.
+struct ConstraintRetraction {
+  int graph_from = 0;
+  int node_from = 0;
+  int graph_to = 0;
+  int node_to = 0;
+  std::string reason;
+  bool retracts(const InterGraphConstraint& c) const {
+    return c.graph_from == graph_from && c.node_from == node_from && c.graph_to == graph_to && c.node_to == node_to;
+  }
+};
+
 struct BuildingGraphOptions {
   graph::OptimizerOptions optimizer;
 };
@@ -67,6 +80,8 @@ class BuildingGraph {
   // graph or node, or its values are not finite.
   void addConstraint(const InterGraphConstraint& constraint);
   void removeLastConstraint() { constraints_.pop_back(); }
+  // Removes the constraints `retraction` names; returns how many there were.
+  std::size_t retractConstraint(const ConstraintRetraction& retraction);
 
   const std::map<int, floor::FloorGraph>& floorGraphs() const { return graphs_; }
   const std::vector<InterGraphConstraint>& constraints() const { return constraints_; }

@@ -17,7 +17,7 @@ namespace storey::building {
 namespace {
 
 constexpr char kFileMagic[8] = {'S', 'T', 'O', 'R', 'E', 'Y', 'J', '1'};
-enum RecordType : std::uint8_t { kDelta = 1, kConstraint = 2 };
+enum RecordType : std::uint8_t { kDelta = 1, kConstraint = 2, kRetraction = 3 };
 
 class Encoder : public common::ByteEncoder {
  public:
@@ -84,6 +84,13 @@ std::vector<std::uint8_t> encodeRecord(const JournalRecord& record) {
       e.put<std::int32_t>(id);
       e.putPose(pose);
     }
+  } else if (const auto* r = std::get_if<ConstraintRetraction>(&record)) {
+    e.put<std::uint8_t>(kRetraction);
+    e.put<std::int32_t>(r->graph_from);
+    e.put<std::int32_t>(r->node_from);
+    e.put<std::int32_t>(r->graph_to);
+    e.put<std::int32_t>(r->node_to);
+    e.putString(r->reason);
   } else {
     const auto& c = std::get<InterGraphConstraint>(record);
     e.put<std::uint8_t>(kConstraint);
@@ -161,6 +168,16 @@ JournalRecord decodeRecord(const std::uint8_t* data, std::size_t size) {
     if (!d.done()) throw std::runtime_error("trailing bytes in a constraint record");
     return c;
   }
+  if (type == kRetraction) {
+    ConstraintRetraction r;
+    r.graph_from = d.get<std::int32_t>();
+    r.node_from = d.get<std::int32_t>();
+    r.graph_to = d.get<std::int32_t>();
+    r.node_to = d.get<std::int32_t>();
+    r.reason = d.getString();
+    if (!d.done()) throw std::runtime_error("trailing bytes in a retraction record");
+    return r;
+  }
   throw std::runtime_error("unknown record type " + std::to_string(type));
 }
 
@@ -188,8 +205,7 @@ JournalBuilding rebuildFromJournal(const std::string& path) {
   out.torn_tail = journal.torn_tail;
   for (std::size_t i = 0; i < journal.records.size(); ++i) {
     try {
-      if (const auto* d = std::get_if<FloorGraphDelta>(&journal.records[i])) applyDelta(out.graph, *d);
-      else out.graph.addConstraint(std::get<InterGraphConstraint>(journal.records[i]));
+      applyRecord(out.graph, journal.records[i]);
     } catch (const std::exception& e) {
       out.skipped.push_back("record " + std::to_string(i + 1) + ": " + e.what());
     }
@@ -200,6 +216,12 @@ JournalBuilding rebuildFromJournal(const std::string& path) {
 void printJournalProblems(std::ostream& out, const std::string& path, const JournalBuilding& journal) {
   if (journal.torn_tail) out << path << ": the last record was torn and is ignored\n";
   for (const auto& why : journal.skipped) out << path << ": " << why << " (skipped)\n";
+}
+
+void applyRecord(BuildingGraph& building, const JournalRecord& record) {
+  if (const auto* d = std::get_if<FloorGraphDelta>(&record)) applyDelta(building, *d);
+  else if (const auto* c = std::get_if<InterGraphConstraint>(&record)) building.addConstraint(*c);
+  else building.retractConstraint(std::get<ConstraintRetraction>(record));
 }
 
 void applyDelta(BuildingGraph& building, const FloorGraphDelta& delta) {

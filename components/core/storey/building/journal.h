@@ -1,5 +1,5 @@
-// The graph server's journal: every accepted floor-graph change and inter-floor
-// constraint is appended (length-prefixed, CRC-checked) before it is acknowledged, so a
+// The graph server's journal: every accepted floor-graph change, inter-floor constraint
+// and constraint retraction is appended (length-prefixed, CRC-checked) before it is acknowledged, so a
 // restarted server rebuilds exactly what it had. A torn last record (a crash mid-write) is
 // detected, dropped with a warning and cut off; corruption before the end is an error.
 #pragma once
@@ -39,7 +39,11 @@ void applyDelta(BuildingGraph& building, const FloorGraphDelta& delta);
 // The check applyDelta makes first: throws as it would, changes nothing.
 void checkDelta(const BuildingGraph& building, const FloorGraphDelta& delta);
 
-using JournalRecord = std::variant<FloorGraphDelta, InterGraphConstraint>;
+using JournalRecord = std::variant<FloorGraphDelta, InterGraphConstraint, ConstraintRetraction>;
+
+// Applies any record to `building` (applyDelta, addConstraint or retractConstraint);
+// throws as they do.
+void applyRecord(BuildingGraph& building, const JournalRecord& record);
 
 struct JournalReadResult {
   std::vector<JournalRecord> records;

@@ -25,6 +25,7 @@ FloorMatcherComponentOptions readFloorMatcherComponentOptions(const common::Conf
   // The same section `storey match --config` reads, so one file serves both.
   if (node.has("floor_matcher"))
     o.matcher = matching::readFloorMatcherOptions(node.child("floor_matcher"));
+  if (node.has("retraction")) o.retraction = matching::readRetractionOptions(node.child("retraction"));
   node.finish();
   return o;
 }
@@ -146,6 +147,11 @@ void FloorMatcherComponent::workerLoop() {
   }
 }
 
+matching::MatchResult FloorMatcherComponent::match(const std::vector<floor::FloorGraph>& graphs,
+                                                   const matching::FloorMatcherOptions& options) {
+  return matching::matchFloors(graphs, options);
+}
+
 void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   pending_ = false;
   std::vector<floor::FloorGraph> graphs;
@@ -161,18 +167,39 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   const matching::FloorMatcherOptions matcher = options_.matcher;
   lock.unlock();
   matching::MatchResult result;
+  bool matched = false;
   try {
-    result = matching::matchFloors(graphs, matcher);
+    result = match(graphs, matcher);
+    matched = true;
   } catch (const std::exception& e) {
     logWarn(str(name(), ": matching failed: ", e.what()));
   }
   std::vector<storey_msgs::msg::InterFloorConstraint> out;
+  std::vector<std::string> retraction_notes;
   lock.lock();
   ++stats_.matchings;
+  if (matched) {
+    // First withdraw what this pass no longer stands behind, then add what is new.
+    std::vector<matching::InterFloorConstraint> standing;
+    std::vector<std::tuple<int, int, int, int>> keys;
+    for (const auto& [key, p] : published_) {
+      keys.push_back(key);
+      standing.push_back(p.constraint);
+    }
+    for (const auto& r : matching::constraintsToRetract(standing, graphs, result, options_.retraction)) {
+      storey_msgs::msg::InterFloorConstraint m = published_.at(keys[r.index]).message;
+      m.retracted(true);
+      m.reason(r.reason);
+      out.push_back(m);
+      retraction_notes.push_back(r.reason);
+      published_.erase(keys[r.index]);
+    }
+  }
+  const std::size_t retracted = out.size();
   for (const auto& c : result.constraints) {
     const auto key =
         std::make_tuple(c.reference_graph_id, c.reference_node_id, c.graph_id, c.node_id);
-    if (!published_.insert(key).second) continue;
+    if (published_.count(key)) continue;
     const matching::PairResult* pair = result.pairFor(c.graph_id);
     std::uint32_t support = 0;
     double l_min = 0.0;
@@ -182,15 +209,19 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
         support += cand.status == matching::CandidateStatus::kAccepted;
     }
     out.push_back(toMessage(c, next_constraint_id_++, l_min, support));
+    published_[key] = {c, out.back()};
   }
-  stats_.constraints_published += out.size();
+  stats_.constraints_published += out.size() - retracted;
+  stats_.constraints_retracted += retracted;
   auto publisher = publisher_;
   lock.unlock();
   for (const auto& m : out)
     if (publisher) publisher->publish(m);
+  for (const auto& why : retraction_notes) logInfo(str(name(), ": retracted a constraint: ", why));
   // Logged every time: a deployment's operator (and the fault tests) see when it ran.
   logInfo(str(name(), ": matched ", graphs.size(), " floor graphs: ", result.constraints.size(),
-              " constraints, ", out.size(), " new, published (", result.seconds, " s)"));
+              " constraints, ", out.size() - retracted, " new, published, ", retracted, " retracted (",
+              result.seconds, " s)"));
   lock.lock();
   busy_ = false;
 }

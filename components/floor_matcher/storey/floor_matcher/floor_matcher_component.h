@@ -2,7 +2,9 @@
 // new or has grown enough, runs the floor matcher (storey::matching) on a worker thread,
 // never on the DDS callback thread, and publishes each newly accepted inter-floor
 // constraint with its evidence on a reliable, transient-local topic. A constraint once
-// published is not published again (re-matching a grown graph may confirm it).
+// published is not published again (re-matching a grown graph may confirm it); one that a
+// later pass no longer stands behind (matching::constraintsToRetract) is withdrawn by a
+// message with `retracted` set, on the same topic so readers get the two in order.
 #pragma once
 
 #include <chrono>
@@ -18,6 +20,7 @@
 #include "storey/common/config.h"
 #include "storey/floor/floor_graph.h"
 #include "storey/matching/floor_matcher.h"
+#include "storey/matching/retraction.h"
 #include "storey/runtime/component.h"
 #include "storey_msgs/msg/FloorGraphUpdatePubSubTypes.h"
 #include "storey_msgs/msg/InterFloorConstraintPubSubTypes.h"
@@ -40,6 +43,7 @@ struct FloorMatcherComponentOptions {
   double match_after_idle = 2.0;
   int min_nodes = 10;  // graphs smaller than this are not matched yet
   matching::FloorMatcherOptions matcher;
+  matching::RetractionOptions retraction;  // under `retraction:`
 };
 // Reads the component's parameters; the matcher's options are under `floor_matcher:` (as in config/floor_matcher.yaml and `storey match --config`).
 FloorMatcherComponentOptions readFloorMatcherComponentOptions(const common::ConfigNode& node);
@@ -50,6 +54,7 @@ struct FloorMatcherStats {
   std::size_t resent = 0;  // updates already applied (a restarted mapper sends them again)
   std::size_t matchings = 0;
   std::size_t constraints_published = 0;
+  std::size_t constraints_retracted = 0;
 };
 
 class FloorMatcherComponent : public runtime::Component {
@@ -63,6 +68,9 @@ class FloorMatcherComponent : public runtime::Component {
   FloorMatcherStats stats() const;
 
  protected:
+  // One matching pass (matching::matchFloors); tests replace it to script what passes find.
+  virtual matching::MatchResult match(const std::vector<floor::FloorGraph>& graphs,
+                                      const matching::FloorMatcherOptions& options);
   void onConfigure() override;
   void onActivate() override;
   void onDeactivate() override;
@@ -85,7 +93,12 @@ class FloorMatcherComponent : public runtime::Component {
   std::condition_variable changed_;
   std::map<int, floor::FloorGraph> graphs_;
   std::map<int, std::size_t> matched_size_;  // graph id -> nodes at its last matching
-  std::set<std::tuple<int, int, int, int>> published_;
+  // Published and not retracted, by (reference graph, reference node, graph, node).
+  struct Published {
+    matching::InterFloorConstraint constraint;
+    storey_msgs::msg::InterFloorConstraint message;
+  };
+  std::map<std::tuple<int, int, int, int>, Published> published_;
   std::uint32_t next_constraint_id_ = 0;
   bool pending_ = false;
   std::chrono::steady_clock::time_point last_update_;

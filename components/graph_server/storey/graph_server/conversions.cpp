@@ -65,6 +65,16 @@ building::InterGraphConstraint fromMessage(const storey_msgs::msg::InterFloorCon
   return c;
 }
 
+building::ConstraintRetraction retractionFromMessage(const storey_msgs::msg::InterFloorConstraint& m) {
+  building::ConstraintRetraction r;
+  r.graph_from = static_cast<int>(m.from_floor_graph());
+  r.node_from = static_cast<int>(m.from_node());
+  r.graph_to = static_cast<int>(m.to_floor_graph());
+  r.node_to = static_cast<int>(m.to_node());
+  r.reason = m.reason();
+  return r;
+}
+
 storey_msgs::msg::BuildingState toMessage(const building::BuildingSolution& solution, std::uint32_t sequence,
                                           double stamp) {
   storey_msgs::msg::BuildingState state;

@@ -14,6 +14,8 @@ namespace storey::graph_server {
 // (non-finite poses, scans with bad limits, unknown edge kinds).
 building::FloorGraphDelta fromMessage(const storey_msgs::msg::FloorGraphUpdate& message);
 building::InterGraphConstraint fromMessage(const storey_msgs::msg::InterFloorConstraint& message);
+// The retraction a message with `retracted` set carries.
+building::ConstraintRetraction retractionFromMessage(const storey_msgs::msg::InterFloorConstraint& message);
 
 storey_msgs::msg::BuildingState toMessage(const building::BuildingSolution& solution, std::uint32_t sequence,
                                           double stamp);

@@ -40,11 +40,7 @@ void GraphServer::onConfigure() {
     journal_ = std::make_unique<building::JournalWriter>(options_.journal_path, options_.journal_sync);
     for (const auto& record : journal_->existing()) {
       try {
-        if (const auto* d = std::get_if<building::FloorGraphDelta>(&record)) {
-          building::applyDelta(building_, *d);
-        } else {
-          building_.addConstraint(std::get<building::InterGraphConstraint>(record));
-        }
+        building::applyRecord(building_, record);
         ++stats_.replayed_from_journal;
       } catch (const std::exception& e) {
         logWarn(str(name(), ": journal record not applied: ", e.what()));
@@ -140,6 +136,24 @@ void GraphServer::accept(const building::JournalRecord& record) {
     if (journal_) journal_->append(record);
     building::applyDelta(building_, *d);
     ++stats_.updates_accepted;
+  } else if (const auto* r = std::get_if<building::ConstraintRetraction>(&record)) {
+    const auto& held = building_.constraints();
+    if (std::none_of(held.begin(), held.end(), [&](const auto& c) { return r->retracts(c); })) {
+      // Not in the graph: it may still wait for its floor graphs, or was never held
+      // (a restarted server that resumed after the retraction gets the history again).
+      const auto before = pending_constraints_.size();
+      pending_constraints_.erase(std::remove_if(pending_constraints_.begin(), pending_constraints_.end(),
+                                                [&](const auto& c) { return r->retracts(c); }),
+                                 pending_constraints_.end());
+      if (pending_constraints_.size() == before) ++stats_.duplicates_ignored;
+      else ++stats_.constraints_retracted;
+      return;
+    }
+    if (journal_) journal_->append(record);
+    building_.retractConstraint(*r);
+    ++stats_.constraints_retracted;
+    logInfo(str(name(), ": retracted the constraint graph ", r->graph_from, " node ", r->node_from, " -> graph ",
+                r->graph_to, " node ", r->node_to, ": ", r->reason));
   } else {
     const auto& constraint = std::get<building::InterGraphConstraint>(record);
     if (holdsConstraint(building_, constraint)) {
@@ -186,6 +200,16 @@ void GraphServer::onFloorGraph(const storey_msgs::msg::FloorGraphUpdate& message
 }
 
 void GraphServer::onConstraint(const storey_msgs::msg::InterFloorConstraint& message) {
+  if (message.retracted()) {
+    try {
+      accept(retractionFromMessage(message));
+    } catch (const std::exception& e) {  // the journal could not record it: still held
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++stats_.rejected;
+      logWarn(str(name(), ": retraction not applied: ", e.what()));
+    }
+    return;
+  }
   const building::InterGraphConstraint c = fromMessage(message);
   try {
     accept(c);

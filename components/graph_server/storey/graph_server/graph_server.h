@@ -1,5 +1,5 @@
-// graph_server: keeps the building graph (every floor graph and inter-floor constraint),
-// journals what it accepts, optimises on a worker thread (rate-limited, never on a DDS
+// graph_server: keeps the building graph (every floor graph and inter-floor constraint,
+// less those the matcher retracted), journals what it accepts, optimises on a worker thread (rate-limited, never on a DDS
 // or executor callback), and publishes the building state and per-floor occupancy grids.
 #pragma once
 
@@ -37,6 +37,8 @@ GraphServerOptions readGraphServerOptions(const common::ConfigNode& node);
 struct GraphServerStats {
   std::uint64_t updates_accepted = 0;
   std::uint64_t constraints_accepted = 0;
+  // Withdrawn by the matcher (held, or still waiting for their floor graphs).
+  std::uint64_t constraints_retracted = 0;
   std::uint64_t rejected = 0;
   std::uint64_t optimisations = 0;
   std::uint64_t replayed_from_journal = 0;

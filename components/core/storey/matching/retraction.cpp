@@ -1,0 +1,136 @@
+#include "storey/matching/retraction.h"
+
+#include <cmath>
+#include <map>
+#include <queue>
+#include <set>
+#include <sstream>
+
+namespace storey::matching {
+
+using geometry::Pose2;
+
+RetractionOptions readRetractionOptions(const common::ConfigNode& node) {
+  RetractionOptions o;
+  o.enabled = node.get<bool>("enabled", o.enabled);
+  o.translation = node.getDouble("translation", o.translation, 0.0, 1000.0);
+  o.rotation = node.getDouble("rotation", o.rotation, 0.0, M_PI);
+  node.finish();
+  return o;
+}
+
+namespace {
+
+const floor::FloorGraph* findGraph(const std::vector<floor::FloorGraph>& graphs, int id) {
+  for (const auto& g : graphs)
+    if (g.graph_id == id) return &g;
+  return nullptr;
+}
+
+// Where the constraint puts graph `graph_id`'s frame in `reference_graph_id`'s frame,
+// with the graphs' current node poses; false when a node is unknown.
+bool impliedAlignment(const InterFloorConstraint& c, const std::vector<floor::FloorGraph>& graphs,
+                      Pose2* alignment) {
+  const floor::FloorGraph* reference = findGraph(graphs, c.reference_graph_id);
+  const floor::FloorGraph* graph = findGraph(graphs, c.graph_id);
+  if (!reference || !graph) return false;
+  const floor::FloorNode* q = reference->findNode(c.reference_node_id);
+  const floor::FloorNode* k = graph->findNode(c.node_id);
+  if (!q || !k) return false;
+  *alignment = q->pose * c.measurement * k->pose.inverse();
+  return true;
+}
+
+// The new pass's placement: every graph its constraints connect, in the frame of one
+// graph of its connected set (`component` names that graph).
+struct Placement {
+  std::map<int, Pose2> frame;
+  std::map<int, int> component;
+};
+
+Placement placeGraphs(const std::vector<floor::FloorGraph>& graphs, const MatchResult& result) {
+  // One alignment per directed pair: an accepted pair's constraints share its joint
+  // alignment, so the first one stands for all.
+  std::map<int, std::vector<std::pair<int, Pose2>>> links;  // graph -> (other, other in graph's frame)
+  std::set<std::pair<int, int>> seen;
+  for (const auto& c : result.constraints) {
+    if (!seen.insert({c.graph_id, c.reference_graph_id}).second) continue;
+    Pose2 t;  // c.graph_id's frame in c.reference_graph_id's frame
+    if (!impliedAlignment(c, graphs, &t)) continue;
+    links[c.reference_graph_id].push_back({c.graph_id, t});
+    links[c.graph_id].push_back({c.reference_graph_id, t.inverse()});
+  }
+  Placement placement;
+  for (const auto& [root, unused] : links) {
+    if (placement.frame.count(root)) continue;
+    placement.frame[root] = Pose2();
+    placement.component[root] = root;
+    std::queue<int> open;
+    open.push(root);
+    while (!open.empty()) {
+      const int at = open.front();
+      open.pop();
+      for (const auto& [other, t] : links[at]) {
+        if (placement.frame.count(other)) continue;
+        placement.frame[other] = placement.frame[at] * t;
+        placement.component[other] = root;
+        open.push(other);
+      }
+    }
+  }
+  return placement;
+}
+
+// Why the new pass found graph `id` ambiguous and aligned it nowhere ("" when it did not).
+std::string ambiguity(int id, const MatchResult& result, const Placement& placement) {
+  if (placement.frame.count(id)) return "";
+  for (const auto& f : result.floors)
+    if (f.graph_id == id && f.self_similar) return "floor graph " + std::to_string(id) + " is now self-similar";
+  for (const auto& p : result.pairs)
+    if (p.graph_id == id && p.ambiguous)
+      return "floor graph " + std::to_string(id) + " is now ambiguous against graph " +
+             std::to_string(p.reference_graph_id);
+  return "";
+}
+
+}  // namespace
+
+std::vector<Retraction> constraintsToRetract(const std::vector<InterFloorConstraint>& published,
+                                             const std::vector<floor::FloorGraph>& graphs,
+                                             const MatchResult& result, const RetractionOptions& options) {
+  std::vector<Retraction> out;
+  if (!options.enabled) return out;
+  const Placement placement = placeGraphs(graphs, result);
+  for (std::size_t i = 0; i < published.size(); ++i) {
+    const InterFloorConstraint& c = published[i];
+    const auto ref_component = placement.component.find(c.reference_graph_id);
+    const auto component = placement.component.find(c.graph_id);
+    const bool both_placed = ref_component != placement.component.end() &&
+                             component != placement.component.end() &&
+                             ref_component->second == component->second;
+    if (both_placed) {
+      Pose2 was;
+      if (!impliedAlignment(c, graphs, &was)) continue;  // a node the pass did not have
+      const Pose2 now = placement.frame.at(c.reference_graph_id).inverse() * placement.frame.at(c.graph_id);
+      // Compare where the two put the constrained node: a heading difference alone moves
+      // the frames' origins by a lever arm that says nothing about this constraint.
+      const Pose2 node = findGraph(graphs, c.graph_id)->findNode(c.node_id)->pose;
+      const Pose2 a = was * node, b = now * node;
+      const double moved = (a.translation() - b.translation()).norm();
+      const double turned = std::abs(geometry::angleDiff(a.theta(), b.theta()));
+      if (moved > options.translation || turned > options.rotation) {
+        std::ostringstream why;
+        why << "the new pass places node " << c.node_id << " of graph " << c.graph_id << " " << moved << " m and "
+            << turned * 180.0 / M_PI << " deg from where this constraint put it in graph " << c.reference_graph_id;
+        out.push_back({i, why.str()});
+      }
+      continue;
+    }
+    std::string why = ambiguity(c.graph_id, result, placement);
+    if (why.empty()) why = ambiguity(c.reference_graph_id, result, placement);
+    if (!why.empty()) out.push_back({i, why});
+  }
+  return out;
+}
+
+}  // namespace storey::matching

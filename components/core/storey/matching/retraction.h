@@ -1,0 +1,45 @@
+// Which published inter-floor constraints a new matching pass no longer stands behind.
+//
+// A live matcher matches again whenever floor graphs have grown; each pass sees more of
+// every floor and can overturn what an earlier pass accepted on less (a periodic row of
+// rooms that looked unique until the robot saw its neighbour). The pass's accepted
+// constraints place the graphs relative to each other; a constraint published earlier is
+// retracted when the new pass places its two graphs differently by more than a tolerance,
+// or when the new pass finds one of its graphs ambiguous (two consistent sets, or a
+// self-similar floor) and aligns it nowhere. A graph the new pass merely fails to align
+// (too few candidates) keeps its constraints: absence of evidence does not refute them.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "storey/common/config.h"
+#include "storey/floor/floor_graph.h"
+#include "storey/matching/floor_matcher.h"
+
+namespace storey::matching {
+
+struct RetractionOptions {
+  bool enabled = true;
+  // How far the new pass may place a published constraint's node from where the
+  // constraint put it before that constraint is retracted. Looser than RANSAC's
+  // tolerances (0.3 m, 0.05 rad): the earlier pass measured on younger graphs, which loop
+  // closures have bent since; a wrong constraint is off by a room or a turn.
+  double translation = 0.5;  // m
+  double rotation = 0.1;     // rad
+};
+RetractionOptions readRetractionOptions(const common::ConfigNode& node);
+
+struct Retraction {
+  std::size_t index = 0;  // into the published constraints
+  std::string reason;
+};
+
+// `published`: constraints accepted by earlier passes and not retracted; `graphs`: the
+// floor graphs the new pass matched (current node poses); `result`: that pass. Returns
+// the published constraints to retract, in order, each with why.
+std::vector<Retraction> constraintsToRetract(const std::vector<InterFloorConstraint>& published,
+                                             const std::vector<floor::FloorGraph>& graphs,
+                                             const MatchResult& result, const RetractionOptions& options);
+
+}  // namespace storey::matching

@@ -1,0 +1,157 @@
+// Which published constraints a new matching pass retracts (storey::matching::constraintsToRetract).
+#include <gtest/gtest.h>
+
+#include "storey/common/config.h"
+#include "storey/matching/retraction.h"
+
+namespace storey::matching {
+namespace {
+
+using geometry::Pose2;
+
+// A graph of `count` nodes along x, 1 m apart, in its own frame.
+floor::FloorGraph lineGraph(int id, int count) {
+  floor::FloorGraph g;
+  g.graph_id = id;
+  g.floor_id = id;
+  for (int i = 0; i < count; ++i) {
+    floor::FloorNode n;
+    n.id = i;
+    n.pose = Pose2(i, 0.0, 0.0);
+    g.nodes.push_back(n);
+  }
+  return g;
+}
+
+// The constraint that places `graph`'s node `node` by alignment `t` (graph frame in the
+// reference's frame), against the reference's node `reference_node`.
+InterFloorConstraint constraintFrom(const floor::FloorGraph& reference, int reference_node,
+                                    const floor::FloorGraph& graph, int node, const Pose2& t) {
+  InterFloorConstraint c;
+  c.reference_graph_id = reference.graph_id;
+  c.reference_node_id = reference_node;
+  c.graph_id = graph.graph_id;
+  c.node_id = node;
+  c.measurement = reference.findNode(reference_node)->pose.between(t * graph.findNode(node)->pose);
+  return c;
+}
+
+struct Building {
+  std::vector<floor::FloorGraph> graphs{lineGraph(0, 10), lineGraph(1, 10), lineGraph(2, 10)};
+  Pose2 truth1{0.5, -0.2, 0.1};
+  Pose2 truth2{-1.0, 0.3, -0.05};
+};
+
+MatchResult passAligning(const Building& b, const Pose2& t1) {
+  MatchResult r;
+  r.reference_graph_id = 0;
+  for (int k : {2, 5, 8}) r.constraints.push_back(constraintFrom(b.graphs[0], k, b.graphs[1], k, t1));
+  PairResult p;
+  p.reference_graph_id = 0;
+  p.graph_id = 1;
+  p.accepted = true;
+  p.alignment = t1;
+  r.pairs.push_back(p);
+  return r;
+}
+
+TEST(ConstraintRetraction, ConstraintsTheNewPassConfirmsStand) {
+  const Building b;
+  const std::vector<InterFloorConstraint> published{constraintFrom(b.graphs[0], 1, b.graphs[1], 3, b.truth1)};
+  // The new pass found the same alignment through other nodes, a little differently.
+  const Pose2 again = Pose2(0.02, 0.01, 0.002) * b.truth1;
+  EXPECT_TRUE(constraintsToRetract(published, b.graphs, passAligning(b, again), {}).empty());
+}
+
+TEST(ConstraintRetraction, AConstraintTheNewPassPlacesElsewhereIsRetracted) {
+  const Building b;
+  // Published when graph 1 looked like it lay 3 m further along (a repeated room).
+  const Pose2 wrong = Pose2(3.0, 0.0, 0.0) * b.truth1;
+  const std::vector<InterFloorConstraint> published{constraintFrom(b.graphs[0], 4, b.graphs[1], 1, wrong),
+                                                    constraintFrom(b.graphs[0], 7, b.graphs[1], 6, b.truth1)};
+  const auto retract = constraintsToRetract(published, b.graphs, passAligning(b, b.truth1), {});
+  ASSERT_EQ(retract.size(), 1u);
+  EXPECT_EQ(retract[0].index, 0u);
+  EXPECT_NE(retract[0].reason.find("3 m"), std::string::npos) << retract[0].reason;
+}
+
+TEST(ConstraintRetraction, TheTolerancesAreTheOptions) {
+  const Building b;
+  const Pose2 off = Pose2(0.0, 0.0, 0.06) * b.truth1;  // 3.4 deg about graph 0's origin
+  const std::vector<InterFloorConstraint> published{constraintFrom(b.graphs[0], 0, b.graphs[1], 0, off)};
+  RetractionOptions o;
+  o.translation = 10.0;
+  o.rotation = 0.1;
+  EXPECT_TRUE(constraintsToRetract(published, b.graphs, passAligning(b, b.truth1), o).empty());
+  o.rotation = 0.05;
+  EXPECT_EQ(constraintsToRetract(published, b.graphs, passAligning(b, b.truth1), o).size(), 1u);
+  o.enabled = false;
+  EXPECT_TRUE(constraintsToRetract(published, b.graphs, passAligning(b, b.truth1), o).empty());
+}
+
+TEST(ConstraintRetraction, GraphsPlacedThroughAThirdAreCompared) {
+  const Building b;
+  // Published: graph 2 against graph 1 directly. The new pass places both against graph 0.
+  const Pose2 two_in_one = b.truth1.inverse() * b.truth2;
+  const Pose2 wrong_two_in_one = Pose2(0.0, 2.0, 0.0) * two_in_one;
+  const std::vector<InterFloorConstraint> published{constraintFrom(b.graphs[1], 4, b.graphs[2], 4, two_in_one),
+                                                    constraintFrom(b.graphs[1], 5, b.graphs[2], 5, wrong_two_in_one)};
+  MatchResult r = passAligning(b, b.truth1);
+  for (int k : {1, 3, 9}) r.constraints.push_back(constraintFrom(b.graphs[0], k, b.graphs[2], k, b.truth2));
+  const auto retract = constraintsToRetract(published, b.graphs, r, {});
+  ASSERT_EQ(retract.size(), 1u);
+  EXPECT_EQ(retract[0].index, 1u);
+}
+
+TEST(ConstraintRetraction, AGraphFoundAmbiguousLosesItsConstraints) {
+  const Building b;
+  const std::vector<InterFloorConstraint> published{constraintFrom(b.graphs[0], 2, b.graphs[2], 2, b.truth2),
+                                                    constraintFrom(b.graphs[0], 2, b.graphs[1], 2, b.truth1)};
+  MatchResult r = passAligning(b, b.truth1);
+  PairResult p;
+  p.reference_graph_id = 0;
+  p.graph_id = 2;
+  p.ambiguous = true;
+  r.pairs.push_back(p);
+  const auto retract = constraintsToRetract(published, b.graphs, r, {});
+  ASSERT_EQ(retract.size(), 1u);
+  EXPECT_EQ(retract[0].index, 0u);
+  EXPECT_NE(retract[0].reason.find("ambiguous"), std::string::npos) << retract[0].reason;
+
+  // A self-similar floor aligned nowhere, the same.
+  MatchResult s = passAligning(b, b.truth1);
+  FloorCheck f;
+  f.graph_id = 2;
+  f.self_similar = true;
+  s.floors.push_back(f);
+  EXPECT_EQ(constraintsToRetract(published, b.graphs, s, {}).size(), 1u);
+}
+
+TEST(ConstraintRetraction, AGraphTheNewPassDoesNotAlignKeepsItsConstraints) {
+  const Building b;
+  // Graph 2 found too few consistent candidates this time: no evidence against it.
+  const std::vector<InterFloorConstraint> published{constraintFrom(b.graphs[0], 2, b.graphs[2], 2, b.truth2)};
+  MatchResult r = passAligning(b, b.truth1);
+  PairResult p;
+  p.reference_graph_id = 0;
+  p.graph_id = 2;
+  p.reason = "too few";
+  r.pairs.push_back(p);
+  EXPECT_TRUE(constraintsToRetract(published, b.graphs, r, {}).empty());
+  // Nor does a pass that aligned nothing at all.
+  EXPECT_TRUE(constraintsToRetract(published, b.graphs, MatchResult{}, {}).empty());
+}
+
+TEST(ConstraintRetraction, OptionsAreReadStrictly) {
+  const auto node = common::ConfigNode::loadString("{enabled: false, translation: 0.8, rotation: 0.2}", "r.yaml");
+  const RetractionOptions o = readRetractionOptions(node);
+  EXPECT_FALSE(o.enabled);
+  EXPECT_DOUBLE_EQ(o.translation, 0.8);
+  EXPECT_DOUBLE_EQ(o.rotation, 0.2);
+  EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{translaton: 0.8}", "r.yaml")),
+               std::exception);
+  EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{rotation: 7}", "r.yaml")), std::exception);
+}
+
+}  // namespace
+}  // namespace storey::matching
