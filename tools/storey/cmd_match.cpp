@@ -4,8 +4,11 @@
 #include <cmath>
 #include <iomanip>
 #include <iostream>
-#include <map>
+#include <algorithm>
 #include <filesystem>
+#include <limits>
+#include <map>
+#include <set>
 #include <sstream>
 
 #include "args.h"
@@ -17,6 +20,7 @@
 #include "storey/io/carmen.h"
 #include "storey/matching/floor_matcher.h"
 #include "storey/matching/log_floors.h"
+#include "storey/matching/retraction.h"
 #include "storey/matching/simulated_floors.h"
 #include "storey/sim/scenario.h"
 #include "storey/sim/simulator.h"
@@ -223,6 +227,100 @@ void fitTruth(const std::vector<eval::PoseRow>& truth, const std::string& truth_
   }
 }
 
+// The graphs as they stood at `until`: each graph's nodes stamped no later, and the edges
+// between them. Poses stay the final ones (a live graph's were less optimised then).
+std::vector<floor::FloorGraph> graphsUntil(const std::vector<floor::FloorGraph>& graphs, double until,
+                                           std::size_t min_nodes) {
+  std::vector<floor::FloorGraph> out;
+  for (const auto& g : graphs) {
+    floor::FloorGraph prefix = g;
+    prefix.nodes.clear();
+    prefix.edges.clear();
+    std::set<int> kept;
+    for (const auto& n : g.nodes)
+      if (n.stamp <= until) {
+        prefix.nodes.push_back(n);
+        kept.insert(n.id);
+      }
+    for (const auto& e : g.edges)
+      if (kept.count(e.from) && kept.count(e.to)) prefix.edges.push_back(e);
+    if (prefix.nodes.size() >= min_nodes) out.push_back(std::move(prefix));
+  }
+  return out;
+}
+
+// Matching while the graphs grow, as a live matcher does: `stages` passes on the graphs as
+// they stood at evenly spaced times, each retracting what the pass before published and
+// it no longer stands behind. With the truth, each published and retracted constraint is
+// judged; "wrong standing" counts wrong constraints a graph server would hold after the pass.
+void matchInStages(const matching::SimulatedFloors& floors, const matching::FloorMatcherOptions& options,
+                   const matching::RetractionOptions& retraction, int stages) {
+  double first = std::numeric_limits<double>::infinity(), last = -first;
+  for (const auto& g : floors.graphs)
+    if (!g.nodes.empty()) {
+      first = std::min(first, g.nodes.front().stamp);
+      last = std::max(last, g.nodes.back().stamp);
+    }
+  const bool judged = floors.frames.size() == floors.graphs.size();
+  auto wrong = [&](const matching::InterFloorConstraint& c) {
+    return judged && matching::judgeConstraint(c, floors).wrong;
+  };
+  std::vector<matching::InterFloorConstraint> published;
+  int total_wrong_published = 0, total_retracted = 0, total_wrong_retracted = 0, worst_wrong_standing = 0;
+  for (int k = 1; k <= stages; ++k) {
+    const double until = first + (last - first) * k / stages;
+    const auto graphs = graphsUntil(floors.graphs, until, 10);
+    std::cout << "stage " << k << " (t " << std::fixed << std::setprecision(1) << until - first << " s):";
+    std::cout.unsetf(std::ios::fixed);
+    for (const auto& g : graphs) std::cout << " [" << g.graph_id << "] " << g.nodes.size();
+    if (graphs.size() < 2) {
+      std::cout << "  fewer than two graphs of 10 nodes: not matched\n";
+      continue;
+    }
+    const matching::MatchResult result = matching::matchFloors(graphs, options);
+    const auto retract = matching::constraintsToRetract(published, graphs, result, retraction);
+    int retracted_wrong = 0;
+    std::vector<bool> drop(published.size(), false);
+    for (const auto& r : retract) {
+      drop[r.index] = true;
+      retracted_wrong += wrong(published[r.index]);
+    }
+    std::vector<matching::InterFloorConstraint> standing;
+    for (std::size_t i = 0; i < published.size(); ++i)
+      if (!drop[i]) standing.push_back(published[i]);
+    int added = 0, added_wrong = 0;
+    for (const auto& c : result.constraints) {
+      const bool held = std::any_of(standing.begin(), standing.end(), [&](const auto& s) {
+        return s.reference_graph_id == c.reference_graph_id && s.reference_node_id == c.reference_node_id &&
+               s.graph_id == c.graph_id && s.node_id == c.node_id;
+      });
+      if (held) continue;
+      standing.push_back(c);
+      ++added;
+      added_wrong += wrong(c);
+    }
+    published = std::move(standing);
+    int wrong_standing = 0;
+    for (const auto& c : published) wrong_standing += wrong(c);
+    total_wrong_published += added_wrong;
+    total_retracted += static_cast<int>(retract.size());
+    total_wrong_retracted += retracted_wrong;
+    worst_wrong_standing = std::max(worst_wrong_standing, wrong_standing);
+    std::cout << "  accepted " << result.constraints.size() << ", new " << added << ", retracted "
+              << retract.size() << ", standing " << published.size();
+    if (judged)
+      std::cout << "  (wrong: new " << added_wrong << ", retracted " << retracted_wrong << ", standing "
+                << wrong_standing << ")";
+    std::cout << "\n";
+    for (const auto& r : retract) std::cout << "    retracted: " << r.reason << "\n";
+  }
+  std::cout << "stages: " << total_retracted << " retracted";
+  if (judged)
+    std::cout << " (" << total_wrong_retracted << " wrong); " << total_wrong_published
+              << " wrong published over all stages, at most " << worst_wrong_standing << " wrong standing after a pass";
+  std::cout << "\n";
+}
+
 }  // namespace
 
 int run_match(Args& args) {
@@ -243,6 +341,10 @@ int run_match(Args& args) {
       .option("dz", "METRES", "height of the second log floor", "3.0")
       .option("threads", "N", "worker threads (overrides the config)", "")
       .option("truth", "CSV", "ground-truth trajectory.csv for a journal input", "")
+      .option("stages", "N",
+              "match N times on the graphs as they grew (nodes up to evenly spaced times), retracting "
+              "what a pass no longer stands behind, as a live matcher does (0: once, on the whole graphs)",
+              "0")
       .flag("quiet", "print only the summary and errors");
   if (!args.parse()) return 0;
   const std::vector<std::string>& inputs = args.positionals();
@@ -250,11 +352,15 @@ int run_match(Args& args) {
     throw UsageError("give a scenario .yaml or one or two logs");
 
   matching::FloorMatcherOptions options;
+  matching::RetractionOptions retraction;
   if (args.has("config")) {
     const auto root = common::ConfigNode::loadFile(args.get("config"));
     options = matching::readFloorMatcherOptions(root.child("floor_matcher"));
+    if (root.has("retraction")) retraction = matching::readRetractionOptions(root.child("retraction"));
     root.finish();
   }
+  const int stages = static_cast<int>(args.getInt("stages"));
+  if (stages < 0) throw UsageError("--stages: give 0 or more");
   options.seed = static_cast<std::uint64_t>(args.getInt("seed"));
   if (args.has("threads") && !args.get("threads").empty())
     options.threads = static_cast<int>(args.getInt("threads"));
@@ -306,6 +412,10 @@ int run_match(Args& args) {
     std::cout << "  [" << g.graph_id << "] " << g.robot << " floor " << g.floor_id << " h "
               << g.floor_height << " (" << g.nodes.size() << " nodes)";
   std::cout << "\n";
+  if (stages > 0) {
+    matchInStages(floors, options, retraction, stages);
+    return 0;
+  }
   const matching::MatchResult result = matching::matchFloors(floors.graphs, options);
   if (args.flagSet("quiet")) {
     for (const auto& p : result.pairs)

@@ -2,11 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <mutex>
+#include <set>
 #include <thread>
 
+#include "storey/graph_server/graph_server.h"
 #include "storey/matching/simulated_floors.h"
 #include "storey/runtime/context.h"
 #include "storey/runtime/graph_conversions.h"
@@ -37,8 +40,18 @@ storey_msgs::msg::FloorGraphUpdate toUpdate(const floor::FloorGraph& g, std::siz
   u.floor_id(g.floor_id);
   u.floor_height(g.floor_height);
   u.sequence_number(sequence);
-  for (std::size_t i = first; i < last && i < g.nodes.size(); ++i)
-    u.new_nodes().push_back(runtime::toMessage(g.nodes[i], static_cast<std::uint32_t>(g.graph_id)));
+  std::set<int> sent;
+  for (std::size_t i = 0; i < last && i < g.nodes.size(); ++i) {
+    sent.insert(g.nodes[i].id);
+    if (i >= first)
+      u.new_nodes().push_back(runtime::toMessage(g.nodes[i], static_cast<std::uint32_t>(g.graph_id)));
+  }
+  for (const auto& e : g.edges)  // the edges these nodes complete
+    if (sent.count(e.from) && sent.count(e.to) &&
+        std::any_of(g.nodes.begin() + static_cast<std::ptrdiff_t>(std::min(first, g.nodes.size())),
+                    g.nodes.begin() + static_cast<std::ptrdiff_t>(std::min(last, g.nodes.size())),
+                    [&](const floor::FloorNode& n) { return n.id == e.from || n.id == e.to; }))
+      u.new_edges().push_back(runtime::toMessage(e));
   return u;
 }
 
@@ -171,6 +184,122 @@ TEST(FloorMatcherComponent, BadUpdatesAreRejectedAndCounted) {
   EXPECT_EQ(matcher.stats().updates_accepted, 1u);
   EXPECT_TRUE(matcher.flush(5.0));
   EXPECT_EQ(matcher.stats().constraints_published, 0u);
+}
+
+
+// A matcher whose passes are scripted: the first places graph 1 by `first`, the second by
+// `second` (each through three of its nodes), so a test decides what a later pass
+// overturns, and the component's publishing and the server's handling are what is tested.
+class ScriptedMatcher : public FloorMatcherComponent {
+ public:
+  ScriptedMatcher(runtime::Context& context, const std::string& parameters, geometry::Pose2 first,
+                  geometry::Pose2 second)
+      : FloorMatcherComponent(context, common::ConfigNode::loadString(parameters), "floor_matcher"),
+        alignments_{first, second} {}
+
+ protected:
+  matching::MatchResult match(const std::vector<floor::FloorGraph>& graphs,
+                              const matching::FloorMatcherOptions&) override {
+    const geometry::Pose2 t = alignments_[std::min<std::size_t>(passes_++, 1)];
+    const floor::FloorGraph& reference = graphs[0];
+    const floor::FloorGraph& graph = graphs[1];
+    matching::MatchResult r;
+    r.reference_graph_id = reference.graph_id;
+    for (std::size_t i : {graph.nodes.size() / 4, graph.nodes.size() / 2, graph.nodes.size() - 1}) {
+      const floor::FloorNode& k = graph.nodes[i];
+      const geometry::Pose2 placed = t * k.pose;
+      const floor::FloorNode& q = reference.nodes[static_cast<std::size_t>(
+          reference.nearestNodeIndex(placed.translation()))];
+      matching::InterFloorConstraint c;
+      c.reference_graph_id = reference.graph_id;
+      c.reference_node_id = q.id;
+      c.graph_id = graph.graph_id;
+      c.node_id = k.id;
+      c.measurement = q.pose.between(placed);
+      c.information = Eigen::Matrix3d::Identity() * 100.0;
+      r.constraints.push_back(c);
+    }
+    matching::PairResult p;
+    p.reference_graph_id = reference.graph_id;
+    p.graph_id = graph.graph_id;
+    p.accepted = true;
+    p.alignment = t;
+    r.pairs.push_back(p);
+    return r;
+  }
+
+ private:
+  geometry::Pose2 alignments_[2];
+  std::size_t passes_ = 0;
+};
+
+// Two passes over DDS to a graph server with a journal: the second, on a grown graph,
+// places graph 1 elsewhere; its three earlier constraints are withdrawn (the server holds
+// only the new ones, and so does a server restarted from its journal).
+TEST(FloorMatcherComponent, RetractsWhatALaterPassNoLongerStandsBehind) {
+  const matching::SimulatedFloors floors = small2(5);
+  ASSERT_EQ(floors.graphs.size(), 2u);
+  const auto& g0 = floors.graphs[0];
+  const auto& g1 = floors.graphs[1];
+  const geometry::Pose2 truth = floors.frames[0].inverse() * floors.frames[1];
+  const geometry::Pose2 wrong = geometry::Pose2(4.0, 0.0, 0.0) * truth;  // one room along
+  const std::string journal = test::makeTempDir() + "/journal.bin";
+  const std::string server_parameters =
+      "{optimize_min_period: 0.05, publish_maps: false, journal: '" + journal + "'}";
+  runtime::Context context(onDomain(218));
+  graph_server::GraphServer server(context, common::ConfigNode::loadString(server_parameters), "graph_server");
+  server.configure();
+  server.activate();
+  ScriptedMatcher matcher(context, "{min_nodes: 10, match_while_growing: false, match_after_idle: 0}", wrong,
+                          truth);
+  matcher.configure();
+  matcher.activate();
+  FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  auto waitFor = [&](auto done) {
+    while (std::chrono::steady_clock::now() < deadline && !done())
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    return done();
+  };
+  graphs.publish(toUpdate(g0, 0, g0.nodes.size(), 0));
+  graphs.publish(toUpdate(g1, 0, g1.nodes.size() / 2, 0));
+  ASSERT_TRUE(waitFor([&] { return matcher.stats().updates_accepted == 2 && server.stats().updates_accepted == 2; }));
+  ASSERT_TRUE(matcher.flush(30.0));
+  ASSERT_TRUE(waitFor([&] { return server.stats().constraints_accepted == 3; }));
+  const std::vector<building::InterGraphConstraint> first = server.snapshot().first.constraints();
+
+  graphs.publish(toUpdate(g1, g1.nodes.size() / 2, g1.nodes.size(), 1));
+  ASSERT_TRUE(waitFor([&] { return matcher.stats().updates_accepted == 3 && server.stats().updates_accepted == 3; }));
+  ASSERT_TRUE(matcher.flush(30.0));
+  ASSERT_TRUE(waitFor([&] {
+    return server.stats().constraints_retracted == 3 && server.stats().constraints_accepted == 6;
+  }));
+  EXPECT_EQ(matcher.stats().constraints_retracted, 3u);
+  EXPECT_EQ(matcher.stats().constraints_published, 6u);
+  auto heldOnly = [&](const building::BuildingGraph& b) {
+    // Every held constraint places graph 1's node where the truth does, none where the
+    // first pass did.
+    ASSERT_EQ(b.constraints().size(), 3u);
+    for (const auto& c : b.constraints()) {
+      const geometry::Pose2 k = b.floorGraphs().at(c.graph_to).findNode(c.node_to)->pose;
+      const geometry::Pose2 q = b.floorGraphs().at(c.graph_from).findNode(c.node_from)->pose;
+      EXPECT_LT(((q * c.relative).translation() - (truth * k).translation()).norm(), 1e-6);
+      for (const auto& old : first)
+        EXPECT_FALSE(old.node_from == c.node_from && old.node_to == c.node_to);
+    }
+  };
+  heldOnly(server.snapshot().first);
+  matcher.deactivate();
+  server.deactivate();
+  server.cleanup();
+
+  runtime::Context restarted_context(onDomain(219));
+  graph_server::GraphServer restarted(restarted_context, common::ConfigNode::loadString(server_parameters),
+                                      "graph_server");
+  restarted.configure();
+  EXPECT_EQ(restarted.stats().replayed_from_journal, 3u + 6u + 3u);  // updates, constraints, retractions
+  heldOnly(restarted.snapshot().first);
 }
 
 TEST(FloorMatcherComponentOptions, UnknownKeysAreErrors) {

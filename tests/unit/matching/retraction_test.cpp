@@ -72,7 +72,7 @@ TEST(ConstraintRetraction, AConstraintTheNewPassPlacesElsewhereIsRetracted) {
   const auto retract = constraintsToRetract(published, b.graphs, passAligning(b, b.truth1), {});
   ASSERT_EQ(retract.size(), 1u);
   EXPECT_EQ(retract[0].index, 0u);
-  EXPECT_NE(retract[0].reason.find("3 m"), std::string::npos) << retract[0].reason;
+  EXPECT_NE(retract[0].reason.find("3.00 m"), std::string::npos) << retract[0].reason;
 }
 
 TEST(ConstraintRetraction, TheTolerancesAreTheOptions) {

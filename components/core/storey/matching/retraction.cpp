@@ -1,6 +1,7 @@
 #include "storey/matching/retraction.h"
 
 #include <cmath>
+#include <iomanip>
 #include <map>
 #include <queue>
 #include <set>
@@ -120,8 +121,8 @@ std::vector<Retraction> constraintsToRetract(const std::vector<InterFloorConstra
       const double turned = std::abs(geometry::angleDiff(a.theta(), b.theta()));
       if (moved > options.translation || turned > options.rotation) {
         std::ostringstream why;
-        why << "the new pass places node " << c.node_id << " of graph " << c.graph_id << " " << moved << " m and "
-            << turned * 180.0 / M_PI << " deg from where this constraint put it in graph " << c.reference_graph_id;
+        why << std::fixed << std::setprecision(2) << "the new pass places node " << c.node_id << " of graph "
+            << c.graph_id << " " << moved << " m and " << std::setprecision(1) << turned * 180.0 / M_PI << " deg from where this constraint put it in graph " << c.reference_graph_id;
         out.push_back({i, why.str()});
       }
       continue;
