@@ -254,7 +254,7 @@ std::vector<floor::FloorGraph> graphsUntil(const std::vector<floor::FloorGraph>&
 // it no longer stands behind. With the truth, each published and retracted constraint is
 // judged; "wrong standing" counts wrong constraints a graph server would hold after the pass.
 void matchInStages(const matching::SimulatedFloors& floors, const matching::FloorMatcherOptions& options,
-                   const matching::RetractionOptions& retraction, int stages) {
+                   const matching::RetractionOptions& retraction, int stages, bool confirm) {
   double first = std::numeric_limits<double>::infinity(), last = -first;
   for (const auto& g : floors.graphs)
     if (!g.nodes.empty()) {
@@ -266,6 +266,7 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
     return judged && matching::judgeConstraint(c, floors).wrong;
   };
   std::vector<matching::InterFloorConstraint> published;
+  matching::GraphPlacement previous;  // the last pass's placement (confirm)
   int total_wrong_published = 0, total_retracted = 0, total_wrong_retracted = 0, worst_wrong_standing = 0;
   for (int k = 1; k <= stages; ++k) {
     const double until = first + (last - first) * k / stages;
@@ -288,8 +289,14 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
     std::vector<matching::InterFloorConstraint> standing;
     for (std::size_t i = 0; i < published.size(); ++i)
       if (!drop[i]) standing.push_back(published[i]);
-    int added = 0, added_wrong = 0;
+    int added = 0, added_wrong = 0, unconfirmed = 0;
     for (const auto& c : result.constraints) {
+      // Until the last pass (a flush: the graphs are final), only what the pass before
+      // placed the same way.
+      if (confirm && k < stages && matching::placementDisagreement(c, graphs, previous, retraction) != 0) {
+        ++unconfirmed;
+        continue;
+      }
       const bool held = std::any_of(standing.begin(), standing.end(), [&](const auto& s) {
         return s.reference_graph_id == c.reference_graph_id && s.reference_node_id == c.reference_node_id &&
                s.graph_id == c.graph_id && s.node_id == c.node_id;
@@ -300,6 +307,7 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
       added_wrong += wrong(c);
     }
     published = std::move(standing);
+    previous = matching::placeGraphs(graphs, result);
     int wrong_standing = 0;
     for (const auto& c : published) wrong_standing += wrong(c);
     total_wrong_published += added_wrong;
@@ -308,6 +316,7 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
     worst_wrong_standing = std::max(worst_wrong_standing, wrong_standing);
     std::cout << "  accepted " << result.constraints.size() << ", new " << added << ", retracted "
               << retract.size() << ", standing " << published.size();
+    if (confirm) std::cout << ", unconfirmed " << unconfirmed;
     if (judged)
       std::cout << "  (wrong: new " << added_wrong << ", retracted " << retracted_wrong << ", standing "
                 << wrong_standing << ")";
@@ -341,10 +350,12 @@ int run_match(Args& args) {
       .option("dz", "METRES", "height of the second log floor", "3.0")
       .option("threads", "N", "worker threads (overrides the config)", "")
       .option("truth", "CSV", "ground-truth trajectory.csv for a journal input", "")
+      .option("at", "SECONDS", "journal input: match the graphs as they stood this long after the first node", "")
       .option("stages", "N",
               "match N times on the graphs as they grew (nodes up to evenly spaced times), retracting "
               "what a pass no longer stands behind, as a live matcher does (0: once, on the whole graphs)",
               "0")
+      .flag("confirm", "--stages: a pass before the last publishes only what the pass before it placed the same way")
       .flag("quiet", "print only the summary and errors");
   if (!args.parse()) return 0;
   const std::vector<std::string>& inputs = args.positionals();
@@ -375,6 +386,12 @@ int run_match(Args& args) {
     floors = matching::floorGraphsFromSimulation(run, so);
   } else if (inputs.size() == 1 && endsWith(inputs[0], ".bin")) {
     floors.graphs = journalFloorGraphs(inputs[0]);
+    if (args.has("at") && !args.get("at").empty()) {
+      double first = std::numeric_limits<double>::infinity();
+      for (const auto& g : floors.graphs)
+        if (!g.nodes.empty()) first = std::min(first, g.nodes.front().stamp);
+      floors.graphs = graphsUntil(floors.graphs, first + args.getDouble("at"), 10);
+    }
     std::string truth_path = args.get("truth");
     if (truth_path.empty()) {
       const auto beside = std::filesystem::path(inputs[0]).parent_path() / "recording" / "ground_truth" /
@@ -413,7 +430,7 @@ int run_match(Args& args) {
               << g.floor_height << " (" << g.nodes.size() << " nodes)";
   std::cout << "\n";
   if (stages > 0) {
-    matchInStages(floors, options, retraction, stages);
+    matchInStages(floors, options, retraction, stages, args.flagSet("confirm"));
     return 0;
   }
   const matching::MatchResult result = matching::matchFloors(floors.graphs, options);

@@ -42,14 +42,9 @@ bool impliedAlignment(const InterFloorConstraint& c, const std::vector<floor::Fl
   return true;
 }
 
-// The new pass's placement: every graph its constraints connect, in the frame of one
-// graph of its connected set (`component` names that graph).
-struct Placement {
-  std::map<int, Pose2> frame;
-  std::map<int, int> component;
-};
+}  // namespace
 
-Placement placeGraphs(const std::vector<floor::FloorGraph>& graphs, const MatchResult& result) {
+GraphPlacement placeGraphs(const std::vector<floor::FloorGraph>& graphs, const MatchResult& result) {
   // One alignment per directed pair: an accepted pair's constraints share its joint
   // alignment, so the first one stands for all.
   std::map<int, std::vector<std::pair<int, Pose2>>> links;  // graph -> (other, other in graph's frame)
@@ -61,7 +56,7 @@ Placement placeGraphs(const std::vector<floor::FloorGraph>& graphs, const MatchR
     links[c.reference_graph_id].push_back({c.graph_id, t});
     links[c.graph_id].push_back({c.reference_graph_id, t.inverse()});
   }
-  Placement placement;
+  GraphPlacement placement;
   for (const auto& [root, unused] : links) {
     if (placement.frame.count(root)) continue;
     placement.frame[root] = Pose2();
@@ -82,8 +77,38 @@ Placement placeGraphs(const std::vector<floor::FloorGraph>& graphs, const MatchR
   return placement;
 }
 
+bool GraphPlacement::joins(int a, int b) const {
+  const auto ca = component.find(a), cb = component.find(b);
+  return ca != component.end() && cb != component.end() && ca->second == cb->second;
+}
+
+int placementDisagreement(const InterFloorConstraint& c, const std::vector<floor::FloorGraph>& graphs,
+                          const GraphPlacement& placement, const RetractionOptions& options, std::string* why) {
+  if (!placement.joins(c.reference_graph_id, c.graph_id)) return -1;
+  Pose2 was;
+  if (!impliedAlignment(c, graphs, &was)) return -1;  // a node the graphs do not have
+  const Pose2 now = placement.frame.at(c.reference_graph_id).inverse() * placement.frame.at(c.graph_id);
+  // Compare where the two put the constrained node: a heading difference alone moves the
+  // frames' origins by a lever arm that says nothing about this constraint.
+  const Pose2 node = findGraph(graphs, c.graph_id)->findNode(c.node_id)->pose;
+  const Pose2 a = was * node, b = now * node;
+  const double moved = (a.translation() - b.translation()).norm();
+  const double turned = std::abs(geometry::angleDiff(a.theta(), b.theta()));
+  if (moved <= options.translation && turned <= options.rotation) return 0;
+  if (why) {
+    std::ostringstream out;
+    out << std::fixed << std::setprecision(2) << "the new pass places node " << c.node_id << " of graph "
+        << c.graph_id << " " << moved << " m and " << std::setprecision(1) << turned * 180.0 / M_PI
+        << " deg from where this constraint put it in graph " << c.reference_graph_id;
+    *why = out.str();
+  }
+  return 1;
+}
+
+namespace {
+
 // Why the new pass found graph `id` ambiguous and aligned it nowhere ("" when it did not).
-std::string ambiguity(int id, const MatchResult& result, const Placement& placement) {
+std::string ambiguity(int id, const MatchResult& result, const GraphPlacement& placement) {
   if (placement.frame.count(id)) return "";
   for (const auto& f : result.floors)
     if (f.graph_id == id && f.self_similar) return "floor graph " + std::to_string(id) + " is now self-similar";
@@ -101,30 +126,13 @@ std::vector<Retraction> constraintsToRetract(const std::vector<InterFloorConstra
                                              const MatchResult& result, const RetractionOptions& options) {
   std::vector<Retraction> out;
   if (!options.enabled) return out;
-  const Placement placement = placeGraphs(graphs, result);
+  const GraphPlacement placement = placeGraphs(graphs, result);
   for (std::size_t i = 0; i < published.size(); ++i) {
     const InterFloorConstraint& c = published[i];
-    const auto ref_component = placement.component.find(c.reference_graph_id);
-    const auto component = placement.component.find(c.graph_id);
-    const bool both_placed = ref_component != placement.component.end() &&
-                             component != placement.component.end() &&
-                             ref_component->second == component->second;
-    if (both_placed) {
-      Pose2 was;
-      if (!impliedAlignment(c, graphs, &was)) continue;  // a node the pass did not have
-      const Pose2 now = placement.frame.at(c.reference_graph_id).inverse() * placement.frame.at(c.graph_id);
-      // Compare where the two put the constrained node: a heading difference alone moves
-      // the frames' origins by a lever arm that says nothing about this constraint.
-      const Pose2 node = findGraph(graphs, c.graph_id)->findNode(c.node_id)->pose;
-      const Pose2 a = was * node, b = now * node;
-      const double moved = (a.translation() - b.translation()).norm();
-      const double turned = std::abs(geometry::angleDiff(a.theta(), b.theta()));
-      if (moved > options.translation || turned > options.rotation) {
-        std::ostringstream why;
-        why << std::fixed << std::setprecision(2) << "the new pass places node " << c.node_id << " of graph "
-            << c.graph_id << " " << moved << " m and " << std::setprecision(1) << turned * 180.0 / M_PI << " deg from where this constraint put it in graph " << c.reference_graph_id;
-        out.push_back({i, why.str()});
-      }
+    if (placement.joins(c.reference_graph_id, c.graph_id)) {
+      std::string disagreement;
+      if (placementDisagreement(c, graphs, placement, options, &disagreement) == 1)
+        out.push_back({i, disagreement});
       continue;
     }
     std::string why = ambiguity(c.graph_id, result, placement);

@@ -10,6 +10,7 @@
 // (too few candidates) keeps its constraints: absence of evidence does not refute them.
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,22 @@ struct RetractionOptions {
   double rotation = 0.1;     // rad
 };
 RetractionOptions readRetractionOptions(const common::ConfigNode& node);
+
+// A pass's placement of the graphs its constraints connect: each in the frame of one graph
+// of its connected set (`component` names that graph).
+struct GraphPlacement {
+  std::map<int, geometry::Pose2> frame;
+  std::map<int, int> component;
+  bool joins(int a, int b) const;  // both placed, in one connected set
+};
+// An accepted pair's constraints share its joint alignment, so one per pair places it.
+GraphPlacement placeGraphs(const std::vector<floor::FloorGraph>& graphs, const MatchResult& result);
+// Whether `placement` puts constraint `c`'s node (current poses in `graphs`) where `c`
+// does: 0 within the tolerances, 1 beyond them (`why` says how far), -1 when it cannot
+// tell (a graph not placed or not joined to the other, or a node `graphs` lack).
+int placementDisagreement(const InterFloorConstraint& c, const std::vector<floor::FloorGraph>& graphs,
+                          const GraphPlacement& placement, const RetractionOptions& options,
+                          std::string* why = nullptr);
 
 struct Retraction {
   std::size_t index = 0;  // into the published constraints
