@@ -187,20 +187,20 @@ TEST(FloorMatcherComponent, BadUpdatesAreRejectedAndCounted) {
 }
 
 
-// A matcher whose passes are scripted: the first places graph 1 by `first`, the second by
-// `second` (each through three of its nodes), so a test decides what a later pass
+// A matcher whose passes are scripted: pass i places graph 1 by `alignments[i]` (the last
+// one for later passes), through three of its nodes, so a test decides what a later pass
 // overturns, and the component's publishing and the server's handling are what is tested.
 class ScriptedMatcher : public FloorMatcherComponent {
  public:
-  ScriptedMatcher(runtime::Context& context, const std::string& parameters, geometry::Pose2 first,
-                  geometry::Pose2 second)
+  ScriptedMatcher(runtime::Context& context, const std::string& parameters,
+                  std::vector<geometry::Pose2> alignments)
       : FloorMatcherComponent(context, common::ConfigNode::loadString(parameters), "floor_matcher"),
-        alignments_{first, second} {}
+        alignments_(std::move(alignments)) {}
 
  protected:
   matching::MatchResult match(const std::vector<floor::FloorGraph>& graphs,
                               const matching::FloorMatcherOptions&) override {
-    const geometry::Pose2 t = alignments_[std::min<std::size_t>(passes_++, 1)];
+    const geometry::Pose2 t = alignments_[std::min(passes_++, alignments_.size() - 1)];
     const floor::FloorGraph& reference = graphs[0];
     const floor::FloorGraph& graph = graphs[1];
     matching::MatchResult r;
@@ -229,7 +229,7 @@ class ScriptedMatcher : public FloorMatcherComponent {
   }
 
  private:
-  geometry::Pose2 alignments_[2];
+  std::vector<geometry::Pose2> alignments_;
   std::size_t passes_ = 0;
 };
 
@@ -250,8 +250,8 @@ TEST(FloorMatcherComponent, RetractsWhatALaterPassNoLongerStandsBehind) {
   graph_server::GraphServer server(context, common::ConfigNode::loadString(server_parameters), "graph_server");
   server.configure();
   server.activate();
-  ScriptedMatcher matcher(context, "{min_nodes: 10, match_while_growing: false, match_after_idle: 0}", wrong,
-                          truth);
+  ScriptedMatcher matcher(context, "{min_nodes: 10, match_while_growing: false, match_after_idle: 0}",
+                          {wrong, truth});
   matcher.configure();
   matcher.activate();
   FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
@@ -300,6 +300,103 @@ TEST(FloorMatcherComponent, RetractsWhatALaterPassNoLongerStandsBehind) {
   restarted.configure();
   EXPECT_EQ(restarted.stats().replayed_from_journal, 3u + 6u + 3u);  // updates, constraints, retractions
   heldOnly(restarted.snapshot().first);
+}
+
+// Passes on growing graphs publish only what the pass before placed the same way: a wrong
+// placement that the next pass overturns is never published, and a right one is published
+// by the second pass that finds it.
+TEST(FloorMatcherComponent, GrowthPassesPublishOnlyWhatThePassBeforeConfirmed) {
+  const matching::SimulatedFloors floors = small2(5);
+  ASSERT_EQ(floors.graphs.size(), 2u);
+  const auto& g0 = floors.graphs[0];
+  const auto& g1 = floors.graphs[1];
+  const geometry::Pose2 truth = floors.frames[0].inverse() * floors.frames[1];
+  const geometry::Pose2 wrong = geometry::Pose2(4.0, 0.0, 0.0) * truth;
+  runtime::Context context(onDomain(214));
+  std::mutex mutex;
+  std::vector<storey_msgs::msg::InterFloorConstraint> received;
+  runtime::Subscription<storey_msgs::msg::InterFloorConstraint,
+                        storey_msgs::msg::InterFloorConstraintPubSubType>
+      sub(context, "storey/inter_floor_constraints", runtime::TopicKind::kGraph,
+          [&](const storey_msgs::msg::InterFloorConstraint& c) {
+            std::lock_guard<std::mutex> lock(mutex);
+            received.push_back(c);
+          });
+  ScriptedMatcher matcher(context,
+                          "{min_nodes: 10, min_new_nodes: 1, min_growth: 0.0, match_while_growing: true, "
+                          "match_after_idle: 0}",
+                          {wrong, truth});
+  matcher.configure();
+  matcher.activate();
+  FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  auto waitFor = [&](auto done) {
+    while (std::chrono::steady_clock::now() < deadline && !done())
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    return done();
+  };
+  // Three growth passes: graph 1 in thirds (the first with graph 0 whole).
+  graphs.publish(toUpdate(g0, 0, g0.nodes.size(), 0));
+  ASSERT_TRUE(waitFor([&] { return matcher.stats().updates_accepted == 1; }));
+  const std::size_t third = g1.nodes.size() / 3;
+  for (std::uint32_t i = 0; i < 3; ++i) {
+    graphs.publish(toUpdate(g1, i * third, (i + 1) * third, i));
+    // (A pass counts itself and what it published or held back under one lock.)
+    ASSERT_TRUE(waitFor([&] { return matcher.stats().matchings == i + 1; })) << "pass " << i + 1;
+    const FloorMatcherStats stats = matcher.stats();
+    if (i == 0) {  // wrong, and nothing before it: held back
+      EXPECT_EQ(stats.constraints_published, 0u);
+      EXPECT_EQ(stats.constraints_unconfirmed, 3u);
+    } else if (i == 1) {  // right, but the pass before placed graph 1 elsewhere
+      EXPECT_EQ(stats.constraints_published, 0u);
+      EXPECT_EQ(stats.constraints_unconfirmed, 6u);
+    } else {  // right again: published
+      EXPECT_EQ(stats.constraints_published, 3u);
+      EXPECT_EQ(stats.constraints_retracted, 0u);
+    }
+  }
+  ASSERT_TRUE(waitFor([&] {
+    std::lock_guard<std::mutex> lock(mutex);
+    return received.size() == 3u;
+  }));
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (const auto& m : received) EXPECT_FALSE(m.retracted());
+  }
+  matcher.deactivate();
+}
+
+// What a growth pass held back is published when the input settles: by a flush, or after
+// match_after_idle without growth. Nothing is lost because no further pass came.
+TEST(FloorMatcherComponent, WhatAGrowthPassHeldBackIsPublishedWhenTheInputSettles) {
+  const matching::SimulatedFloors floors = small2(5);
+  const auto& g0 = floors.graphs[0];
+  const auto& g1 = floors.graphs[1];
+  const geometry::Pose2 truth = floors.frames[0].inverse() * floors.frames[1];
+  for (const bool by_flush : {true, false}) {
+    runtime::Context context(onDomain(by_flush ? 204 : 205));
+    ScriptedMatcher matcher(context,
+                            std::string("{min_nodes: 10, match_while_growing: true, match_after_idle: ") +
+                                (by_flush ? "0" : "0.5") + "}",
+                            {truth});
+    matcher.configure();
+    matcher.activate();
+    FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    graphs.publish(toUpdate(g0, 0, g0.nodes.size(), 0));
+    graphs.publish(toUpdate(g1, 0, g1.nodes.size(), 0));
+    while (std::chrono::steady_clock::now() < deadline && matcher.stats().constraints_unconfirmed < 3)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_EQ(matcher.stats().constraints_unconfirmed, 3u) << (by_flush ? "flush" : "idle");
+    if (by_flush) EXPECT_TRUE(matcher.flush(30.0));
+    while (std::chrono::steady_clock::now() < deadline && matcher.stats().constraints_published < 3)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_EQ(matcher.stats().constraints_published, 3u) << (by_flush ? "flush" : "idle");
+    EXPECT_EQ(matcher.stats().matchings, 1u) << "released without matching again";
+    matcher.deactivate();
+  }
 }
 
 TEST(FloorMatcherComponentOptions, UnknownKeysAreErrors) {

@@ -22,6 +22,7 @@ FloorMatcherComponentOptions readFloorMatcherComponentOptions(const common::Conf
   o.match_while_growing = node.get<bool>("match_while_growing", o.match_while_growing);
   o.min_nodes = node.getInt("min_nodes", o.min_nodes, 1, 1000000);
   o.match_after_idle = node.getDouble("match_after_idle", o.match_after_idle, 0.0, 3600.0);
+  o.confirm_while_growing = node.get<bool>("confirm_while_growing", o.confirm_while_growing);
   // The same section `storey match --config` reads, so one file serves both.
   if (node.has("floor_matcher"))
     o.matcher = matching::readFloorMatcherOptions(node.child("floor_matcher"));
@@ -60,14 +61,37 @@ bool FloorMatcherComponent::grewSinceMatched() const {
 }
 
 void FloorMatcherComponent::onIdleCheck() {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::unique_lock<std::mutex> lock(mutex_);
   if (pending_ || busy_ || stop_) return;
   const double idle =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - last_update_).count();
-  if (idle >= options_.match_after_idle && grewSinceMatched()) {
+  if (idle < options_.match_after_idle) return;
+  if (grewSinceMatched()) {
     pending_ = true;
+    settled_ = true;
     changed_.notify_all();
+  } else {
+    releaseHeldBack(lock);  // the last pass saw the graphs as they still are
   }
+}
+
+void FloorMatcherComponent::releaseHeldBack(std::unique_lock<std::mutex>& lock) {
+  if (held_back_.empty()) return;
+  std::vector<storey_msgs::msg::InterFloorConstraint> out;
+  for (auto& [key, p] : held_back_) {
+    if (published_.count(key)) continue;
+    p.message.constraint_id(next_constraint_id_++);
+    published_[key] = p;
+    out.push_back(p.message);
+  }
+  held_back_.clear();
+  stats_.constraints_published += out.size();
+  auto publisher = publisher_;
+  lock.unlock();
+  for (const auto& m : out)
+    if (publisher) publisher->publish(m);
+  logInfo(str(name(), ": input settled: published ", out.size(), " constraints the last pass held back"));
+  lock.lock();
 }
 
 void FloorMatcherComponent::onActivate() {
@@ -154,6 +178,8 @@ matching::MatchResult FloorMatcherComponent::match(const std::vector<floor::Floo
 
 void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   pending_ = false;
+  const bool settled = settled_;
+  settled_ = false;
   std::vector<floor::FloorGraph> graphs;
   for (const auto& [id, g] : graphs_)
     if (g.nodes.size() >= static_cast<std::size_t>(options_.min_nodes)) graphs.push_back(g);
@@ -196,10 +222,17 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
     }
   }
   const std::size_t retracted = out.size();
+  std::size_t unconfirmed = 0;
+  held_back_.clear();  // this pass's verdict replaces the last one's
   for (const auto& c : result.constraints) {
     const auto key =
         std::make_tuple(c.reference_graph_id, c.reference_node_id, c.graph_id, c.node_id);
     if (published_.count(key)) continue;
+    // A pass on growing graphs publishes only what the pass before placed the same way:
+    // a partial floor can look like somewhere else until the robot sees more of it.
+    const bool confirmed =
+        !options_.confirm_while_growing || settled ||
+        matching::placementDisagreement(c, graphs, previous_placement_, options_.retraction) == 0;
     const matching::PairResult* pair = result.pairFor(c.graph_id);
     std::uint32_t support = 0;
     double l_min = 0.0;
@@ -208,11 +241,18 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
       for (const auto& cand : pair->candidates)
         support += cand.status == matching::CandidateStatus::kAccepted;
     }
+    if (!confirmed) {
+      ++unconfirmed;
+      held_back_.push_back({key, {c, toMessage(c, 0, l_min, support)}});  // id given when released
+      continue;
+    }
     out.push_back(toMessage(c, next_constraint_id_++, l_min, support));
     published_[key] = {c, out.back()};
   }
   stats_.constraints_published += out.size() - retracted;
   stats_.constraints_retracted += retracted;
+  stats_.constraints_unconfirmed += unconfirmed;
+  if (matched) previous_placement_ = matching::placeGraphs(graphs, result);
   auto publisher = publisher_;
   lock.unlock();
   for (const auto& m : out)
@@ -220,7 +260,8 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   for (const auto& why : retraction_notes) logInfo(str(name(), ": retracted a constraint: ", why));
   // Logged every time: a deployment's operator (and the fault tests) see when it ran.
   logInfo(str(name(), ": matched ", graphs.size(), " floor graphs: ", result.constraints.size(),
-              " constraints, ", out.size() - retracted, " new, published, ", retracted, " retracted (",
+              " constraints, ", out.size() - retracted, " new, published, ", retracted, " retracted, ", unconfirmed,
+              " held back unconfirmed (",
               result.seconds, " s)"));
   lock.lock();
   busy_ = false;
@@ -229,10 +270,14 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
 bool FloorMatcherComponent::flush(double timeout_s) {
   std::unique_lock<std::mutex> lock(mutex_);
   if (grewSinceMatched()) pending_ = true;
+  if (pending_) settled_ = true;
   if (pending_ && stop_) matchOnce(lock);  // not active: match here
   changed_.notify_all();
-  return changed_.wait_for(lock, std::chrono::duration<double>(timeout_s),
-                           [this] { return !pending_ && !busy_; });
+  const bool done =
+      changed_.wait_for(lock, std::chrono::duration<double>(timeout_s), [this] { return !pending_ && !busy_; });
+  // What the last pass (on growing graphs) held back: it saw the graphs as they still are.
+  if (done) releaseHeldBack(lock);
+  return done;
 }
 
 }  // namespace storey::floor_matcher

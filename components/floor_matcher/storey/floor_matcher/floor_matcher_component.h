@@ -41,6 +41,11 @@ struct FloorMatcherComponentOptions {
   // since its last matching, so a deployment matches the final graphs when input ends
   // (and a restarted matcher re-matches what its topic history gave it).
   double match_after_idle = 2.0;
+  // A pass triggered by growth publishes only constraints the pass before placed the same
+  // way (within `retraction`'s tolerances); passes when input has settled (after
+  // match_after_idle, or a flush) publish all they accept. Partial floors mislead: see
+  // docs/floor_matcher.md, "Matching while the graphs grow".
+  bool confirm_while_growing = true;
   int min_nodes = 10;  // graphs smaller than this are not matched yet
   matching::FloorMatcherOptions matcher;
   matching::RetractionOptions retraction;  // under `retraction:`
@@ -55,6 +60,7 @@ struct FloorMatcherStats {
   std::size_t matchings = 0;
   std::size_t constraints_published = 0;
   std::size_t constraints_retracted = 0;
+  std::size_t constraints_unconfirmed = 0;  // accepted by a growth pass, held back
 };
 
 class FloorMatcherComponent : public runtime::Component {
@@ -83,6 +89,8 @@ class FloorMatcherComponent : public runtime::Component {
   void onIdleCheck();
   void workerLoop();
   void matchOnce(std::unique_lock<std::mutex>& lock);
+  // Publishes what the last pass held back unconfirmed (the graphs have not grown since).
+  void releaseHeldBack(std::unique_lock<std::mutex>& lock);
   void stopWorker();
 
   FloorMatcherComponentOptions options_;
@@ -101,6 +109,9 @@ class FloorMatcherComponent : public runtime::Component {
   std::map<std::tuple<int, int, int, int>, Published> published_;
   std::uint32_t next_constraint_id_ = 0;
   bool pending_ = false;
+  bool settled_ = false;  // the pending pass was asked for by a flush or idle input
+  matching::GraphPlacement previous_placement_;
+  std::vector<std::pair<std::tuple<int, int, int, int>, Published>> held_back_;  // by the last pass
   std::chrono::steady_clock::time_point last_update_;
   bool busy_ = false;
   bool stop_ = true;
