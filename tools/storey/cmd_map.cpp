@@ -23,6 +23,8 @@ int run_map(Args& args) {
              "report.html, journal.bin (and recording/ for a simulated building).")
       .option("output", "DIR", "output folder", "out/<input name>")
       .option("floors", "FILE", "YAML list of per-floor inputs: floors: [{path, floor, height}]")
+      .option("robots", "FILE",
+              "a recorded fleet's floors: floor_heights: [...] and robots: {NAME: {start_floor: K}}")
       .option("seed", "N", "seed of the simulator and of every random choice", "1")
       .option("config", "DIR", "component parameter files (floor_detector.yaml, ...)", "the shipped config/")
       .option("domain", "ID", "DDS domain id (default: ROS_DOMAIN_ID, else 0)", "-1")
@@ -36,6 +38,7 @@ int run_map(Args& args) {
     if (!options.inputs.empty()) throw UsageError("give inputs either as arguments or with --floors, not both");
     options.inputs = tools::readMapInputs(args.get("floors"));
   }
+  if (args.has("robots")) options.robot_floors = tools::readRobotFloors(args.get("robots"));
   const long seed = args.getInt("seed");
   if (seed < 0) throw UsageError("--seed must not be negative");
   options.seed = static_cast<std::uint64_t>(seed);

@@ -7,8 +7,15 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
+#include "storey/common/config.h"
+#include "storey/eval/trajectory.h"
+#include "storey/sim/ground_truth.h"
+#include "storey/sim/scenario.h"
+#include "storey/sim/simulator.h"
+#include "storey/tools/simulation_bag.h"
 #include "test_support.h"
 
 namespace storey::tools {
@@ -90,6 +97,103 @@ TEST(MapJob, BadInputsAreReportedClearly) {
   const std::string dir = test::makeTempDir("storey_floors");
   std::ofstream(dir + "/floors.yaml") << "floors:\n  - {path: missing.log, floor: 0, height: 0}\n";
   EXPECT_THROW(readMapInputs(dir + "/floors.yaml"), common::ConfigError);
+}
+
+// A recorded fleet mapped from its bag (fleet seed 1: robot1 and robot2 start on F0,
+// robot3 on F3). With the robots file every detector knows the floor heights and its
+// robot's start floor, so each pose lands on its true floor and the floors are aligned;
+// without it each robot numbers floors from where it started, and robot3's poses are
+// put on the wrong floors (what storey map did with a recorded fleet until session 20).
+TEST(MapJob, ARecordedFleetTakesItsRobotsFloorsFromTheRobotsFile) {
+  const sim::Scenario scenario = sim::loadScenario(test::sourceDir() + "/config/buildings/fleet.yaml");
+  const sim::Simulation run = sim::simulate(scenario, 1);
+  const std::string dir = test::makeTempDir("storey_fleet_bag");
+  writeSimulationBag(run, dir + "/bag");
+  sim::writeGroundTruth(run, dir + "/ground_truth");
+  {
+    std::ofstream robots(dir + "/robots.yaml");
+    robots << "floor_heights: [";
+    for (std::size_t i = 0; i < scenario.building.floors.size(); ++i)
+      robots << (i ? ", " : "") << scenario.building.floors[i].height;
+    robots << "]\nrobots:\n";
+    for (const auto& robot : scenario.robots)
+      robots << "  " << robot.name << ": {start_floor: " << scenario.building.floorIndex(robot.start_floor) << "}\n";
+  }
+  const auto truth = eval::readTrajectoryCsv(dir + "/ground_truth/trajectory.csv");
+  std::map<std::pair<std::string, long long>, std::string> true_floor;  // (robot, ms) -> floor index
+  for (const auto& row : truth)
+    true_floor[{row.robot, std::llround(row.stamp * 1000.0)}] =
+        std::to_string(scenario.building.floorIndex(row.floor));
+  // Per robot, the fraction of its estimated poses on their true floor.
+  auto onTrueFloor = [&](const std::string& out) {
+    std::map<std::string, std::pair<int, int>> counts;  // robot -> (right, all)
+    for (const auto& row : eval::readTrajectoryCsv(out + "/trajectory.csv")) {
+      const auto it = true_floor.find({row.robot, std::llround(row.stamp * 1000.0)});
+      if (it == true_floor.end()) continue;
+      counts[row.robot].first += row.floor == it->second;
+      ++counts[row.robot].second;
+    }
+    std::map<std::string, double> fraction;
+    for (const auto& [robot, c] : counts) fraction[robot] = static_cast<double>(c.first) / c.second;
+    return fraction;
+  };
+
+  MapJobOptions with = bundled(214, dir + "/with");
+  with.inputs = {{dir + "/bag", {}, {}, ""}};
+  with.robot_floors = readRobotFloors(dir + "/robots.yaml");
+  runMapJob(with);
+  const auto right = onTrueFloor(with.output_dir);
+  ASSERT_EQ(right.size(), 3u);
+  for (const auto& [robot, fraction] : right) EXPECT_GT(fraction, 0.95) << robot;
+  const eval::Evaluation evaluation =
+      eval::evaluate(eval::readTrajectoryCsv(with.output_dir + "/trajectory.csv"), truth);
+  ASSERT_EQ(evaluation.floors.size(), 4u);
+  for (const auto& f : evaluation.floors) {
+    EXPECT_LT(f.residual_translation, 0.05) << f.floor;
+    EXPECT_LT(f.residual_rotation, 0.2 * M_PI / 180.0) << f.floor;
+  }
+
+  MapJobOptions without = bundled(215, dir + "/without");
+  without.inputs = with.inputs;
+  runMapJob(without);
+  EXPECT_LT(onTrueFloor(without.output_dir).at("robot3"), 0.5);
+}
+
+TEST(MapJob, TheRobotsFileIsReadStrictly) {
+  const std::string dir = test::makeTempDir("storey_robots_file");
+  auto write = [&](const std::string& text) {
+    std::ofstream(dir + "/robots.yaml") << text;
+    return dir + "/robots.yaml";
+  };
+  const RobotFloors ok = readRobotFloors(write("floor_heights: [0, 3.5, 7]\nrobots:\n  a: {start_floor: 2}\n"));
+  EXPECT_EQ(ok.heights.size(), 3u);
+  EXPECT_EQ(ok.start_floor.at("a"), 2);
+  for (const std::string bad : {"floor_heights: [0, 3.5]\nrobots:\n  a: {start_floor: 2}\n",  // no floor 2
+                                "floor_heights: [3.5, 0]\nrobots:\n  a: {start_floor: 0}\n",  // not increasing
+                                "floor_heights: []\nrobots:\n  a: {start_floor: 0}\n",
+                                "floor_heights: [0]\nrobots:\n  a: {start_flor: 0}\n",  // unknown key
+                                "floor_heights: [0]\nrobot:\n  a: {start_floor: 0}\n"}) {
+    try {
+      readRobotFloors(write(bad));
+      ADD_FAILURE() << "accepted: " << bad;
+    } catch (const common::ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("robots.yaml"), std::string::npos) << e.what();
+    }
+  }
+  // A robot the recording does not hold, or a recorded robot the file leaves out, is an
+  // error naming the file and the robot.
+  const auto scenario = sim::loadScenario(test::sourceDir() + "/config/buildings/small2.yaml");
+  writeSimulationBag(sim::simulate(scenario, 1), dir + "/bag");
+  MapJobOptions options = bundled(213, dir + "/out");
+  options.inputs = {{dir + "/bag", {}, {}, ""}};
+  options.robot_floors = readRobotFloors(write("floor_heights: [0, 3.5]\nrobots:\n  robot9: {start_floor: 1}\n"));
+  try {
+    runMapJob(options);
+    ADD_FAILURE() << "a robot the file leaves out was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("robots.yaml"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("no start_floor"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

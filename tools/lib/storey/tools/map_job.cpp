@@ -1,6 +1,7 @@
 #include "storey/tools/map_job.h"
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <limits>
@@ -115,6 +116,29 @@ std::vector<MapInput> readMapInputs(const std::string& yaml_path) {
   return inputs;
 }
 
+RobotFloors readRobotFloors(const std::string& yaml_path) {
+  const auto root = common::ConfigNode::loadFile(yaml_path);
+  RobotFloors out;
+  out.path = yaml_path;
+  out.heights = root.getDoubles("floor_heights");
+  if (out.heights.empty()) root.fail("floor_heights", "no floor heights listed");
+  for (std::size_t i = 0; i < out.heights.size(); ++i) {
+    if (!std::isfinite(out.heights[i])) root.fail("floor_heights", "height " + std::to_string(i) + " is not finite");
+    if (i > 0 && !(out.heights[i] > out.heights[i - 1]))
+      root.fail("floor_heights", "heights must increase (floor " + std::to_string(i) + ")");
+  }
+  const auto robots = root.child("robots");
+  if (!robots.isMap() || robots.keys().empty()) root.fail("robots", "a map of robot name -> {start_floor}");
+  for (const auto& name : robots.keys()) {
+    const auto robot = robots.child(name);
+    out.start_floor[name] = robot.getInt("start_floor", 0, static_cast<int>(out.heights.size()) - 1);
+    robot.finish();
+  }
+  robots.finish();
+  root.finish();
+  return out;
+}
+
 MapJobResult runMapJob(const MapJobOptions& options) {
   const auto job_start = Clock::now();
   MapJobResult result;
@@ -195,6 +219,31 @@ MapJobResult runMapJob(const MapJobOptions& options) {
       robots.push_back(r);
       robot_input[r] = &p;
     }
+  }
+
+  // A recorded fleet's floors: every recorded robot, and only those, with its start floor.
+  if (options.robot_floors) {
+    const RobotFloors& given = *options.robot_floors;
+    if (!fleet_start_floor.empty())
+      throw std::invalid_argument(given.path + ": a simulated building gives its robots' floors itself");
+    for (const auto& robot : robots) {
+      if (robot_input[robot]->floor)
+        throw std::invalid_argument(given.path + ": robot '" + robot + "' is recorded on one floor (" +
+                                    robot_input[robot]->recording + "@floor); give its floor there only");
+      if (!given.start_floor.count(robot))
+        throw std::invalid_argument(given.path + ": robot '" + robot + "' of " + robot_input[robot]->recording +
+                                    " has no start_floor");
+    }
+    for (const auto& [robot, floor] : given.start_floor) {
+      if (!robot_input.count(robot)) {
+        std::string recorded;
+        for (const auto& r : robots) recorded += (recorded.empty() ? "" : ", ") + r;
+        throw std::invalid_argument(given.path + ": robot '" + robot + "' is not in the recordings (they hold " +
+                                    recorded + ")");
+      }
+      fleet_start_floor[robot] = floor;
+    }
+    fleet_floor_heights = given.heights;
   }
 
   // 3. The components, all in this process.

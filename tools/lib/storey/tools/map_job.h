@@ -4,6 +4,7 @@
 // When everything is processed the building is written to the output folder.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -23,8 +24,25 @@ struct MapInput {
   std::string robot;  // for CARMEN logs; "" -> "robot" or "floor<k>"
 };
 
+// A recorded fleet's floors, as the simulator gives them for a simulated one: the
+// building's floor heights and where each robot starts. Every floor detector then knows
+// the heights and its robot's start floor, and every mapper its start floor and height,
+// so floor ids and heights agree across robots. From `storey map BAG --robots FILE`:
+//   floor_heights: [0.0, 3.6, 7.2]     # metres, by floor index, increasing
+//   robots:
+//     robot1: {start_floor: 0}         # index into floor_heights
+//     robot2: {start_floor: 2}
+struct RobotFloors {
+  std::vector<double> heights;
+  std::map<std::string, int> start_floor;
+  std::string path;  // the file, for messages
+};
+// Errors (common::ConfigError) name the file, line and key.
+RobotFloors readRobotFloors(const std::string& yaml_path);
+
 struct MapJobOptions {
   std::vector<MapInput> inputs;  // empty: the bundled simulated building
+  std::optional<RobotFloors> robot_floors;  // recordings only: every recorded robot listed
   std::string output_dir = "out";
   std::uint64_t seed = 1;        // simulator and every component's random choices
   int domain_id = -1;            // -1: ROS_DOMAIN_ID, else 0
