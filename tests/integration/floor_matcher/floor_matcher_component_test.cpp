@@ -187,6 +187,15 @@ TEST(FloorMatcherComponent, BadUpdatesAreRejectedAndCounted) {
 }
 
 
+// Polls `done` until it holds or `seconds` pass; returns its last value.
+template <class Done>
+bool waitUntil(Done done, double seconds = 30.0) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (std::chrono::steady_clock::now() < deadline && !done())
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  return done();
+}
+
 // A matcher whose passes are scripted: pass i places graph 1 by `alignments[i]` (the last
 // one for later passes), through three of its nodes, so a test decides what a later pass
 // overturns, and the component's publishing and the server's handling are what is tested.
@@ -256,23 +265,17 @@ TEST(FloorMatcherComponent, RetractsWhatALaterPassNoLongerStandsBehind) {
   matcher.activate();
   FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  auto waitFor = [&](auto done) {
-    while (std::chrono::steady_clock::now() < deadline && !done())
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    return done();
-  };
   graphs.publish(toUpdate(g0, 0, g0.nodes.size(), 0));
   graphs.publish(toUpdate(g1, 0, g1.nodes.size() / 2, 0));
-  ASSERT_TRUE(waitFor([&] { return matcher.stats().updates_accepted == 2 && server.stats().updates_accepted == 2; }));
+  ASSERT_TRUE(waitUntil([&] { return matcher.stats().updates_accepted == 2 && server.stats().updates_accepted == 2; }));
   ASSERT_TRUE(matcher.flush(30.0));
-  ASSERT_TRUE(waitFor([&] { return server.stats().constraints_accepted == 3; }));
+  ASSERT_TRUE(waitUntil([&] { return server.stats().constraints_accepted == 3; }));
   const std::vector<building::InterGraphConstraint> first = server.snapshot().first.constraints();
 
   graphs.publish(toUpdate(g1, g1.nodes.size() / 2, g1.nodes.size(), 1));
-  ASSERT_TRUE(waitFor([&] { return matcher.stats().updates_accepted == 3 && server.stats().updates_accepted == 3; }));
+  ASSERT_TRUE(waitUntil([&] { return matcher.stats().updates_accepted == 3 && server.stats().updates_accepted == 3; }));
   ASSERT_TRUE(matcher.flush(30.0));
-  ASSERT_TRUE(waitFor([&] {
+  ASSERT_TRUE(waitUntil([&] {
     return server.stats().constraints_retracted == 3 && server.stats().constraints_accepted == 6;
   }));
   EXPECT_EQ(matcher.stats().constraints_retracted, 3u);
@@ -330,20 +333,14 @@ TEST(FloorMatcherComponent, GrowthPassesPublishOnlyWhatThePassBeforeConfirmed) {
   matcher.activate();
   FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  auto waitFor = [&](auto done) {
-    while (std::chrono::steady_clock::now() < deadline && !done())
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    return done();
-  };
   // Three growth passes: graph 1 in thirds (the first with graph 0 whole).
   graphs.publish(toUpdate(g0, 0, g0.nodes.size(), 0));
-  ASSERT_TRUE(waitFor([&] { return matcher.stats().updates_accepted == 1; }));
+  ASSERT_TRUE(waitUntil([&] { return matcher.stats().updates_accepted == 1; }));
   const std::size_t third = g1.nodes.size() / 3;
   for (std::uint32_t i = 0; i < 3; ++i) {
     graphs.publish(toUpdate(g1, i * third, (i + 1) * third, i));
     // (A pass counts itself and what it published or held back under one lock.)
-    ASSERT_TRUE(waitFor([&] { return matcher.stats().matchings == i + 1; })) << "pass " << i + 1;
+    ASSERT_TRUE(waitUntil([&] { return matcher.stats().matchings == i + 1; })) << "pass " << i + 1;
     const FloorMatcherStats stats = matcher.stats();
     if (i == 0) {  // wrong, and nothing before it: held back
       EXPECT_EQ(stats.constraints_published, 0u);
@@ -356,7 +353,7 @@ TEST(FloorMatcherComponent, GrowthPassesPublishOnlyWhatThePassBeforeConfirmed) {
       EXPECT_EQ(stats.constraints_retracted, 0u);
     }
   }
-  ASSERT_TRUE(waitFor([&] {
+  ASSERT_TRUE(waitUntil([&] {
     std::lock_guard<std::mutex> lock(mutex);
     return received.size() == 3u;
   }));
@@ -384,15 +381,12 @@ TEST(FloorMatcherComponent, WhatAGrowthPassHeldBackIsPublishedWhenTheInputSettle
     matcher.activate();
     FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
     std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
     graphs.publish(toUpdate(g0, 0, g0.nodes.size(), 0));
     graphs.publish(toUpdate(g1, 0, g1.nodes.size(), 0));
-    while (std::chrono::steady_clock::now() < deadline && matcher.stats().constraints_unconfirmed < 3)
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    waitUntil([&] { return matcher.stats().constraints_unconfirmed >= 3; });
     EXPECT_EQ(matcher.stats().constraints_unconfirmed, 3u) << (by_flush ? "flush" : "idle");
     if (by_flush) EXPECT_TRUE(matcher.flush(30.0));
-    while (std::chrono::steady_clock::now() < deadline && matcher.stats().constraints_published < 3)
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    waitUntil([&] { return matcher.stats().constraints_published >= 3; });
     EXPECT_EQ(matcher.stats().constraints_published, 3u) << (by_flush ? "flush" : "idle");
     EXPECT_EQ(matcher.stats().matchings, 1u) << "released without matching again";
     matcher.deactivate();
