@@ -393,6 +393,59 @@ TEST(FloorMatcherComponent, WhatAGrowthPassHeldBackIsPublishedWhenTheInputSettle
   }
 }
 
+// A matcher restarted in a new process has no memory of what its predecessor published,
+// and the dead writer's topic history is gone with it; the graph server's state lists the
+// constraints it holds, so the new matcher adopts them and withdraws those its pass
+// places elsewhere.
+TEST(FloorMatcherComponent, ARestartedMatcherWithdrawsWhatItsPredecessorPublished) {
+  const matching::SimulatedFloors floors = small2(5);
+  ASSERT_EQ(floors.graphs.size(), 2u);
+  const geometry::Pose2 truth = floors.frames[0].inverse() * floors.frames[1];
+  const geometry::Pose2 wrong = geometry::Pose2(4.0, 0.0, 0.0) * truth;
+  const std::string parameters = "{min_nodes: 10, match_while_growing: false, match_after_idle: 0}";
+  runtime::Context context(onDomain(206));
+  graph_server::GraphServer server(
+      context, common::ConfigNode::loadString("{optimize_min_period: 0.05, publish_maps: false}"), "graph_server");
+  server.configure();
+  server.activate();
+  FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
+  {
+    ScriptedMatcher first(context, parameters, {wrong});
+    first.configure();
+    first.activate();
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
+    for (const auto& g : floors.graphs) graphs.publish(toUpdate(g, 0, g.nodes.size(), 0));
+    ASSERT_TRUE(waitUntil([&] { return first.stats().updates_accepted == 2 && server.stats().updates_accepted == 2; }));
+    ASSERT_TRUE(first.flush(30.0));
+    ASSERT_TRUE(waitUntil([&] { return server.stats().constraints_accepted == 3; }));
+    ASSERT_TRUE(server.waitOptimized(10.0));
+    first.deactivate();
+    first.cleanup();
+  }  // gone, with its writer's history
+  ScriptedMatcher second(context, parameters, {truth});
+  second.configure();
+  second.activate();
+  // It gets the graphs and the server's states from their topics' history.
+  ASSERT_TRUE(waitUntil([&] {
+    return second.stats().updates_accepted == 2 && second.stats().states_received >= server.stats().optimisations;
+  }));
+  ASSERT_TRUE(second.flush(30.0));
+  ASSERT_TRUE(waitUntil([&] {
+    return server.stats().constraints_retracted == 3 && server.stats().constraints_accepted == 6;
+  }));
+  EXPECT_EQ(second.stats().constraints_adopted, 3u);
+  EXPECT_EQ(second.stats().constraints_retracted, 3u);
+  const building::BuildingGraph held = server.snapshot().first;
+  ASSERT_EQ(held.constraints().size(), 3u);
+  for (const auto& c : held.constraints()) {
+    const geometry::Pose2 k = held.floorGraphs().at(c.graph_to).findNode(c.node_to)->pose;
+    const geometry::Pose2 q = held.floorGraphs().at(c.graph_from).findNode(c.node_from)->pose;
+    EXPECT_LT(((q * c.relative).translation() - (truth * k).translation()).norm(), 1e-6);
+  }
+  second.deactivate();
+  server.deactivate();
+}
+
 TEST(FloorMatcherComponentOptions, UnknownKeysAreErrors) {
   EXPECT_THROW(
       readFloorMatcherComponentOptions(common::ConfigNode::loadString("{min_node: 3}", "fm.yaml")),

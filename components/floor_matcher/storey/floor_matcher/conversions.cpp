@@ -80,4 +80,17 @@ storey_msgs::msg::InterFloorConstraint toMessage(const matching::InterFloorConst
   return m;
 }
 
+matching::InterFloorConstraint constraintFromMessage(const storey_msgs::msg::InterFloorConstraint& m) {
+  matching::InterFloorConstraint c;
+  c.reference_graph_id = static_cast<int>(m.from_floor_graph());
+  c.reference_node_id = static_cast<int>(m.from_node());
+  c.graph_id = static_cast<int>(m.to_floor_graph());
+  c.node_id = static_cast<int>(m.to_node());
+  c.measurement = geometry::Pose2(m.dx(), m.dy(), m.dtheta());
+  c.dz = m.dz();
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) c.information(r, k) = m.information()[static_cast<std::size_t>(r * 3 + k)];
+  return c;
+}
+
 }  // namespace storey::floor_matcher

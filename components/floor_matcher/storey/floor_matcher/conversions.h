@@ -23,4 +23,7 @@ storey_msgs::msg::InterFloorConstraint toMessage(const matching::InterFloorConst
                                                  std::uint32_t id, double l_min,
                                                  std::uint32_t support);
 
+// The constraint a message names (nodes and measurement; evidence is not read back).
+matching::InterFloorConstraint constraintFromMessage(const storey_msgs::msg::InterFloorConstraint& message);
+
 }  // namespace storey::floor_matcher

@@ -17,6 +17,7 @@ FloorMatcherComponentOptions readFloorMatcherComponentOptions(const common::Conf
   FloorMatcherComponentOptions o;
   o.floor_graph_topic = node.get<std::string>("floor_graph_topic", o.floor_graph_topic);
   o.constraint_topic = node.get<std::string>("constraint_topic", o.constraint_topic);
+  o.building_state_topic = node.get<std::string>("building_state_topic", o.building_state_topic);
   o.min_new_nodes = node.getInt("min_new_nodes", o.min_new_nodes, 1, 1000000);
   o.min_growth = node.getDouble("min_growth", o.min_growth, 0.0, 100.0);
   o.match_while_growing = node.get<bool>("match_while_growing", o.match_while_growing);
@@ -46,6 +47,9 @@ void FloorMatcherComponent::onConfigure() {
                      storey_msgs::msg::FloorGraphUpdatePubSubType>(
       options_.floor_graph_topic, runtime::TopicKind::kGraph,
       [this](const storey_msgs::msg::FloorGraphUpdate& m) { onUpdate(m); });
+  createSubscription<storey_msgs::msg::BuildingState, storey_msgs::msg::BuildingStatePubSubType>(
+      options_.building_state_topic, runtime::TopicKind::kGraph,
+      [this](const storey_msgs::msg::BuildingState& m) { onState(m); });
   if (options_.match_after_idle > 0)
     createTimer(std::min(0.25, options_.match_after_idle / 4), [this] { onIdleCheck(); });
 }
@@ -82,6 +86,7 @@ void FloorMatcherComponent::releaseHeldBack(std::unique_lock<std::mutex>& lock) 
     if (published_.count(key)) continue;
     p.message.constraint_id(next_constraint_id_++);
     published_[key] = p;
+    known_.insert(key);
     out.push_back(p.message);
   }
   held_back_.clear();
@@ -159,6 +164,12 @@ void FloorMatcherComponent::onUpdate(const storey_msgs::msg::FloorGraphUpdate& m
   }
 }
 
+void FloorMatcherComponent::onState(const storey_msgs::msg::BuildingState& message) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  server_held_ = message.constraints();
+  ++stats_.states_received;
+}
+
 void FloorMatcherComponent::workerLoop() {
   std::unique_lock<std::mutex> lock(mutex_);
   while (true) {
@@ -205,6 +216,15 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   lock.lock();
   ++stats_.matchings;
   if (matched) {
+    // What the server holds that this instance did not publish (its predecessor did, before
+    // a restart) is checked as if published here.
+    for (const auto& m : server_held_) {
+      const matching::InterFloorConstraint c = constraintFromMessage(m);
+      const auto key = std::make_tuple(c.reference_graph_id, c.reference_node_id, c.graph_id, c.node_id);
+      if (!known_.insert(key).second) continue;
+      published_[key] = {c, m};
+      ++stats_.constraints_adopted;
+    }
     // First withdraw what this pass no longer stands behind, then add what is new.
     std::vector<matching::InterFloorConstraint> standing;
     std::vector<std::tuple<int, int, int, int>> keys;
@@ -248,6 +268,7 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
     }
     out.push_back(toMessage(c, next_constraint_id_++, l_min, support));
     published_[key] = {c, out.back()};
+    known_.insert(key);
   }
   stats_.constraints_published += out.size() - retracted;
   stats_.constraints_retracted += retracted;

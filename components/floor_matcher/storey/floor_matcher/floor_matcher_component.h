@@ -22,6 +22,7 @@
 #include "storey/matching/floor_matcher.h"
 #include "storey/matching/retraction.h"
 #include "storey/runtime/component.h"
+#include "storey_msgs/msg/BuildingStatePubSubTypes.h"
 #include "storey_msgs/msg/FloorGraphUpdatePubSubTypes.h"
 #include "storey_msgs/msg/InterFloorConstraintPubSubTypes.h"
 
@@ -30,6 +31,9 @@ namespace storey::floor_matcher {
 struct FloorMatcherComponentOptions {
   std::string floor_graph_topic = "storey/floor_graphs";
   std::string constraint_topic = "storey/inter_floor_constraints";
+  // The graph server's state lists the constraints it holds: a restarted matcher adopts
+  // those it did not publish itself, so a later pass can withdraw them too.
+  std::string building_state_topic = "storey/building_state";
   // Re-match when a graph is new or has grown by `min_new_nodes` nodes and by
   // `min_growth` (fraction of its size at the last matching).
   int min_new_nodes = 20;
@@ -61,6 +65,8 @@ struct FloorMatcherStats {
   std::size_t constraints_published = 0;
   std::size_t constraints_retracted = 0;
   std::size_t constraints_unconfirmed = 0;  // accepted by a growth pass, held back
+  std::size_t states_received = 0;          // building states from the graph server
+  std::size_t constraints_adopted = 0;      // held by the server, published by someone else
 };
 
 class FloorMatcherComponent : public runtime::Component {
@@ -84,6 +90,7 @@ class FloorMatcherComponent : public runtime::Component {
 
  private:
   void onUpdate(const storey_msgs::msg::FloorGraphUpdate& message);
+  void onState(const storey_msgs::msg::BuildingState& message);
   bool grewEnough(const floor::FloorGraph& graph) const;  // caller holds mutex_
   bool grewSinceMatched() const;                          // caller holds mutex_
   void onIdleCheck();
@@ -107,6 +114,9 @@ class FloorMatcherComponent : public runtime::Component {
     storey_msgs::msg::InterFloorConstraint message;
   };
   std::map<std::tuple<int, int, int, int>, Published> published_;
+  // Every constraint this instance published or retracted: the server's others are adopted.
+  std::set<std::tuple<int, int, int, int>> known_;
+  std::vector<storey_msgs::msg::InterFloorConstraint> server_held_;  // the latest state's
   std::uint32_t next_constraint_id_ = 0;
   bool pending_ = false;
   bool settled_ = false;  // the pending pass was asked for by a flush or idle input

@@ -1,5 +1,6 @@
 #include "storey/graph_server/conversions.h"
 
+#include <array>
 #include <cmath>
 #include <stdexcept>
 
@@ -75,8 +76,9 @@ building::ConstraintRetraction retractionFromMessage(const storey_msgs::msg::Int
   return r;
 }
 
-storey_msgs::msg::BuildingState toMessage(const building::BuildingSolution& solution, std::uint32_t sequence,
-                                          double stamp) {
+storey_msgs::msg::BuildingState toMessage(const building::BuildingSolution& solution,
+                                          const std::vector<building::InterGraphConstraint>& constraints,
+                                          std::uint32_t sequence, double stamp) {
   storey_msgs::msg::BuildingState state;
   state.sequence_number(sequence);
   state.stamp(runtime::toTimeMessage(stamp));
@@ -98,6 +100,23 @@ storey_msgs::msg::BuildingState toMessage(const building::BuildingSolution& solu
     n.y(pose.y());
     n.theta(pose.theta());
     state.node_poses().push_back(n);
+  }
+  for (const auto& c : constraints) {
+    storey_msgs::msg::InterFloorConstraint m;
+    m.constraint_id(static_cast<std::uint32_t>(c.id));
+    m.from_floor_graph(static_cast<std::uint32_t>(c.graph_from));
+    m.from_node(static_cast<std::uint32_t>(c.node_from));
+    m.to_floor_graph(static_cast<std::uint32_t>(c.graph_to));
+    m.to_node(static_cast<std::uint32_t>(c.node_to));
+    m.dx(c.relative.x());
+    m.dy(c.relative.y());
+    m.dtheta(c.relative.theta());
+    m.dz(c.dz);
+    std::array<double, 9> information{};
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 3; ++k) information[r * 3 + k] = c.information(r, k);
+    m.information(information);
+    state.constraints().push_back(m);
   }
   return state;
 }

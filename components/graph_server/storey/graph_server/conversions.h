@@ -17,8 +17,10 @@ building::InterGraphConstraint fromMessage(const storey_msgs::msg::InterFloorCon
 // The retraction a message with `retracted` set carries.
 building::ConstraintRetraction retractionFromMessage(const storey_msgs::msg::InterFloorConstraint& message);
 
-storey_msgs::msg::BuildingState toMessage(const building::BuildingSolution& solution, std::uint32_t sequence,
-                                          double stamp);
+// The optimised building, with the constraints it held (`constraints`).
+storey_msgs::msg::BuildingState toMessage(const building::BuildingSolution& solution,
+                                          const std::vector<building::InterGraphConstraint>& constraints,
+                                          std::uint32_t sequence, double stamp);
 nav_msgs::msg::OccupancyGrid toMessage(const building::FloorMap& floor, double stamp);
 
 }  // namespace storey::graph_server

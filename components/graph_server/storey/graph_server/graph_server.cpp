@@ -252,7 +252,7 @@ void GraphServer::workerLoop() {
       continue;
     }
     const double stamp = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-    state_publisher_->publish(toMessage(solution, state_sequence_++, stamp));
+    state_publisher_->publish(toMessage(solution, work.constraints(), state_sequence_++, stamp));
     if (options_.publish_maps) {
       for (const auto& [floor_id, floor] : building::renderBuildingFloors(work, solution, options_.map)) {
         auto& publisher = map_publishers_[floor_id];
