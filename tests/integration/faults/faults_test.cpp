@@ -266,8 +266,11 @@ class Deployment {
     const std::string matcher_parameters =
         readText(config + "floor_matcher.yaml") + "match_after_idle: 5.0\nmatch_while_growing: false\n";
     write("floor_matcher.yaml", matcher_parameters);
-    write("witness_floor_matcher.yaml",
-          matcher_parameters + "floor_graph_topic: " + graphs + "\nconstraint_topic: " + constraints + "\n");
+    // The witness matcher reads its own server's state: a matcher adopts the constraints
+    // the server whose state it reads holds (what a restarted matcher's predecessor published).
+    write("witness_floor_matcher.yaml", matcher_parameters + "floor_graph_topic: " + graphs +
+                                            "\nconstraint_topic: " + constraints +
+                                            "\nbuilding_state_topic: witness/building_state\n");
     write("witness_graph_server.yaml", "journal: " + witnessJournal() + "\nfloor_graph_topic: " + graphs +
                                            "\nconstraint_topic: " + constraints +
                                            "\nbuilding_state_topic: witness/building_state\n"
