@@ -187,6 +187,37 @@ matching::MatchResult FloorMatcherComponent::match(const std::vector<floor::Floo
   return matching::matchFloors(graphs, options);
 }
 
+void FloorMatcherComponent::adoptServerHeld() {
+  for (const auto& m : server_held_) {
+    const matching::InterFloorConstraint c = constraintFromMessage(m);
+    const auto key = std::make_tuple(c.reference_graph_id, c.reference_node_id, c.graph_id, c.node_id);
+    if (!known_.insert(key).second) continue;
+    published_[key] = {c, m};
+    ++stats_.constraints_adopted;
+  }
+}
+
+std::vector<storey_msgs::msg::InterFloorConstraint> FloorMatcherComponent::retractStale(
+    const std::vector<floor::FloorGraph>& graphs, const matching::MatchResult& result,
+    std::vector<std::string>* reasons) {
+  std::vector<matching::InterFloorConstraint> standing;
+  std::vector<std::tuple<int, int, int, int>> keys;
+  for (const auto& [key, p] : published_) {
+    keys.push_back(key);
+    standing.push_back(p.constraint);
+  }
+  std::vector<storey_msgs::msg::InterFloorConstraint> out;
+  for (const auto& r : matching::constraintsToRetract(standing, graphs, result, options_.retraction)) {
+    storey_msgs::msg::InterFloorConstraint m = published_.at(keys[r.index]).message;
+    m.retracted(true);
+    m.reason(r.reason);
+    out.push_back(m);
+    reasons->push_back(r.reason);
+    published_.erase(keys[r.index]);
+  }
+  return out;
+}
+
 void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   pending_ = false;
   const bool settled = settled_;
@@ -216,30 +247,8 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   lock.lock();
   ++stats_.matchings;
   if (matched) {
-    // What the server holds that this instance did not publish (its predecessor did, before
-    // a restart) is checked as if published here.
-    for (const auto& m : server_held_) {
-      const matching::InterFloorConstraint c = constraintFromMessage(m);
-      const auto key = std::make_tuple(c.reference_graph_id, c.reference_node_id, c.graph_id, c.node_id);
-      if (!known_.insert(key).second) continue;
-      published_[key] = {c, m};
-      ++stats_.constraints_adopted;
-    }
-    // First withdraw what this pass no longer stands behind, then add what is new.
-    std::vector<matching::InterFloorConstraint> standing;
-    std::vector<std::tuple<int, int, int, int>> keys;
-    for (const auto& [key, p] : published_) {
-      keys.push_back(key);
-      standing.push_back(p.constraint);
-    }
-    for (const auto& r : matching::constraintsToRetract(standing, graphs, result, options_.retraction)) {
-      storey_msgs::msg::InterFloorConstraint m = published_.at(keys[r.index]).message;
-      m.retracted(true);
-      m.reason(r.reason);
-      out.push_back(m);
-      retraction_notes.push_back(r.reason);
-      published_.erase(keys[r.index]);
-    }
+    adoptServerHeld();
+    out = retractStale(graphs, result, &retraction_notes);
   }
   const std::size_t retracted = out.size();
   std::size_t unconfirmed = 0;

@@ -96,6 +96,14 @@ class FloorMatcherComponent : public runtime::Component {
   void onIdleCheck();
   void workerLoop();
   void matchOnce(std::unique_lock<std::mutex>& lock);
+  // (Callers hold mutex_.) The server's constraints this instance did not publish (its
+  // predecessor's, before a restart) join published_, to be checked as its own.
+  void adoptServerHeld();
+  // Withdraws from published_ what `result` no longer stands behind; returns the
+  // retraction messages to publish, and each reason in `reasons`.
+  std::vector<storey_msgs::msg::InterFloorConstraint> retractStale(const std::vector<floor::FloorGraph>& graphs,
+                                                                    const matching::MatchResult& result,
+                                                                    std::vector<std::string>* reasons);
   // Publishes what the last pass held back unconfirmed (the graphs have not grown since).
   void releaseHeldBack(std::unique_lock<std::mutex>& lock);
   void stopWorker();
