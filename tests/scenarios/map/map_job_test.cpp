@@ -138,7 +138,7 @@ TEST(MapJob, ARecordedFleetTakesItsRobotsFloorsFromTheRobotsFile) {
     return fraction;
   };
 
-  MapJobOptions with = bundled(214, dir + "/with");
+  MapJobOptions with = bundled(207, dir + "/with");
   with.inputs = {{dir + "/bag", {}, {}, ""}};
   with.robot_floors = readRobotFloors(dir + "/robots.yaml");
   runMapJob(with);
@@ -153,7 +153,7 @@ TEST(MapJob, ARecordedFleetTakesItsRobotsFloorsFromTheRobotsFile) {
     EXPECT_LT(f.residual_rotation, 0.2 * M_PI / 180.0) << f.floor;
   }
 
-  MapJobOptions without = bundled(215, dir + "/without");
+  MapJobOptions without = bundled(208, dir + "/without");
   without.inputs = with.inputs;
   runMapJob(without);
   EXPECT_LT(onTrueFloor(without.output_dir).at("robot3"), 0.5);
@@ -184,7 +184,7 @@ TEST(MapJob, TheRobotsFileIsReadStrictly) {
   // error naming the file and the robot.
   const auto scenario = sim::loadScenario(test::sourceDir() + "/config/buildings/small2.yaml");
   writeSimulationBag(sim::simulate(scenario, 1), dir + "/bag");
-  MapJobOptions options = bundled(213, dir + "/out");
+  MapJobOptions options = bundled(209, dir + "/out");
   options.inputs = {{dir + "/bag", {}, {}, ""}};
   options.robot_floors = readRobotFloors(write("floor_heights: [0, 3.5]\nrobots:\n  robot9: {start_floor: 1}\n"));
   try {
