@@ -188,6 +188,41 @@ TEST_F(GraphServerTest, BadUpdatesAreRejectedAndCounted) {
   EXPECT_EQ(server.snapshot().first.floorGraphs().size(), 1u);
 }
 
+// A retraction that arrives while its constraint still waits for its floor graphs drops
+// it: the building never holds it. The other constraints are kept.
+TEST_F(GraphServerTest, ARetractionDropsAConstraintStillWaitingForItsGraphs) {
+  runtime::Context context(onDomain(224));
+  GraphServer server(context, common::ConfigNode::loadString("{optimize_min_period: 0.05, publish_maps: false}"),
+                     "graph_server");
+  server.configure();
+  server.activate();
+  runtime::Publisher<storey_msgs::msg::FloorGraphUpdate, storey_msgs::msg::FloorGraphUpdatePubSubType> graphs(
+      context, "storey/floor_graphs", runtime::TopicKind::kGraph);
+  runtime::Publisher<storey_msgs::msg::InterFloorConstraint, storey_msgs::msg::InterFloorConstraintPubSubType>
+      constraints(context, "storey/inter_floor_constraints", runtime::TopicKind::kGraph);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
+  const Pose2 offset(1.0, -0.5, 0.3);
+  for (int k : {1, 2, 3}) constraints.publish(makeConstraint(k, k, offset));
+  auto retraction = makeConstraint(2, 2, offset);
+  retraction.retracted(true);
+  retraction.reason("test");
+  constraints.publish(retraction);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (std::chrono::steady_clock::now() < deadline && server.stats().constraints_retracted < 1)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  graphs.publish(makeUpdate(0, 0, 0.0));
+  graphs.publish(makeUpdate(1, 1, 3.0));
+  while (std::chrono::steady_clock::now() < deadline && server.stats().constraints_accepted < 2)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_TRUE(server.waitOptimized(5.0));
+  EXPECT_EQ(server.stats().constraints_retracted, 1u);
+  const auto held = server.snapshot().first.constraints();
+  ASSERT_EQ(held.size(), 2u);
+  for (const auto& c : held) EXPECT_NE(c.node_from, 2);
+  server.deactivate();
+  server.cleanup();
+}
+
 TEST(GraphServerOptions, UnknownKeyIsAnError) {
   EXPECT_THROW(readGraphServerOptions(common::ConfigNode::loadString("{optimise_period: 1}", "gs.yaml")),
                common::ConfigError);
