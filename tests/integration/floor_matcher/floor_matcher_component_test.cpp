@@ -9,6 +9,7 @@
 #include <set>
 #include <thread>
 
+#include "storey/floor_matcher/conversions.h"
 #include "storey/graph_server/graph_server.h"
 #include "storey/matching/simulated_floors.h"
 #include "storey/runtime/context.h"
@@ -75,19 +76,27 @@ matching::SimulatedFloors small2(std::uint64_t seed) {
   return matching::floorGraphsFromSimulation(sim::simulate(scenario, seed), so);
 }
 
+// Every message on the constraint topic, as it arrives.
+struct ReceivedConstraints {
+  explicit ReceivedConstraints(runtime::Context& context)
+      : subscription(context, "storey/inter_floor_constraints", runtime::TopicKind::kGraph,
+                     [this](const storey_msgs::msg::InterFloorConstraint& c) {
+                       std::lock_guard<std::mutex> lock(mutex);
+                       messages.push_back(c);
+                     }) {}
+  std::mutex mutex;
+  std::vector<storey_msgs::msg::InterFloorConstraint> messages;
+  runtime::Subscription<storey_msgs::msg::InterFloorConstraint, storey_msgs::msg::InterFloorConstraintPubSubType>
+      subscription;
+};
+
 TEST(FloorMatcherComponent, PublishesCorrectConstraintsForTwoFloors) {
   const matching::SimulatedFloors floors = small2(5);
   ASSERT_EQ(floors.graphs.size(), 2u);
   runtime::Context context(onDomain(215));
-  std::mutex mutex;
-  std::vector<storey_msgs::msg::InterFloorConstraint> received;
-  runtime::Subscription<storey_msgs::msg::InterFloorConstraint,
-                        storey_msgs::msg::InterFloorConstraintPubSubType>
-      sub(context, "storey/inter_floor_constraints", runtime::TopicKind::kGraph,
-          [&](const storey_msgs::msg::InterFloorConstraint& c) {
-            std::lock_guard<std::mutex> lock(mutex);
-            received.push_back(c);
-          });
+  ReceivedConstraints constraints(context);
+  std::mutex& mutex = constraints.mutex;
+  std::vector<storey_msgs::msg::InterFloorConstraint>& received = constraints.messages;
   RunningMatcher running(context, "{min_nodes: 10, floor_matcher: {seed: 3}}");
   FloorMatcherComponent& matcher = running.matcher;
   FloorGraphPublisher& graphs = running.graphs;
@@ -112,13 +121,7 @@ TEST(FloorMatcherComponent, PublishesCorrectConstraintsForTwoFloors) {
   ASSERT_GE(received.size(), 3u);
   EXPECT_EQ(received.size(), matcher.stats().constraints_published);
   for (const auto& m : received) {
-    matching::InterFloorConstraint c;
-    c.reference_graph_id = static_cast<int>(m.from_floor_graph());
-    c.reference_node_id = static_cast<int>(m.from_node());
-    c.graph_id = static_cast<int>(m.to_floor_graph());
-    c.node_id = static_cast<int>(m.to_node());
-    c.measurement = geometry::Pose2(m.dx(), m.dy(), m.dtheta());
-    const auto e = matching::judgeConstraint(c, floors);
+    const auto e = matching::judgeConstraint(constraintFromMessage(m), floors);
     EXPECT_LT(e.translation, 0.3);
     EXPECT_LT(e.rotation, 2.0 * M_PI / 180.0);
     EXPECT_NEAR(std::abs(m.dz()), 3.5, 1e-9);
@@ -316,15 +319,9 @@ TEST(FloorMatcherComponent, GrowthPassesPublishOnlyWhatThePassBeforeConfirmed) {
   const geometry::Pose2 truth = floors.frames[0].inverse() * floors.frames[1];
   const geometry::Pose2 wrong = geometry::Pose2(4.0, 0.0, 0.0) * truth;
   runtime::Context context(onDomain(214));
-  std::mutex mutex;
-  std::vector<storey_msgs::msg::InterFloorConstraint> received;
-  runtime::Subscription<storey_msgs::msg::InterFloorConstraint,
-                        storey_msgs::msg::InterFloorConstraintPubSubType>
-      sub(context, "storey/inter_floor_constraints", runtime::TopicKind::kGraph,
-          [&](const storey_msgs::msg::InterFloorConstraint& c) {
-            std::lock_guard<std::mutex> lock(mutex);
-            received.push_back(c);
-          });
+  ReceivedConstraints constraints(context);
+  std::mutex& mutex = constraints.mutex;
+  std::vector<storey_msgs::msg::InterFloorConstraint>& received = constraints.messages;
   ScriptedMatcher matcher(context,
                           "{min_nodes: 10, min_new_nodes: 1, min_growth: 0.0, match_while_growing: true, "
                           "match_after_idle: 0}",
