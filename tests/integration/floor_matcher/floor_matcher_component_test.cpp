@@ -245,16 +245,33 @@ class ScriptedMatcher : public FloorMatcherComponent {
   std::size_t passes_ = 0;
 };
 
+// small2 (seed 5) as two floor graphs, graph 1's true placement in graph 0's frame, and a
+// wrong one a room along.
+struct TwoFloors {
+  matching::SimulatedFloors floors = small2(5);
+  geometry::Pose2 truth = floors.frames[0].inverse() * floors.frames[1];
+  geometry::Pose2 wrong = geometry::Pose2(4.0, 0.0, 0.0) * truth;
+};
+
+// Every constraint `building` holds places graph 1's node where `truth` does.
+void expectHeldAtTruth(const building::BuildingGraph& building, const geometry::Pose2& truth) {
+  for (const auto& c : building.constraints()) {
+    const geometry::Pose2 k = building.floorGraphs().at(c.graph_to).findNode(c.node_to)->pose;
+    const geometry::Pose2 q = building.floorGraphs().at(c.graph_from).findNode(c.node_from)->pose;
+    EXPECT_LT(((q * c.relative).translation() - (truth * k).translation()).norm(), 1e-6);
+  }
+}
+
 // Two passes over DDS to a graph server with a journal: the second, on a grown graph,
 // places graph 1 elsewhere; its three earlier constraints are withdrawn (the server holds
 // only the new ones, and so does a server restarted from its journal).
 TEST(FloorMatcherComponent, RetractsWhatALaterPassNoLongerStandsBehind) {
-  const matching::SimulatedFloors floors = small2(5);
-  ASSERT_EQ(floors.graphs.size(), 2u);
-  const auto& g0 = floors.graphs[0];
-  const auto& g1 = floors.graphs[1];
-  const geometry::Pose2 truth = floors.frames[0].inverse() * floors.frames[1];
-  const geometry::Pose2 wrong = geometry::Pose2(4.0, 0.0, 0.0) * truth;  // one room along
+  const TwoFloors two;
+  ASSERT_EQ(two.floors.graphs.size(), 2u);
+  const auto& g0 = two.floors.graphs[0];
+  const auto& g1 = two.floors.graphs[1];
+  const geometry::Pose2& truth = two.truth;
+  const geometry::Pose2& wrong = two.wrong;  // one room along
   const std::string journal = test::makeTempDir() + "/journal.bin";
   const std::string server_parameters =
       "{optimize_min_period: 0.05, publish_maps: false, journal: '" + journal + "'}";
@@ -287,13 +304,9 @@ TEST(FloorMatcherComponent, RetractsWhatALaterPassNoLongerStandsBehind) {
     // Every held constraint places graph 1's node where the truth does, none where the
     // first pass did.
     ASSERT_EQ(b.constraints().size(), 3u);
-    for (const auto& c : b.constraints()) {
-      const geometry::Pose2 k = b.floorGraphs().at(c.graph_to).findNode(c.node_to)->pose;
-      const geometry::Pose2 q = b.floorGraphs().at(c.graph_from).findNode(c.node_from)->pose;
-      EXPECT_LT(((q * c.relative).translation() - (truth * k).translation()).norm(), 1e-6);
-      for (const auto& old : first)
-        EXPECT_FALSE(old.node_from == c.node_from && old.node_to == c.node_to);
-    }
+    expectHeldAtTruth(b, truth);
+    for (const auto& c : b.constraints())
+      for (const auto& old : first) EXPECT_FALSE(old.node_from == c.node_from && old.node_to == c.node_to);
   };
   heldOnly(server.snapshot().first);
   matcher.deactivate();
@@ -312,12 +325,12 @@ TEST(FloorMatcherComponent, RetractsWhatALaterPassNoLongerStandsBehind) {
 // placement that the next pass overturns is never published, and a right one is published
 // by the second pass that finds it.
 TEST(FloorMatcherComponent, GrowthPassesPublishOnlyWhatThePassBeforeConfirmed) {
-  const matching::SimulatedFloors floors = small2(5);
-  ASSERT_EQ(floors.graphs.size(), 2u);
-  const auto& g0 = floors.graphs[0];
-  const auto& g1 = floors.graphs[1];
-  const geometry::Pose2 truth = floors.frames[0].inverse() * floors.frames[1];
-  const geometry::Pose2 wrong = geometry::Pose2(4.0, 0.0, 0.0) * truth;
+  const TwoFloors two;
+  ASSERT_EQ(two.floors.graphs.size(), 2u);
+  const auto& g0 = two.floors.graphs[0];
+  const auto& g1 = two.floors.graphs[1];
+  const geometry::Pose2& truth = two.truth;
+  const geometry::Pose2& wrong = two.wrong;
   runtime::Context context(onDomain(214));
   ReceivedConstraints constraints(context);
   std::mutex& mutex = constraints.mutex;
@@ -364,10 +377,10 @@ TEST(FloorMatcherComponent, GrowthPassesPublishOnlyWhatThePassBeforeConfirmed) {
 // What a growth pass held back is published when the input settles: by a flush, or after
 // match_after_idle without growth. Nothing is lost because no further pass came.
 TEST(FloorMatcherComponent, WhatAGrowthPassHeldBackIsPublishedWhenTheInputSettles) {
-  const matching::SimulatedFloors floors = small2(5);
-  const auto& g0 = floors.graphs[0];
-  const auto& g1 = floors.graphs[1];
-  const geometry::Pose2 truth = floors.frames[0].inverse() * floors.frames[1];
+  const TwoFloors two;
+  const auto& g0 = two.floors.graphs[0];
+  const auto& g1 = two.floors.graphs[1];
+  const geometry::Pose2& truth = two.truth;
   for (const bool by_flush : {true, false}) {
     runtime::Context context(onDomain(by_flush ? 204 : 205));
     ScriptedMatcher matcher(context,
@@ -395,10 +408,11 @@ TEST(FloorMatcherComponent, WhatAGrowthPassHeldBackIsPublishedWhenTheInputSettle
 // constraints it holds, so the new matcher adopts them and withdraws those its pass
 // places elsewhere.
 TEST(FloorMatcherComponent, ARestartedMatcherWithdrawsWhatItsPredecessorPublished) {
-  const matching::SimulatedFloors floors = small2(5);
+  const TwoFloors two;
+  const matching::SimulatedFloors& floors = two.floors;
   ASSERT_EQ(floors.graphs.size(), 2u);
-  const geometry::Pose2 truth = floors.frames[0].inverse() * floors.frames[1];
-  const geometry::Pose2 wrong = geometry::Pose2(4.0, 0.0, 0.0) * truth;
+  const geometry::Pose2& truth = two.truth;
+  const geometry::Pose2& wrong = two.wrong;
   const std::string parameters = "{min_nodes: 10, match_while_growing: false, match_after_idle: 0}";
   runtime::Context context(onDomain(206));
   graph_server::GraphServer server(
@@ -434,11 +448,7 @@ TEST(FloorMatcherComponent, ARestartedMatcherWithdrawsWhatItsPredecessorPublishe
   EXPECT_EQ(second.stats().constraints_retracted, 3u);
   const building::BuildingGraph held = server.snapshot().first;
   ASSERT_EQ(held.constraints().size(), 3u);
-  for (const auto& c : held.constraints()) {
-    const geometry::Pose2 k = held.floorGraphs().at(c.graph_to).findNode(c.node_to)->pose;
-    const geometry::Pose2 q = held.floorGraphs().at(c.graph_from).findNode(c.node_from)->pose;
-    EXPECT_LT(((q * c.relative).translation() - (truth * k).translation()).norm(), 1e-6);
-  }
+  expectHeldAtTruth(held, truth);
   second.deactivate();
   server.deactivate();
 }

@@ -68,10 +68,7 @@ storey_msgs::msg::InterFloorConstraint toMessage(const matching::InterFloorConst
   m.dy(c.measurement.y());
   m.dtheta(c.measurement.theta());
   m.dz(c.dz);
-  std::array<double, 9> information{};
-  for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 3; ++k) information[r * 3 + k] = c.information(r, k);
-  m.information(information);
+  m.information(runtime::informationToMessage(c.information));
   m.dz_variance(0.01);  // floor heights come from the detector; 0.1 m standard deviation
   m.mean_likelihood(c.likelihood);
   m.likelihood_threshold(l_min);
@@ -88,8 +85,7 @@ matching::InterFloorConstraint constraintFromMessage(const storey_msgs::msg::Int
   c.node_id = static_cast<int>(m.to_node());
   c.measurement = geometry::Pose2(m.dx(), m.dy(), m.dtheta());
   c.dz = m.dz();
-  for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 3; ++k) c.information(r, k) = m.information()[static_cast<std::size_t>(r * 3 + k)];
+  c.information = runtime::informationFromMessage(m.information());
   return c;
 }
 

@@ -189,10 +189,10 @@ matching::MatchResult FloorMatcherComponent::match(const std::vector<floor::Floo
 
 void FloorMatcherComponent::adoptServerHeld() {
   for (const auto& m : server_held_) {
-    const matching::InterFloorConstraint c = constraintFromMessage(m);
-    const auto key = std::make_tuple(c.reference_graph_id, c.reference_node_id, c.graph_id, c.node_id);
-    if (!known_.insert(key).second) continue;
-    published_[key] = {c, m};
+    const auto key = std::make_tuple(static_cast<int>(m.from_floor_graph()), static_cast<int>(m.from_node()),
+                                     static_cast<int>(m.to_floor_graph()), static_cast<int>(m.to_node()));
+    if (!known_.insert(key).second) continue;  // most passes: every one known
+    published_[key] = {constraintFromMessage(m), m};
     ++stats_.constraints_adopted;
   }
 }

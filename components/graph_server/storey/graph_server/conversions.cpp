@@ -10,16 +10,8 @@
 namespace storey::graph_server {
 using runtime::requireFinite;
 
-namespace {
-
-Eigen::Matrix3d informationFrom(const std::array<double, 9>& values) {
-  Eigen::Matrix3d m;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) m(r, c) = values[r * 3 + c];
-  return m;
-}
-
-}  // namespace
+using runtime::informationFromMessage;
+using runtime::informationToMessage;
 
 building::FloorGraphDelta fromMessage(const storey_msgs::msg::FloorGraphUpdate& m) {
   building::FloorGraphDelta d;
@@ -40,7 +32,7 @@ building::FloorGraphDelta fromMessage(const storey_msgs::msg::FloorGraphUpdate& 
     requireFinite(e.dy(), at + ".dy");
     requireFinite(e.dtheta(), at + ".dtheta");
     edge.measurement = geometry::Pose2(e.dx(), e.dy(), e.dtheta());
-    edge.information = informationFrom(e.information());
+    edge.information = informationFromMessage(e.information());
     if (e.kind() > 2) throw std::invalid_argument(at + ": unknown edge kind " + std::to_string(e.kind()));
     edge.kind = static_cast<floor::EdgeKind>(e.kind());
     d.new_edges.push_back(edge);
@@ -62,7 +54,7 @@ building::InterGraphConstraint fromMessage(const storey_msgs::msg::InterFloorCon
   c.node_to = static_cast<int>(m.to_node());
   c.relative = geometry::Pose2(m.dx(), m.dy(), m.dtheta());
   c.dz = m.dz();
-  c.information = informationFrom(m.information());
+  c.information = informationFromMessage(m.information());
   return c;
 }
 
@@ -112,10 +104,7 @@ storey_msgs::msg::BuildingState toMessage(const building::BuildingSolution& solu
     m.dy(c.relative.y());
     m.dtheta(c.relative.theta());
     m.dz(c.dz);
-    std::array<double, 9> information{};
-    for (int r = 0; r < 3; ++r)
-      for (int k = 0; k < 3; ++k) information[r * 3 + k] = c.information(r, k);
-    m.information(information);
+    m.information(informationToMessage(c.information));
     state.constraints().push_back(m);
   }
   return state;

@@ -45,12 +45,23 @@ storey_msgs::msg::FloorGraphEdge toMessage(const floor::FloorEdge& e) {
   edge.dx(e.measurement.x());
   edge.dy(e.measurement.y());
   edge.dtheta(e.measurement.theta());
-  std::array<double, 9> info{};
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) info[r * 3 + c] = e.information(r, c);
-  edge.information(info);
+  edge.information(informationToMessage(e.information));
   edge.kind(edgeKind(e.kind));
   return edge;
+}
+
+std::array<double, 9> informationToMessage(const Eigen::Matrix3d& information) {
+  std::array<double, 9> values{};
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) values[static_cast<std::size_t>(r * 3 + c)] = information(r, c);
+  return values;
+}
+
+Eigen::Matrix3d informationFromMessage(const std::array<double, 9>& values) {
+  Eigen::Matrix3d m;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) m(r, c) = values[static_cast<std::size_t>(r * 3 + c)];
+  return m;
 }
 
 void requireFinite(double value, const std::string& field) {

@@ -3,6 +3,8 @@
 // (floor_matcher, graph_server).
 #pragma once
 
+#include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <string>
 
@@ -22,5 +24,9 @@ void requireFinite(double value, const std::string& field);
 storey_msgs::msg::FloorGraphNode toMessage(const floor::FloorNode& node, std::uint32_t graph_id);
 // An edge (measurement, information, kind) as a message.
 storey_msgs::msg::FloorGraphEdge toMessage(const floor::FloorEdge& edge);
+
+// A 3x3 information matrix over (dx, dy, dθ) as the messages carry it: row-major, 9 values.
+std::array<double, 9> informationToMessage(const Eigen::Matrix3d& information);
+Eigen::Matrix3d informationFromMessage(const std::array<double, 9>& values);
 
 }  // namespace storey::runtime
