@@ -33,6 +33,18 @@ InterFloorConstraint constraintFrom(const floor::FloorGraph& reference, int refe
   c.graph_id = graph.graph_id;
   c.node_id = node;
   c.measurement = reference.findNode(reference_node)->pose.between(t * graph.findNode(node)->pose);
+  // A room's constraint: 5 cm and 0.6 deg either way.
+  c.information = Eigen::Vector3d(400.0, 400.0, 10000.0).asDiagonal();
+  return c;
+}
+
+// The same, claiming to know little along the x axis of the reference node's frame (a
+// corridor's length): sigma `along` there.
+InterFloorConstraint corridorConstraintFrom(const floor::FloorGraph& reference, int reference_node,
+                                            const floor::FloorGraph& graph, int node, const Pose2& t,
+                                            double along) {
+  InterFloorConstraint c = constraintFrom(reference, reference_node, graph, node, t);
+  c.information(0, 0) = 1.0 / (along * along);
   return c;
 }
 
@@ -89,6 +101,35 @@ TEST(ConstraintRetraction, TheTolerancesAreTheOptions) {
   EXPECT_TRUE(constraintsToRetract(published, b.graphs, passAligning(b, b.truth1), o).empty());
 }
 
+TEST(ConstraintRetraction, AlongItsWeakDirectionAConstraintIsHeldToWhatItClaims) {
+  const Building b;
+  // Reference nodes lie along x with heading 0, so their frames' x is the graph's x.
+  // Published where the new pass places graph 1 0.45 m further along x (and 0.45 m
+  // across, for the second pair).
+  const Pose2 along = Pose2(0.45, 0.0, 0.0) * b.truth1;
+  const Pose2 across = Pose2(0.0, 0.45, 0.0) * b.truth1;
+  const std::vector<InterFloorConstraint> published{
+      corridorConstraintFrom(b.graphs[0], 3, b.graphs[1], 3, along, 0.2),   // 3 sigma: 0.6 m
+      corridorConstraintFrom(b.graphs[0], 4, b.graphs[1], 4, across, 0.2),  // across: 0.3 m
+      constraintFrom(b.graphs[0], 5, b.graphs[1], 5, along),                // a room's: 0.3 m
+      corridorConstraintFrom(b.graphs[0], 6, b.graphs[1], 6, along, 0.1)};  // 3 sigma: 0.3 m
+  const auto retract = constraintsToRetract(published, b.graphs, passAligning(b, b.truth1), {});
+  ASSERT_EQ(retract.size(), 3u);
+  EXPECT_EQ(retract[0].index, 1u);
+  EXPECT_EQ(retract[1].index, 2u);
+  EXPECT_EQ(retract[2].index, 3u);
+  EXPECT_NE(retract[2].reason.find("0.45 along the constraint's weak direction, sigma 0.10"), std::string::npos)
+      << retract[2].reason;
+  // weak_sigmas 0: the fixed limits in every direction.
+  RetractionOptions fixed;
+  fixed.weak_sigmas = 0.0;
+  EXPECT_EQ(constraintsToRetract(published, b.graphs, passAligning(b, b.truth1), fixed).size(), 4u);
+  // The growth pass's confirmation asks the same question of the pass before.
+  const GraphPlacement before = placeGraphs(b.graphs, passAligning(b, b.truth1));
+  EXPECT_EQ(placementDisagreement(published[0], b.graphs, before, {}), 0);
+  EXPECT_EQ(placementDisagreement(published[1], b.graphs, before, {}), 1);
+}
+
 TEST(ConstraintRetraction, GraphsPlacedThroughAThirdAreCompared) {
   const Building b;
   // Published: graph 2 against graph 1 directly. The new pass places both against graph 0.
@@ -143,11 +184,15 @@ TEST(ConstraintRetraction, AGraphTheNewPassDoesNotAlignKeepsItsConstraints) {
 }
 
 TEST(ConstraintRetraction, OptionsAreReadStrictly) {
-  const auto node = common::ConfigNode::loadString("{enabled: false, translation: 0.8, rotation: 0.2}", "r.yaml");
+  const auto node = common::ConfigNode::loadString(
+      "{enabled: false, translation: 0.8, rotation: 0.2, weak_sigmas: 2}", "r.yaml");
   const RetractionOptions o = readRetractionOptions(node);
   EXPECT_FALSE(o.enabled);
   EXPECT_DOUBLE_EQ(o.translation, 0.8);
   EXPECT_DOUBLE_EQ(o.rotation, 0.2);
+  EXPECT_DOUBLE_EQ(o.weak_sigmas, 2.0);
+  EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{weak_sigmas: -1}", "r.yaml")),
+               std::exception);
   EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{translaton: 0.8}", "r.yaml")),
                std::exception);
   EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{rotation: 7}", "r.yaml")), std::exception);

@@ -1,5 +1,7 @@
 #include "storey/matching/retraction.h"
 
+#include "storey/matching/constraint_judgement.h"
+
 #include <cmath>
 #include <iomanip>
 #include <map>
@@ -16,6 +18,7 @@ RetractionOptions readRetractionOptions(const common::ConfigNode& node) {
   o.enabled = node.get<bool>("enabled", o.enabled);
   o.translation = node.getDouble("translation", o.translation, 0.0, 1000.0);
   o.rotation = node.getDouble("rotation", o.rotation, 0.0, M_PI);
+  o.weak_sigmas = node.getDouble("weak_sigmas", o.weak_sigmas, 0.0, 100.0);
   node.finish();
   return o;
 }
@@ -88,17 +91,19 @@ int placementDisagreement(const InterFloorConstraint& c, const std::vector<floor
   Pose2 was;
   if (!impliedAlignment(c, graphs, &was)) return -1;  // a node the graphs do not have
   const Pose2 now = placement.frame.at(c.reference_graph_id).inverse() * placement.frame.at(c.graph_id);
-  // Compare where the two put the constrained node: a heading difference alone moves the
-  // frames' origins by a lever arm that says nothing about this constraint.
-  const Pose2 node = findGraph(graphs, c.graph_id)->findNode(c.node_id)->pose;
-  const Pose2 a = was * node, b = now * node;
-  const double moved = (a.translation() - b.translation()).norm();
-  const double turned = std::abs(geometry::angleDiff(a.theta(), b.theta()));
-  if (moved <= options.translation && turned <= options.rotation) return 0;
+  // Compare where the two put the constrained node, in its reference node's frame (where
+  // the information is): a heading difference alone moves the frames' origins by a lever
+  // arm that says nothing about this constraint.
+  const Pose2 q = findGraph(graphs, c.reference_graph_id)->findNode(c.reference_node_id)->pose;
+  const Pose2 k = findGraph(graphs, c.graph_id)->findNode(c.node_id)->pose;
+  const WrongConstraintLimits limits{options.translation, options.rotation, options.weak_sigmas};
+  const ConstraintJudgement j = judgeConstraint(q.between(now * k), c.measurement, c.information, limits);
+  if (!j.wrong) return 0;
   if (why) {
     std::ostringstream out;
     out << std::fixed << std::setprecision(2) << "the new pass places node " << c.node_id << " of graph "
-        << c.graph_id << " " << moved << " m and " << std::setprecision(1) << turned * 180.0 / M_PI
+        << c.graph_id << " " << j.translation << " m (" << j.along_weak << " along the constraint's weak direction, sigma "
+        << j.weak_sigma << ") and " << std::setprecision(1) << j.rotation * 180.0 / M_PI
         << " deg from where this constraint put it in graph " << c.reference_graph_id;
     *why = out.str();
   }

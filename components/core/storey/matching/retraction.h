@@ -28,6 +28,11 @@ struct RetractionOptions {
   // constraints 2-3 deg off standing (docs/floor_matcher.md, session 20).
   double translation = 0.3;  // m
   double rotation = 0.035;   // rad
+  // Along a constraint's weak direction (a corridor's length) the limit is this many of
+  // the sigmas its information claims, if that is more: the wrong-constraint judge's rule
+  // (constraint_judgement.h). A fixed limit withdrew right corridor constraints whose
+  // node a later pass placed 0.35-0.48 m further along the corridor.
+  double weak_sigmas = 3.0;
 };
 RetractionOptions readRetractionOptions(const common::ConfigNode& node);
 
@@ -41,7 +46,8 @@ struct GraphPlacement {
 // An accepted pair's constraints share its joint alignment, so one per pair places it.
 GraphPlacement placeGraphs(const std::vector<floor::FloorGraph>& graphs, const MatchResult& result);
 // Whether `placement` puts constraint `c`'s node (current poses in `graphs`) where `c`
-// does: 0 within the tolerances, 1 beyond them (`why` says how far), -1 when it cannot
+// does, judged in the reference node's frame by what `c`'s information claims (the
+// wrong-constraint judge with the options as its limits): 0 within them, 1 beyond them (`why` says how far), -1 when it cannot
 // tell (a graph not placed or not joined to the other, or a node `graphs` lack).
 int placementDisagreement(const InterFloorConstraint& c, const std::vector<floor::FloorGraph>& graphs,
                           const GraphPlacement& placement, const RetractionOptions& options,
