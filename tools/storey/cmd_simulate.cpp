@@ -14,6 +14,8 @@
 #include "storey/sim/ground_truth.h"
 #include "storey/sim/pictures.h"
 #include "storey/sim/simulator.h"
+#include "storey/tools/map_job.h"
+#include "storey/tools/robot_setup.h"
 #include "storey/tools/simulation_bag.h"
 
 namespace storey::cli {
@@ -42,11 +44,16 @@ int run_simulate(Args& args) {
              "  pictures/       floor_<id>.png, overlay_<a>_<b>.png, overlay_all.png\n"
              "  baseline_odometry/trajectory.csv   dead reckoning, for `storey evaluate`\n"
              "  scenario.yaml   a copy of the scenario file\n"
+             "  live/           live.yaml, a bringup that maps the bag live as a deployment does\n"
+             "                  (`storey launch DIR/live/live.yaml`, then `storey replay DIR/bag`),\n"
+             "                  with the parameters `storey map` gives these robots\n"
              "The same scenario and seed give the same output.")
       .option("output", "DIR", "output folder (must not hold a bag already)")
       .option("seed", "N", "seed of every random choice", "1")
       .option("robot", "NAMES", "simulate only these robots (comma-separated)")
       .option("max-duration", "SECONDS", "stop each robot after this long (0: whole mission)", "0")
+      .option("config", "DIR", "component parameter files for live/ (floor_detector.yaml, ...)",
+              "the shipped config/")
       .flag("no-bag", "skip the bag (ground truth and pictures only)")
       .flag("no-pictures", "skip the pictures");
   if (!args.parse()) return 0;
@@ -76,6 +83,13 @@ int run_simulate(Args& args) {
   if (!args.flagSet("no-pictures"))
     sim::writePictures(run.building, (fs::path(out) / "pictures").string());
   fs::copy_file(path, fs::path(out) / "scenario.yaml", fs::copy_options::overwrite_existing);
+  if (!args.flagSet("no-bag")) {
+    std::vector<std::string> robots;
+    for (const auto& robot : run.robots) robots.push_back(robot.name);
+    const std::string config_dir = args.has("config") ? args.get("config") : tools::defaultConfigDir();
+    tools::writeLiveBringup(config_dir, robots, tools::robotSetup(scenario), (fs::path(out) / "live").string(),
+                            (fs::path(out) / "bag").string());
+  }
 
   std::size_t scans = 0;
   double robot_time = 0.0;

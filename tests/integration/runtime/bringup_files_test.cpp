@@ -9,6 +9,9 @@
 #include "storey/catalog/all_components.h"
 #include "storey/runtime/bringup.h"
 #include "storey/runtime/runner.h"
+#include "storey/sim/scenario.h"
+#include "storey/tools/map_job.h"
+#include "storey/tools/robot_setup.h"
 #include "test_support.h"
 
 namespace storey::runtime {
@@ -35,6 +38,52 @@ TEST(ShippedBringupFiles, EveryFileReadsAndStarts) {
     }
   }
   std::printf("checked %d bringup file(s) in %s\n", files, folder.c_str());
+}
+
+// `storey simulate` writes live/live.yaml: the simulated robots' components with the
+// parameters `storey map` gives them (robot model's mapper tuning, the fleet's floors),
+// which a live run of the shipped bringup files lacked.
+TEST(SimulationLiveBringup, CarriesEachRobotsSetupAndStarts) {
+  const std::string config_dir = tools::defaultConfigDir();
+  const sim::Scenario fleet = sim::loadScenario(config_dir + "/buildings/fleet.yaml");
+  const tools::RobotSetup setup = tools::robotSetup(fleet);
+  const std::string dir = storey::test::makeTempDir("live_bringup");
+  const std::vector<std::string> robots{"robot1", "robot3"};
+  const std::string file = tools::writeLiveBringup(config_dir, robots, setup, dir + "/live", dir + "/bag");
+
+  ComponentRegistry registry;
+  catalog::registerStoreyComponents(registry);
+  Bringup bringup;
+  ASSERT_NO_THROW(bringup = readBringup(file, registry));
+  ASSERT_EQ(bringup.processes.size(), 1u);
+  std::vector<std::string> names;
+  for (const auto& c : bringup.processes[0].components) names.push_back(c.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"floor_detector_robot1", "floor_mapper_robot1", "floor_detector_robot3",
+                                             "floor_mapper_robot3", "floor_matcher", "graph_server"}));
+
+  // robot3 starts on F3, the fourth floor: its detector and mapper know it, and its mapper
+  // takes the default robot model's sensor tuning over the shipped file.
+  const auto detector = loadParameters(bringup.processes[0].components[2]);
+  EXPECT_EQ(detector.yaml()["robot"].as<std::string>(), "robot3");
+  EXPECT_EQ(detector.yaml()["detector"]["floors"]["initial_floor"].as<int>(), 3);
+  EXPECT_EQ(detector.yaml()["detector"]["floors"]["heights"].size(), setup.floor_heights.size());
+  const auto mapper = loadParameters(bringup.processes[0].components[3]);
+  EXPECT_EQ(mapper.yaml()["initial_floor"].as<int>(), 3);
+  EXPECT_DOUBLE_EQ(mapper.yaml()["initial_height"].as<double>(), setup.floor_heights[3]);
+  ASSERT_TRUE(setup.mapper_tuning.count("robot3"));
+  EXPECT_DOUBLE_EQ(mapper.yaml()["slam"]["scan_matcher"]["min_point_stddev"].as<double>(),
+                   setup.mapper_tuning.at("robot3").parameters["slam"]["scan_matcher"]["min_point_stddev"].as<double>());
+  const auto server = loadParameters(bringup.processes[0].components[5]);
+  EXPECT_EQ(server.yaml()["journal"].as<std::string>(), std::filesystem::absolute(dir + "/live/journal.bin").string());
+
+  // And it comes up with strict parameters, as a launch would bring it.
+  ContextOptions options;
+  options.domain_id = 132;
+  Context context(options);
+  ComponentGroup group(context, bringup.processes[0].components, registry);
+  EXPECT_NO_THROW(group.start());
+  group.stop();
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -22,6 +22,7 @@
 #include "storey/sim/scenario.h"
 #include "storey/sim/simulator.h"
 #include "storey/tools/replay.h"
+#include "storey/tools/robot_setup.h"
 #include "storey/tools/simulation_bag.h"
 #include "storey_msgs/msg/FloorEventPubSubTypes.h"
 
@@ -41,13 +42,15 @@ bool isYamlFile(const std::string& path) {
 }
 
 // Parameters of one component: its shipped file with this run's values set on top.
+std::string configFile(const std::string& config_dir, const std::string& kind) {
+  return (fs::path(config_dir) / (kind + ".yaml")).string();
+}
+
 common::ConfigNode componentParameters(const std::string& config_dir, const std::string& kind,
                                        const std::function<void(YAML::Node&)>& overrides) {
-  const std::string path = (fs::path(config_dir) / (kind + ".yaml")).string();
-  YAML::Node root = fs::exists(path) ? common::ConfigNode::loadFile(path).yaml() : YAML::Node(YAML::NodeType::Map);
-  YAML::Node copy = YAML::Clone(root);
-  overrides(copy);
-  return common::ConfigNode(copy, path, "");
+  YAML::Node parameters = parameterFile(config_dir, kind);
+  overrides(parameters);
+  return common::ConfigNode(parameters, configFile(config_dir, kind), "");
 }
 
 struct PreparedInput {
@@ -155,17 +158,9 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   std::vector<PreparedInput> prepared;
   std::string ground_truth_dir;
   std::vector<eval::CorridorSpec> corridors;
-  // Simulated robots: floor_mapper parameters that suit their sensors, by robot name.
-  struct MapperTuning {
-    YAML::Node parameters;
-    std::string origin;  // "file:line" of the robot model's section
-  };
-  std::map<std::string, MapperTuning> mapper_tuning;
-  // Simulated fleets: each detector numbers floors from where its robot starts, so robots
-  // starting on different floors would give one floor different ids. As a fleet operator
-  // configures it, every robot gets the building's floor heights and its start floor.
-  std::vector<double> fleet_floor_heights;
-  std::map<std::string, int> fleet_start_floor;  // robot → index into fleet_floor_heights
+  // Simulated robots: floor_mapper parameters that suit their sensors; fleets (simulated,
+  // or recorded with a robots file): floor heights and start floors.
+  RobotSetup setup;
   auto phase_start = Clock::now();
   for (std::size_t k = 0; k < inputs.size(); ++k) {
     const MapInput& input = inputs[k];
@@ -187,14 +182,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
       result.ground_truth_dir = ground_truth_dir;
       corridors = eval::readCorridors((recording / "ground_truth" / "corridors.yaml").string());
       result.scenario = scenario.name;
-      for (const auto& robot : scenario.robots)
-        if (robot.model.floor_mapper.IsMap())
-          mapper_tuning[robot.name] = {robot.model.floor_mapper, robot.model.floor_mapper_origin};
-      if (scenario.robots.size() > 1) {
-        for (const auto& f : scenario.building.floors) fleet_floor_heights.push_back(f.height);  // by height
-        for (const auto& robot : scenario.robots)
-          fleet_start_floor[robot.name] = scenario.building.floorIndex(robot.start_floor);
-      }
+      setup = robotSetup(scenario);
       p.recording = (recording / "bag").string();
     } else {
       p.recording = input.path;
@@ -224,7 +212,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   // A recorded fleet's floors: every recorded robot, and only those, with its start floor.
   if (options.robot_floors) {
     const RobotFloors& given = *options.robot_floors;
-    if (!fleet_start_floor.empty())
+    if (!setup.start_floor.empty())
       throw std::invalid_argument(given.path + ": a simulated building gives its robots' floors itself");
     for (const auto& robot : robots) {
       if (robot_input[robot]->floor)
@@ -241,9 +229,9 @@ MapJobResult runMapJob(const MapJobOptions& options) {
         throw std::invalid_argument(given.path + ": robot '" + robot + "' is not in the recordings (they hold " +
                                     recorded + ")");
       }
-      fleet_start_floor[robot] = floor;
+      setup.start_floor[robot] = floor;
     }
-    fleet_floor_heights = given.heights;
+    setup.floor_heights = given.heights;
   }
 
   // 3. The components, all in this process.
@@ -261,32 +249,18 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   for (const auto& robot : robots) {
     if (!robot_input[robot]->floor) {
       pipeline.push_back(registry.create("floor_detector", context,
-                                         componentParameters(config_dir, "floor_detector",
-                                                             [&](YAML::Node& n) {
-                                                               n["robot"] = robot;
-                                                               const auto start = fleet_start_floor.find(robot);
-                                                               if (start == fleet_start_floor.end()) return;
-                                                               YAML::Node floors = n["detector"]["floors"];
-                                                               floors["heights"] = fleet_floor_heights;
-                                                               floors["initial_floor"] = start->second;
-                                                             }),
+                                         common::ConfigNode(floorDetectorParameters(config_dir, robot, setup),
+                                                            configFile(config_dir, "floor_detector"), ""),
                                          "floor_detector_" + robot));
     }
   }
   for (const auto& robot : robots) {
-    const auto tuning = mapper_tuning.find(robot);
-    const common::ConfigNode parameters =
-        componentParameters(config_dir, "floor_mapper", [&](YAML::Node& n) {
-          if (tuning != mapper_tuning.end()) common::overlayYaml(n, tuning->second.parameters);
-          n["robot"] = robot;
-          const auto start = fleet_start_floor.find(robot);
-          if (start != fleet_start_floor.end()) {
-            n["initial_floor"] = start->second;
-            n["initial_height"] = fleet_floor_heights[static_cast<std::size_t>(start->second)];
-          }
-        });
-    pipeline.push_back(registry.create("floor_mapper", context, parameters, "floor_mapper_" + robot));
-    if (tuning != mapper_tuning.end()) {
+    pipeline.push_back(registry.create("floor_mapper", context,
+                                       common::ConfigNode(floorMapperParameters(config_dir, robot, setup),
+                                                          configFile(config_dir, "floor_mapper"), ""),
+                                       "floor_mapper_" + robot));
+    const auto tuning = setup.mapper_tuning.find(robot);
+    if (tuning != setup.mapper_tuning.end()) {
       tuned_by["floor_mapper_" + robot] = tuning->second.origin;
       say("floor_mapper of " + robot + ": parameters of its robot model's sensors from " + tuning->second.origin);
     }

@@ -1,0 +1,49 @@
+// How each robot of a building is mapped, shared by `storey map` (which runs the
+// components itself) and `storey simulate` (which writes a bringup to run them live):
+// a simulated robot model's floor_mapper parameters, tuned to its sensors, and a fleet's
+// floor heights and start floors, so that every robot numbers floors the same way.
+#pragma once
+
+#include <yaml-cpp/yaml.h>
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "storey/sim/scenario.h"
+
+namespace storey::tools {
+
+struct RobotSetup {
+  struct MapperTuning {
+    YAML::Node parameters;  // laid over the floor_mapper parameter file
+    std::string origin;     // "file:line" of the robot model's section, for messages
+  };
+  std::map<std::string, MapperTuning> mapper_tuning;  // by robot name
+  // A fleet: the building's floor heights (by index) and each robot's start floor index.
+  // Empty for one robot, whose detector numbers floors from where it starts.
+  std::vector<double> floor_heights;
+  std::map<std::string, int> start_floor;
+};
+
+// What a simulated building's robots are mapped with.
+RobotSetup robotSetup(const sim::Scenario& scenario);
+
+// The parameters of a robot's floor_detector and floor_mapper: the file `kind`.yaml of
+// `config_dir` (an empty mapping if it has none) with the robot's name and setup laid
+// over it.
+YAML::Node floorDetectorParameters(const std::string& config_dir, const std::string& robot, const RobotSetup& setup);
+YAML::Node floorMapperParameters(const std::string& config_dir, const std::string& robot, const RobotSetup& setup);
+// `config_dir`/`kind`.yaml, or an empty mapping.
+YAML::Node parameterFile(const std::string& config_dir, const std::string& kind);
+
+// `storey simulate`: writes into `dir` a bringup file, live.yaml, that runs the
+// simulated robots' components as `storey map` runs them (floor_detector and floor_mapper
+// per robot, with their setup, one floor_matcher and one graph_server journaling to
+// `dir`/journal.bin), in one process, matching while the graphs grow as a deployment
+// does, and one parameter file per component beside it; its comments say how to feed it
+// `bag`. Returns the bringup file's path.
+std::string writeLiveBringup(const std::string& config_dir, const std::vector<std::string>& robots,
+                             const RobotSetup& setup, const std::string& dir, const std::string& bag);
+
+}  // namespace storey::tools
