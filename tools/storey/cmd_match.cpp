@@ -266,7 +266,7 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
     return judged && matching::judgeConstraint(c, floors).wrong;
   };
   std::vector<matching::InterFloorConstraint> published;
-  matching::GraphPlacement previous;  // the last pass's placement (confirm)
+  matching::PlacementHistory history;  // the passes' placements (confirm)
   int total_wrong_published = 0, total_retracted = 0, total_wrong_retracted = 0, worst_wrong_standing = 0;
   for (int k = 1; k <= stages; ++k) {
     const double until = first + (last - first) * k / stages;
@@ -293,7 +293,7 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
     for (const auto& c : result.constraints) {
       // Until the last pass (a flush: the graphs are final), only what the pass before
       // placed the same way.
-      if (confirm && k < stages && matching::placementDisagreement(c, graphs, previous, retraction) != 0) {
+      if (confirm && k < stages && !history.confirms(c, graphs, retraction)) {
         ++unconfirmed;
         continue;
       }
@@ -307,7 +307,7 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
       added_wrong += wrong(c);
     }
     published = std::move(standing);
-    previous = matching::placeGraphs(graphs, result);
+    history.record(graphs, result);
     int wrong_standing = 0;
     for (const auto& c : published) wrong_standing += wrong(c);
     total_wrong_published += added_wrong;
@@ -355,7 +355,7 @@ int run_match(Args& args) {
               "match N times on the graphs as they grew (nodes up to evenly spaced times), retracting "
               "what a pass no longer stands behind, as a live matcher does (0: once, on the whole graphs)",
               "0")
-      .flag("confirm", "--stages: a pass before the last publishes only what the pass before it placed the same way")
+      .flag("confirm", "--stages: a pass before the last publishes only what an earlier pass placed the same way on retraction.confirm_growth less of the pair's smaller graph")
       .flag("quiet", "print only the summary and errors");
   if (!args.parse()) return 0;
   const std::vector<std::string>& inputs = args.positionals();

@@ -374,6 +374,41 @@ TEST(FloorMatcherComponent, GrowthPassesPublishOnlyWhatThePassBeforeConfirmed) {
   matcher.deactivate();
 }
 
+// A pass that another graph's growth triggered sees the young graph as the pass before
+// did: agreeing with it is no more evidence. Confirmation waits for a pass on
+// retraction.confirm_growth (20 %) more of the pair's smaller graph.
+TEST(FloorMatcherComponent, APassOnTheSameYoungGraphDoesNotConfirm) {
+  const TwoFloors two;
+  const auto& g0 = two.floors.graphs[0];
+  const auto& g1 = two.floors.graphs[1];
+  floor::FloorGraph g2 = g0;  // a third graph, only to trigger a pass
+  g2.graph_id = 9;
+  runtime::Context context(onDomain(165));
+  ScriptedMatcher matcher(context,
+                          "{min_nodes: 10, min_new_nodes: 1, min_growth: 0.0, match_while_growing: true, "
+                          "match_after_idle: 0}",
+                          {two.truth});
+  matcher.configure();
+  matcher.activate();
+  FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
+  graphs.publish(toUpdate(g0, 0, g0.nodes.size(), 0));
+  ASSERT_TRUE(waitUntil([&] { return matcher.stats().updates_accepted == 1; }));
+  const std::size_t half = g1.nodes.size() / 2;
+  ASSERT_GE(half, 10u);
+  graphs.publish(toUpdate(g1, 0, half, 0));
+  ASSERT_TRUE(waitUntil([&] { return matcher.stats().matchings == 1; }));
+  graphs.publish(toUpdate(g2, 0, g2.nodes.size(), 0));  // graphs 0 and 1 as they were
+  ASSERT_TRUE(waitUntil([&] { return matcher.stats().matchings == 2; }));
+  EXPECT_EQ(matcher.stats().constraints_published, 0u);
+  EXPECT_EQ(matcher.stats().constraints_unconfirmed, 6u);
+  graphs.publish(toUpdate(g1, half, g1.nodes.size(), 1));  // graph 1 doubled
+  ASSERT_TRUE(waitUntil([&] { return matcher.stats().matchings == 3; }));
+  EXPECT_EQ(matcher.stats().constraints_published, 3u);
+  EXPECT_EQ(matcher.stats().constraints_unconfirmed, 6u);
+  matcher.deactivate();
+}
+
 // What a growth pass held back is published when the input settles: by a flush, or after
 // match_after_idle without growth. Nothing is lost because no further pass came.
 TEST(FloorMatcherComponent, WhatAGrowthPassHeldBackIsPublishedWhenTheInputSettles) {

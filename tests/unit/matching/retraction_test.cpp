@@ -183,14 +183,58 @@ TEST(ConstraintRetraction, AGraphTheNewPassDoesNotAlignKeepsItsConstraints) {
   EXPECT_TRUE(constraintsToRetract(published, b.graphs, MatchResult{}, {}).empty());
 }
 
+// The graphs as they stood with `nodes` nodes each (line graphs, so earlier nodes keep
+// their poses).
+std::vector<floor::FloorGraph> prefixes(const Building& b, std::size_t nodes) {
+  std::vector<floor::FloorGraph> out = b.graphs;
+  for (auto& g : out) g.nodes.resize(nodes);
+  return out;
+}
+
+TEST(PlacementConfirmation, OnlyAPassOnLessOfTheSmallerGraphConfirms) {
+  const Building b;
+  RetractionOptions o;  // confirm_growth 0.2
+  const InterFloorConstraint c = constraintFrom(b.graphs[0], 2, b.graphs[1], 2, b.truth1);
+  PlacementHistory history;
+  EXPECT_FALSE(history.confirms(c, b.graphs, o)) << "no pass before";
+  // A pass on 8 nodes of each graph placed them the way c does.
+  const auto eight = prefixes(b, 8);
+  history.record(eight, passAligning(b, b.truth1));
+  EXPECT_FALSE(history.confirms(c, eight, o)) << "the same graphs seen again are no more evidence";
+  EXPECT_FALSE(history.confirms(c, prefixes(b, 9), o)) << "9 nodes: grown by 12.5 %";
+  EXPECT_TRUE(history.confirms(c, b.graphs, o)) << "10 nodes: grown by 25 %";
+  o.confirm_growth = 0.0;
+  EXPECT_TRUE(history.confirms(c, eight, o)) << "growth 0: the pass before confirms";
+
+  // A later pass on 9 nodes placed graph 1 3 m away: the latest pass the growth allows
+  // is the one asked, so on 10 nodes the 8-node pass still confirms (25 %), but growth 0
+  // asks the 9-node pass, which disagrees.
+  history.record(prefixes(b, 9), passAligning(b, Pose2(3.0, 0.0, 0.0) * b.truth1));
+  o.confirm_growth = 0.2;
+  EXPECT_TRUE(history.confirms(c, b.graphs, o));
+  o.confirm_growth = 0.0;
+  EXPECT_FALSE(history.confirms(c, b.graphs, o));
+  // A pass that did not join the two graphs is passed over.
+  history.record(prefixes(b, 10), MatchResult{});
+  EXPECT_FALSE(history.confirms(c, b.graphs, o));
+  o.confirm_growth = 0.2;
+  EXPECT_TRUE(history.confirms(c, b.graphs, o));
+  // Nor does a constraint on a graph the pass lacks get confirmed.
+  std::vector<floor::FloorGraph> two_only{b.graphs[0], b.graphs[2]};
+  EXPECT_FALSE(history.confirms(c, two_only, o));
+}
+
 TEST(ConstraintRetraction, OptionsAreReadStrictly) {
   const auto node = common::ConfigNode::loadString(
-      "{enabled: false, translation: 0.8, rotation: 0.2, weak_sigmas: 2}", "r.yaml");
+      "{enabled: false, translation: 0.8, rotation: 0.2, weak_sigmas: 2, confirm_growth: 0.5}", "r.yaml");
   const RetractionOptions o = readRetractionOptions(node);
   EXPECT_FALSE(o.enabled);
   EXPECT_DOUBLE_EQ(o.translation, 0.8);
   EXPECT_DOUBLE_EQ(o.rotation, 0.2);
   EXPECT_DOUBLE_EQ(o.weak_sigmas, 2.0);
+  EXPECT_DOUBLE_EQ(o.confirm_growth, 0.5);
+  EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{confirm_growth: -0.1}", "r.yaml")),
+               std::exception);
   EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{weak_sigmas: -1}", "r.yaml")),
                std::exception);
   EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{translaton: 0.8}", "r.yaml")),

@@ -2,6 +2,7 @@
 
 #include "storey/matching/constraint_judgement.h"
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <map>
@@ -19,6 +20,7 @@ RetractionOptions readRetractionOptions(const common::ConfigNode& node) {
   o.translation = node.getDouble("translation", o.translation, 0.0, 1000.0);
   o.rotation = node.getDouble("rotation", o.rotation, 0.0, M_PI);
   o.weak_sigmas = node.getDouble("weak_sigmas", o.weak_sigmas, 0.0, 100.0);
+  o.confirm_growth = node.getDouble("confirm_growth", o.confirm_growth, 0.0, 100.0);
   node.finish();
   return o;
 }
@@ -108,6 +110,29 @@ int placementDisagreement(const InterFloorConstraint& c, const std::vector<floor
     *why = out.str();
   }
   return 1;
+}
+
+void PlacementHistory::record(const std::vector<floor::FloorGraph>& graphs, const MatchResult& result) {
+  Pass pass;
+  pass.placement = placeGraphs(graphs, result);
+  for (const auto& g : graphs) pass.nodes[g.graph_id] = g.nodes.size();
+  passes_.push_back(std::move(pass));
+}
+
+bool PlacementHistory::confirms(const InterFloorConstraint& c, const std::vector<floor::FloorGraph>& graphs,
+                                const RetractionOptions& options) const {
+  const floor::FloorGraph* reference = findGraph(graphs, c.reference_graph_id);
+  const floor::FloorGraph* graph = findGraph(graphs, c.graph_id);
+  if (!reference || !graph) return false;
+  const double smaller_now = static_cast<double>(std::min(reference->nodes.size(), graph->nodes.size()));
+  for (auto pass = passes_.rbegin(); pass != passes_.rend(); ++pass) {
+    if (!pass->placement.joins(c.reference_graph_id, c.graph_id)) continue;
+    const double smaller_then =
+        static_cast<double>(std::min(pass->nodes.at(c.reference_graph_id), pass->nodes.at(c.graph_id)));
+    if (smaller_then * (1.0 + options.confirm_growth) > smaller_now) continue;
+    return placementDisagreement(c, graphs, pass->placement, options) == 0;
+  }
+  return false;
 }
 
 namespace {

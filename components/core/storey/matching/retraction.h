@@ -33,6 +33,11 @@ struct RetractionOptions {
   // (constraint_judgement.h). A fixed limit withdrew right corridor constraints whose
   // node a later pass placed 0.35-0.48 m further along the corridor.
   double weak_sigmas = 3.0;
+  // A pass on growing graphs publishes a constraint only when an earlier pass placed its
+  // two graphs the same way and the smaller of them has grown by this fraction since then.
+  // A pass that saw the same young graph again (another graph's growth triggered it) is
+  // not more evidence: its filters see the same scans in the same map.
+  double confirm_growth = 0.2;
 };
 RetractionOptions readRetractionOptions(const common::ConfigNode& node);
 
@@ -52,6 +57,26 @@ GraphPlacement placeGraphs(const std::vector<floor::FloorGraph>& graphs, const M
 int placementDisagreement(const InterFloorConstraint& c, const std::vector<floor::FloorGraph>& graphs,
                           const GraphPlacement& placement, const RetractionOptions& options,
                           std::string* why = nullptr);
+
+// The placements of the passes so far, each with the size of every graph it matched, so
+// that a later pass's constraint is confirmed against a pass that saw less of its graphs.
+class PlacementHistory {
+ public:
+  void record(const std::vector<floor::FloorGraph>& graphs, const MatchResult& result);
+  // Whether an earlier pass confirms `c` (current poses in `graphs`): the latest recorded
+  // pass that joined c's two graphs while the smaller had at most 1 / (1 + confirm_growth)
+  // of its current nodes places them within the options' limits.
+  bool confirms(const InterFloorConstraint& c, const std::vector<floor::FloorGraph>& graphs,
+                const RetractionOptions& options) const;
+  bool empty() const { return passes_.empty(); }
+
+ private:
+  struct Pass {
+    GraphPlacement placement;
+    std::map<int, std::size_t> nodes;  // graph id -> nodes the pass matched
+  };
+  std::vector<Pass> passes_;
+};
 
 struct Retraction {
   std::size_t index = 0;  // into the published constraints

@@ -257,11 +257,11 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
     const auto key =
         std::make_tuple(c.reference_graph_id, c.reference_node_id, c.graph_id, c.node_id);
     if (published_.count(key)) continue;
-    // A pass on growing graphs publishes only what the pass before placed the same way:
-    // a partial floor can look like somewhere else until the robot sees more of it.
-    const bool confirmed =
-        !options_.confirm_while_growing || settled ||
-        matching::placementDisagreement(c, graphs, previous_placement_, options_.retraction) == 0;
+    // A pass on growing graphs publishes only what an earlier pass, on less of the pair's
+    // smaller graph, placed the same way: a partial floor can look like somewhere else
+    // until the robot sees more of it.
+    const bool confirmed = !options_.confirm_while_growing || settled ||
+                           placement_history_.confirms(c, graphs, options_.retraction);
     const matching::PairResult* pair = result.pairFor(c.graph_id);
     std::uint32_t support = 0;
     double l_min = 0.0;
@@ -282,7 +282,7 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   stats_.constraints_published += out.size() - retracted;
   stats_.constraints_retracted += retracted;
   stats_.constraints_unconfirmed += unconfirmed;
-  if (matched) previous_placement_ = matching::placeGraphs(graphs, result);
+  if (matched) placement_history_.record(graphs, result);
   auto publisher = publisher_;
   lock.unlock();
   for (const auto& m : out)

@@ -128,7 +128,7 @@ class FloorMatcherComponent : public runtime::Component {
   std::uint32_t next_constraint_id_ = 0;
   bool pending_ = false;
   bool settled_ = false;  // the pending pass was asked for by a flush or idle input
-  matching::GraphPlacement previous_placement_;
+  matching::PlacementHistory placement_history_;
   std::vector<std::pair<std::tuple<int, int, int, int>, Published>> held_back_;  // by the last pass
   std::chrono::steady_clock::time_point last_update_;
   bool busy_ = false;
