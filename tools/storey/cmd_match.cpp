@@ -17,8 +17,10 @@
 #include "storey/common/log.h"
 #include "storey/eval/metrics.h"
 #include "storey/eval/trajectory.h"
+#include "storey/floor_matcher/floor_matcher_component.h"
 #include "storey/io/carmen.h"
 #include "storey/matching/floor_matcher.h"
+#include "storey/matching/growth_passes.h"
 #include "storey/matching/log_floors.h"
 #include "storey/matching/retraction.h"
 #include "storey/matching/simulated_floors.h"
@@ -227,34 +229,14 @@ void fitTruth(const std::vector<eval::PoseRow>& truth, const std::string& truth_
   }
 }
 
-// The graphs as they stood at `until`: each graph's nodes stamped no later, and the edges
-// between them. Poses stay the final ones (a live graph's were less optimised then).
-std::vector<floor::FloorGraph> graphsUntil(const std::vector<floor::FloorGraph>& graphs, double until,
-                                           std::size_t min_nodes) {
-  std::vector<floor::FloorGraph> out;
-  for (const auto& g : graphs) {
-    floor::FloorGraph prefix = g;
-    prefix.nodes.clear();
-    prefix.edges.clear();
-    std::set<int> kept;
-    for (const auto& n : g.nodes)
-      if (n.stamp <= until) {
-        prefix.nodes.push_back(n);
-        kept.insert(n.id);
-      }
-    for (const auto& e : g.edges)
-      if (kept.count(e.from) && kept.count(e.to)) prefix.edges.push_back(e);
-    if (prefix.nodes.size() >= min_nodes) out.push_back(std::move(prefix));
-  }
-  return out;
-}
-
-// Matching while the graphs grow, as a live matcher does: `stages` passes on the graphs as
-// they stood at evenly spaced times, each retracting what the pass before published and
-// it no longer stands behind. With the truth, each published and retracted constraint is
-// judged; "wrong standing" counts wrong constraints a graph server would hold after the pass.
+// Matching while the graphs grow, as a live matcher does: a pass on the graphs as they
+// stood at each of `times` (the last: the whole graphs), each retracting what the passes
+// before published and it no longer stands behind. With the truth, each published and
+// retracted constraint is judged; "wrong standing" counts wrong constraints a graph server
+// would hold after the pass.
 void matchInStages(const matching::SimulatedFloors& floors, const matching::FloorMatcherOptions& options,
-                   const matching::RetractionOptions& retraction, int stages, bool confirm) {
+                   const matching::RetractionOptions& retraction, const std::vector<double>& times,
+                   std::size_t min_nodes, bool confirm) {
   double first = std::numeric_limits<double>::infinity(), last = -first;
   for (const auto& g : floors.graphs)
     if (!g.nodes.empty()) {
@@ -268,14 +250,15 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
   std::vector<matching::InterFloorConstraint> published;
   matching::PlacementHistory history;  // the passes' placements (confirm)
   int total_wrong_published = 0, total_retracted = 0, total_wrong_retracted = 0, worst_wrong_standing = 0;
-  for (int k = 1; k <= stages; ++k) {
-    const double until = first + (last - first) * k / stages;
-    const auto graphs = graphsUntil(floors.graphs, until, 10);
-    std::cout << "stage " << k << " (t " << std::fixed << std::setprecision(1) << until - first << " s):";
+  for (std::size_t k = 0; k < times.size(); ++k) {
+    const double until = times[k];
+    const bool final_pass = k + 1 == times.size();
+    const auto graphs = matching::graphsUntil(floors.graphs, until, min_nodes);
+    std::cout << "stage " << k + 1 << " (t " << std::fixed << std::setprecision(1) << until - first << " s):";
     std::cout.unsetf(std::ios::fixed);
     for (const auto& g : graphs) std::cout << " [" << g.graph_id << "] " << g.nodes.size();
     if (graphs.size() < 2) {
-      std::cout << "  fewer than two graphs of 10 nodes: not matched\n";
+      std::cout << "  fewer than two graphs of " << min_nodes << " nodes: not matched\n";
       continue;
     }
     const matching::MatchResult result = matching::matchFloors(graphs, options);
@@ -290,10 +273,11 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
     for (std::size_t i = 0; i < published.size(); ++i)
       if (!drop[i]) standing.push_back(published[i]);
     int added = 0, added_wrong = 0, unconfirmed = 0;
+    std::vector<std::string> wrong_notes;
     for (const auto& c : result.constraints) {
       // Until the last pass (a flush: the graphs are final), only what the pass before
       // placed the same way.
-      if (confirm && k < stages && !history.confirms(c, graphs, retraction)) {
+      if (confirm && !final_pass && !matching::confirmedWhileGrowing(c, graphs, result, history, retraction)) {
         ++unconfirmed;
         continue;
       }
@@ -304,7 +288,16 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
       if (held) continue;
       standing.push_back(c);
       ++added;
-      added_wrong += wrong(c);
+      if (wrong(c)) {
+        ++added_wrong;
+        const matching::ConstraintJudgement j = matching::judgeConstraint(c, floors);
+        std::ostringstream note;
+        note << std::fixed << std::setprecision(3) << "published wrong: graph " << c.graph_id << " node "
+             << c.node_id << " -> graph " << c.reference_graph_id << " node " << c.reference_node_id << ": "
+             << j.translation << " m (" << j.along_weak << " along its weak direction, claimed sigma "
+             << j.weak_sigma << "), " << std::setprecision(2) << j.rotation * 180.0 / M_PI << " deg";
+        wrong_notes.push_back(note.str());
+      }
     }
     published = std::move(standing);
     history.record(graphs, result);
@@ -322,8 +315,9 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
                 << wrong_standing << ")";
     std::cout << "\n";
     for (const auto& r : retract) std::cout << "    retracted: " << r.reason << "\n";
+    for (const auto& note : wrong_notes) std::cout << "    " << note << "\n";
   }
-  std::cout << "stages: " << total_retracted << " retracted";
+  std::cout << "stages: " << times.size() << " passes, " << total_retracted << " retracted";
   if (judged)
     std::cout << " (" << total_wrong_retracted << " wrong); " << total_wrong_published
               << " wrong published over all stages, at most " << worst_wrong_standing << " wrong standing after a pass";
@@ -355,21 +349,23 @@ int run_match(Args& args) {
               "match N times on the graphs as they grew (nodes up to evenly spaced times), retracting "
               "what a pass no longer stands behind, as a live matcher does (0: once, on the whole graphs)",
               "0")
-      .flag("confirm", "--stages: a pass before the last publishes only what an earlier pass placed the same way on retraction.confirm_growth less of the pair's smaller graph")
+      .flag("growth-passes",
+            "match whenever a graph has grown as the floor_matcher component's trigger "
+            "(min_nodes, min_new_nodes, min_growth of --config) starts a pass, then on the whole graphs")
+      .flag("confirm", "--stages, --growth-passes: a pass before the last publishes only what an earlier pass placed the same way on retraction.confirm_growth less of one of the pair's graphs")
       .flag("quiet", "print only the summary and errors");
   if (!args.parse()) return 0;
   const std::vector<std::string>& inputs = args.positionals();
   if (inputs.empty() || inputs.size() > 2)
     throw UsageError("give a scenario .yaml or one or two logs");
 
-  matching::FloorMatcherOptions options;
-  matching::RetractionOptions retraction;
-  if (args.has("config")) {
-    const auto root = common::ConfigNode::loadFile(args.get("config"));
-    options = matching::readFloorMatcherOptions(root.child("floor_matcher"));
-    if (root.has("retraction")) retraction = matching::readRetractionOptions(root.child("retraction"));
-    root.finish();
-  }
+  // The component's parameter file: the matcher's options, retraction, and the growth
+  // trigger (--growth-passes).
+  floor_matcher::FloorMatcherComponentOptions component;
+  if (args.has("config"))
+    component = floor_matcher::readFloorMatcherComponentOptions(common::ConfigNode::loadFile(args.get("config")));
+  matching::FloorMatcherOptions options = component.matcher;
+  const matching::RetractionOptions retraction = component.retraction;
   const int stages = static_cast<int>(args.getInt("stages"));
   if (stages < 0) throw UsageError("--stages: give 0 or more");
   options.seed = static_cast<std::uint64_t>(args.getInt("seed"));
@@ -390,7 +386,7 @@ int run_match(Args& args) {
       double first = std::numeric_limits<double>::infinity();
       for (const auto& g : floors.graphs)
         if (!g.nodes.empty()) first = std::min(first, g.nodes.front().stamp);
-      floors.graphs = graphsUntil(floors.graphs, first + args.getDouble("at"), 10);
+      floors.graphs = matching::graphsUntil(floors.graphs, first + args.getDouble("at"), 10);
     }
     std::string truth_path = args.get("truth");
     if (truth_path.empty()) {
@@ -429,8 +425,22 @@ int run_match(Args& args) {
     std::cout << "  [" << g.graph_id << "] " << g.robot << " floor " << g.floor_id << " h "
               << g.floor_height << " (" << g.nodes.size() << " nodes)";
   std::cout << "\n";
-  if (stages > 0) {
-    matchInStages(floors, options, retraction, stages, args.flagSet("confirm"));
+  if (stages > 0 || args.flagSet("growth-passes")) {
+    if (stages > 0 && args.flagSet("growth-passes")) throw UsageError("give --stages or --growth-passes, not both");
+    std::vector<double> times;
+    if (stages > 0) {
+      double first = std::numeric_limits<double>::infinity(), last = -first;
+      for (const auto& g : floors.graphs)
+        if (!g.nodes.empty()) {
+          first = std::min(first, g.nodes.front().stamp);
+          last = std::max(last, g.nodes.back().stamp);
+        }
+      for (int k = 1; k <= stages; ++k) times.push_back(first + (last - first) * k / stages);
+    } else {
+      times = matching::growthPassTimes(floors.graphs, component.trigger);
+    }
+    matchInStages(floors, options, retraction, times, static_cast<std::size_t>(component.trigger.min_nodes),
+                  args.flagSet("confirm"));
     return 0;
   }
   const matching::MatchResult result = matching::matchFloors(floors.graphs, options);

@@ -376,7 +376,7 @@ TEST(FloorMatcherComponent, GrowthPassesPublishOnlyWhatThePassBeforeConfirmed) {
 
 // A pass that another graph's growth triggered sees the young graph as the pass before
 // did: agreeing with it is no more evidence. Confirmation waits for a pass on
-// retraction.confirm_growth (20 %) more of the pair's smaller graph.
+// retraction.confirm_growth (20 %) more of one of the pair's graphs.
 TEST(FloorMatcherComponent, APassOnTheSameYoungGraphDoesNotConfirm) {
   const TwoFloors two;
   const auto& g0 = two.floors.graphs[0];
@@ -430,7 +430,9 @@ TEST(FloorMatcherComponent, WhatAGrowthPassHeldBackIsPublishedWhenTheInputSettle
     graphs.publish(toUpdate(g1, 0, g1.nodes.size(), 0));
     waitUntil([&] { return matcher.stats().constraints_unconfirmed >= 3; });
     EXPECT_EQ(matcher.stats().constraints_unconfirmed, 3u) << (by_flush ? "flush" : "idle");
-    if (by_flush) EXPECT_TRUE(matcher.flush(30.0));
+    if (by_flush) {
+      EXPECT_TRUE(matcher.flush(30.0));
+    }
     waitUntil([&] { return matcher.stats().constraints_published >= 3; });
     EXPECT_EQ(matcher.stats().constraints_published, 3u) << (by_flush ? "flush" : "idle");
     EXPECT_EQ(matcher.stats().matchings, 1u) << "released without matching again";
@@ -497,7 +499,7 @@ TEST(FloorMatcherComponentOptions, UnknownKeysAreErrors) {
                common::ConfigError);
   const auto o = readFloorMatcherComponentOptions(common::ConfigNode::loadString(
       "{min_new_nodes: 7, floor_matcher: {min_constraints: 4}}", "fm.yaml"));
-  EXPECT_EQ(o.min_new_nodes, 7);
+  EXPECT_EQ(o.trigger.min_new_nodes, 7);
   EXPECT_EQ(o.matcher.min_constraints, 4);
 }
 

@@ -191,7 +191,7 @@ std::vector<floor::FloorGraph> prefixes(const Building& b, std::size_t nodes) {
   return out;
 }
 
-TEST(PlacementConfirmation, OnlyAPassOnLessOfTheSmallerGraphConfirms) {
+TEST(PlacementConfirmation, OnlyAPassOnLessOfTheGraphsConfirms) {
   const Building b;
   RetractionOptions o;  // confirm_growth 0.2
   const InterFloorConstraint c = constraintFrom(b.graphs[0], 2, b.graphs[1], 2, b.truth1);
@@ -219,20 +219,62 @@ TEST(PlacementConfirmation, OnlyAPassOnLessOfTheSmallerGraphConfirms) {
   EXPECT_FALSE(history.confirms(c, b.graphs, o));
   o.confirm_growth = 0.2;
   EXPECT_TRUE(history.confirms(c, b.graphs, o));
+  // One graph grown is enough: the reference (a finished floor's graph never grows).
+  auto reference_grown = prefixes(b, 8);
+  reference_grown[0] = b.graphs[0];
+  EXPECT_TRUE(history.confirms(c, reference_grown, o));
   // Nor does a constraint on a graph the pass lacks get confirmed.
   std::vector<floor::FloorGraph> two_only{b.graphs[0], b.graphs[2]};
   EXPECT_FALSE(history.confirms(c, two_only, o));
 }
 
+TEST(PlacementConfirmation, BothSidesAskTheAcceptedCandidatesOfTheConstraintsPair) {
+  const Building b;
+  const InterFloorConstraint c = constraintFrom(b.graphs[0], 2, b.graphs[1], 2, b.truth1);
+  MatchResult r = passAligning(b, b.truth1);
+  auto candidate = [](bool reversed, CandidateStatus status) {
+    Candidate k;
+    k.reversed = reversed;
+    k.status = status;
+    return k;
+  };
+  PairResult& pair = r.pairs[0];
+  pair.candidates = {candidate(false, CandidateStatus::kAccepted), candidate(true, CandidateStatus::kOutlier)};
+  EXPECT_FALSE(pairSeenFromBothSides(c, r)) << "the reversed one is an outlier";
+  // Another pair's reversed inlier does not count for this one.
+  PairResult other;
+  other.reference_graph_id = 0;
+  other.graph_id = 2;
+  other.candidates = {candidate(true, CandidateStatus::kAccepted)};
+  r.pairs.push_back(other);
+  EXPECT_FALSE(pairSeenFromBothSides(c, r));
+  r.pairs[0].candidates.push_back(candidate(true, CandidateStatus::kAccepted));
+  EXPECT_TRUE(pairSeenFromBothSides(c, r));
+
+  // confirmedWhileGrowing: the history, and both sides when asked for.
+  PlacementHistory history;
+  history.record(prefixes(b, 8), passAligning(b, b.truth1));
+  RetractionOptions o;
+  o.confirm_both_sides = true;
+  EXPECT_TRUE(confirmedWhileGrowing(c, b.graphs, r, history, o));
+  EXPECT_FALSE(confirmedWhileGrowing(c, prefixes(b, 8), r, history, o)) << "no growth";
+  const MatchResult one_side = passAligning(b, b.truth1);
+  EXPECT_FALSE(confirmedWhileGrowing(c, b.graphs, one_side, history, o));
+  o.confirm_both_sides = false;
+  EXPECT_TRUE(confirmedWhileGrowing(c, b.graphs, one_side, history, o));
+}
+
 TEST(ConstraintRetraction, OptionsAreReadStrictly) {
   const auto node = common::ConfigNode::loadString(
-      "{enabled: false, translation: 0.8, rotation: 0.2, weak_sigmas: 2, confirm_growth: 0.5}", "r.yaml");
+      "{enabled: false, translation: 0.8, rotation: 0.2, weak_sigmas: 2, confirm_growth: 0.5, "
+      "confirm_both_sides: true}", "r.yaml");
   const RetractionOptions o = readRetractionOptions(node);
   EXPECT_FALSE(o.enabled);
   EXPECT_DOUBLE_EQ(o.translation, 0.8);
   EXPECT_DOUBLE_EQ(o.rotation, 0.2);
   EXPECT_DOUBLE_EQ(o.weak_sigmas, 2.0);
   EXPECT_DOUBLE_EQ(o.confirm_growth, 0.5);
+  EXPECT_TRUE(o.confirm_both_sides);
   EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{confirm_growth: -0.1}", "r.yaml")),
                std::exception);
   EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{weak_sigmas: -1}", "r.yaml")),

@@ -2,7 +2,6 @@
 
 #include "storey/matching/constraint_judgement.h"
 
-#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <map>
@@ -21,6 +20,7 @@ RetractionOptions readRetractionOptions(const common::ConfigNode& node) {
   o.rotation = node.getDouble("rotation", o.rotation, 0.0, M_PI);
   o.weak_sigmas = node.getDouble("weak_sigmas", o.weak_sigmas, 0.0, 100.0);
   o.confirm_growth = node.getDouble("confirm_growth", o.confirm_growth, 0.0, 100.0);
+  o.confirm_both_sides = node.get<bool>("confirm_both_sides", o.confirm_both_sides);
   node.finish();
   return o;
 }
@@ -124,15 +124,33 @@ bool PlacementHistory::confirms(const InterFloorConstraint& c, const std::vector
   const floor::FloorGraph* reference = findGraph(graphs, c.reference_graph_id);
   const floor::FloorGraph* graph = findGraph(graphs, c.graph_id);
   if (!reference || !graph) return false;
-  const double smaller_now = static_cast<double>(std::min(reference->nodes.size(), graph->nodes.size()));
+  auto grown = [&](const Pass& pass, const floor::FloorGraph& g) {
+    return static_cast<double>(pass.nodes.at(g.graph_id)) * (1.0 + options.confirm_growth) <=
+           static_cast<double>(g.nodes.size());
+  };
   for (auto pass = passes_.rbegin(); pass != passes_.rend(); ++pass) {
     if (!pass->placement.joins(c.reference_graph_id, c.graph_id)) continue;
-    const double smaller_then =
-        static_cast<double>(std::min(pass->nodes.at(c.reference_graph_id), pass->nodes.at(c.graph_id)));
-    if (smaller_then * (1.0 + options.confirm_growth) > smaller_now) continue;
+    if (!grown(*pass, *reference) && !grown(*pass, *graph)) continue;
     return placementDisagreement(c, graphs, pass->placement, options) == 0;
   }
   return false;
+}
+
+bool pairSeenFromBothSides(const InterFloorConstraint& c, const MatchResult& result) {
+  bool forward = false, reversed = false;
+  for (const auto& p : result.pairs) {
+    if (p.graph_id != c.graph_id || p.reference_graph_id != c.reference_graph_id) continue;
+    for (const auto& cand : p.candidates)
+      if (cand.status == CandidateStatus::kAccepted) (cand.reversed ? reversed : forward) = true;
+  }
+  return forward && reversed;
+}
+
+bool confirmedWhileGrowing(const InterFloorConstraint& c, const std::vector<floor::FloorGraph>& graphs,
+                           const MatchResult& result, const PlacementHistory& history,
+                           const RetractionOptions& options) {
+  if (options.confirm_both_sides && !pairSeenFromBothSides(c, result)) return false;
+  return history.confirms(c, graphs, options);
 }
 
 namespace {

@@ -34,10 +34,15 @@ struct RetractionOptions {
   // node a later pass placed 0.35-0.48 m further along the corridor.
   double weak_sigmas = 3.0;
   // A pass on growing graphs publishes a constraint only when an earlier pass placed its
-  // two graphs the same way and the smaller of them has grown by this fraction since then.
-  // A pass that saw the same young graph again (another graph's growth triggered it) is
-  // not more evidence: its filters see the same scans in the same map.
+  // two graphs the same way and one of them has grown by this fraction since then. A pass
+  // that saw the same two graphs again (a third graph's growth triggered it) is no more
+  // evidence: its filters see the same scans in the same map.
   double confirm_growth = 0.2;
+  // ...and only when the pass's accepted candidates for the pair include scans of each
+  // graph localised in the other's map. A young graph's small map lets another floor's
+  // scans fit a local look-alike (a corridor's dead end at a lift) while its own scans,
+  // in the other's whole map, do not agree.
+  bool confirm_both_sides = false;
 };
 RetractionOptions readRetractionOptions(const common::ConfigNode& node);
 
@@ -64,8 +69,10 @@ class PlacementHistory {
  public:
   void record(const std::vector<floor::FloorGraph>& graphs, const MatchResult& result);
   // Whether an earlier pass confirms `c` (current poses in `graphs`): the latest recorded
-  // pass that joined c's two graphs while the smaller had at most 1 / (1 + confirm_growth)
-  // of its current nodes places them within the options' limits.
+  // pass that joined c's two graphs while one of them had at most 1 / (1 + confirm_growth)
+  // of its current nodes places them within the options' limits. (Either graph: a young
+  // graph that stays the same size but matches the same place in a grown reference has
+  // passed a harder test; and a finished floor's graph never grows.)
   bool confirms(const InterFloorConstraint& c, const std::vector<floor::FloorGraph>& graphs,
                 const RetractionOptions& options) const;
   bool empty() const { return passes_.empty(); }
@@ -77,6 +84,16 @@ class PlacementHistory {
   };
   std::vector<Pass> passes_;
 };
+
+// Whether the pass's accepted candidates for c's pair include both directions: c's graph's
+// scans in its reference's map and the reference's scans in c's graph's map.
+bool pairSeenFromBothSides(const InterFloorConstraint& c, const MatchResult& result);
+
+// Whether a pass on growing graphs may publish `c` from `result`: `history` confirms it,
+// and (confirm_both_sides) the pass saw its pair from both sides.
+bool confirmedWhileGrowing(const InterFloorConstraint& c, const std::vector<floor::FloorGraph>& graphs,
+                           const MatchResult& result, const PlacementHistory& history,
+                           const RetractionOptions& options);
 
 struct Retraction {
   std::size_t index = 0;  // into the published constraints

@@ -18,10 +18,10 @@ FloorMatcherComponentOptions readFloorMatcherComponentOptions(const common::Conf
   o.floor_graph_topic = node.get<std::string>("floor_graph_topic", o.floor_graph_topic);
   o.constraint_topic = node.get<std::string>("constraint_topic", o.constraint_topic);
   o.building_state_topic = node.get<std::string>("building_state_topic", o.building_state_topic);
-  o.min_new_nodes = node.getInt("min_new_nodes", o.min_new_nodes, 1, 1000000);
-  o.min_growth = node.getDouble("min_growth", o.min_growth, 0.0, 100.0);
+  o.trigger.min_new_nodes = node.getInt("min_new_nodes", o.trigger.min_new_nodes, 1, 1000000);
+  o.trigger.min_growth = node.getDouble("min_growth", o.trigger.min_growth, 0.0, 100.0);
   o.match_while_growing = node.get<bool>("match_while_growing", o.match_while_growing);
-  o.min_nodes = node.getInt("min_nodes", o.min_nodes, 1, 1000000);
+  o.trigger.min_nodes = node.getInt("min_nodes", o.trigger.min_nodes, 1, 1000000);
   o.match_after_idle = node.getDouble("match_after_idle", o.match_after_idle, 0.0, 3600.0);
   o.confirm_while_growing = node.get<bool>("confirm_while_growing", o.confirm_while_growing);
   // The same section `storey match --config` reads, so one file serves both.
@@ -57,7 +57,7 @@ void FloorMatcherComponent::onConfigure() {
 bool FloorMatcherComponent::grewSinceMatched() const {
   for (const auto& [id, g] : graphs_) {
     auto it = matched_size_.find(id);
-    if (g.nodes.size() >= static_cast<std::size_t>(options_.min_nodes) &&
+    if (g.nodes.size() >= static_cast<std::size_t>(options_.trigger.min_nodes) &&
         (it == matched_size_.end() || it->second != g.nodes.size()))
       return true;
   }
@@ -129,13 +129,9 @@ FloorMatcherStats FloorMatcherComponent::stats() const {
 }
 
 bool FloorMatcherComponent::grewEnough(const floor::FloorGraph& g) const {
-  const std::size_t now = g.nodes.size();
-  if (now < static_cast<std::size_t>(options_.min_nodes)) return false;
-  auto it = matched_size_.find(g.graph_id);
-  if (it == matched_size_.end()) return true;
-  const std::size_t before = it->second;
-  return now >= before + static_cast<std::size_t>(options_.min_new_nodes) &&
-         static_cast<double>(now) >= (1.0 + options_.min_growth) * static_cast<double>(before);
+  const auto it = matched_size_.find(g.graph_id);
+  return matching::grewEnoughToMatch(g.nodes.size(), it == matched_size_.end() ? nullptr : &it->second,
+                                     options_.trigger);
 }
 
 void FloorMatcherComponent::onUpdate(const storey_msgs::msg::FloorGraphUpdate& message) {
@@ -224,10 +220,10 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   settled_ = false;
   std::vector<floor::FloorGraph> graphs;
   for (const auto& [id, g] : graphs_)
-    if (g.nodes.size() >= static_cast<std::size_t>(options_.min_nodes)) graphs.push_back(g);
+    if (g.nodes.size() >= static_cast<std::size_t>(options_.trigger.min_nodes)) graphs.push_back(g);
   for (const auto& g : graphs) matched_size_[g.graph_id] = g.nodes.size();
   if (graphs.size() < 2) {
-    logInfo(str(name(), ": matched ", graphs.size(), " floor graphs: fewer than two have ", options_.min_nodes,
+    logInfo(str(name(), ": matched ", graphs.size(), " floor graphs: fewer than two have ", options_.trigger.min_nodes,
                 " nodes"));
     return;
   }
@@ -261,7 +257,7 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
     // smaller graph, placed the same way: a partial floor can look like somewhere else
     // until the robot sees more of it.
     const bool confirmed = !options_.confirm_while_growing || settled ||
-                           placement_history_.confirms(c, graphs, options_.retraction);
+                           matching::confirmedWhileGrowing(c, graphs, result, placement_history_, options_.retraction);
     const matching::PairResult* pair = result.pairFor(c.graph_id);
     std::uint32_t support = 0;
     double l_min = 0.0;

@@ -20,6 +20,7 @@
 #include "storey/common/config.h"
 #include "storey/floor/floor_graph.h"
 #include "storey/matching/floor_matcher.h"
+#include "storey/matching/growth_passes.h"
 #include "storey/matching/retraction.h"
 #include "storey/runtime/component.h"
 #include "storey_msgs/msg/BuildingStatePubSubTypes.h"
@@ -34,10 +35,10 @@ struct FloorMatcherComponentOptions {
   // The graph server's state lists the constraints it holds: a restarted matcher adopts
   // those it did not publish itself, so a later pass can withdraw them too.
   std::string building_state_topic = "storey/building_state";
-  // Re-match when a graph is new or has grown by `min_new_nodes` nodes and by
-  // `min_growth` (fraction of its size at the last matching).
-  int min_new_nodes = 20;
-  double min_growth = 0.2;
+  // Re-match when a graph of `min_nodes` or more is new or has grown by `min_new_nodes`
+  // nodes and by `min_growth` (fraction of its size at the last matching): keys
+  // min_nodes, min_new_nodes, min_growth.
+  matching::GrowthTrigger trigger;
   // false: match only when flushed (storey map), so the result does not depend on when
   // updates arrived while the worker was busy.
   bool match_while_growing = true;
@@ -50,7 +51,6 @@ struct FloorMatcherComponentOptions {
   // match_after_idle, or a flush) publish all they accept. Partial floors mislead: see
   // docs/floor_matcher.md, "Matching while the graphs grow".
   bool confirm_while_growing = true;
-  int min_nodes = 10;  // graphs smaller than this are not matched yet
   matching::FloorMatcherOptions matcher;
   matching::RetractionOptions retraction;  // under `retraction:`
 };
