@@ -245,6 +245,24 @@ class ScriptedMatcher : public FloorMatcherComponent {
   std::size_t passes_ = 0;
 };
 
+// A scripted matcher that matches at every update of a graph, active, with a publisher of
+// floor-graph updates, discovered.
+struct GrowingScriptedMatcher {
+  GrowingScriptedMatcher(runtime::Context& context, std::vector<geometry::Pose2> alignments)
+      : matcher(context,
+                "{min_nodes: 10, min_new_nodes: 1, min_growth: 0.0, match_while_growing: true, "
+                "match_after_idle: 0}",
+                std::move(alignments)),
+        graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph) {
+    matcher.configure();
+    matcher.activate();
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
+  }
+  ~GrowingScriptedMatcher() { matcher.deactivate(); }
+  ScriptedMatcher matcher;
+  FloorGraphPublisher graphs;
+};
+
 // small2 (seed 5) as two floor graphs, graph 1's true placement in graph 0's frame, and a
 // wrong one a room along.
 struct TwoFloors {
@@ -335,14 +353,9 @@ TEST(FloorMatcherComponent, GrowthPassesPublishOnlyWhatThePassBeforeConfirmed) {
   ReceivedConstraints constraints(context);
   std::mutex& mutex = constraints.mutex;
   std::vector<storey_msgs::msg::InterFloorConstraint>& received = constraints.messages;
-  ScriptedMatcher matcher(context,
-                          "{min_nodes: 10, min_new_nodes: 1, min_growth: 0.0, match_while_growing: true, "
-                          "match_after_idle: 0}",
-                          {wrong, truth});
-  matcher.configure();
-  matcher.activate();
-  FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
+  GrowingScriptedMatcher running(context, {wrong, truth});
+  ScriptedMatcher& matcher = running.matcher;
+  FloorGraphPublisher& graphs = running.graphs;
   // Three growth passes: graph 1 in thirds (the first with graph 0 whole).
   graphs.publish(toUpdate(g0, 0, g0.nodes.size(), 0));
   ASSERT_TRUE(waitUntil([&] { return matcher.stats().updates_accepted == 1; }));
@@ -371,7 +384,6 @@ TEST(FloorMatcherComponent, GrowthPassesPublishOnlyWhatThePassBeforeConfirmed) {
     std::lock_guard<std::mutex> lock(mutex);
     for (const auto& m : received) EXPECT_FALSE(m.retracted());
   }
-  matcher.deactivate();
 }
 
 // A pass that another graph's growth triggered sees the young graph as the pass before
@@ -384,14 +396,9 @@ TEST(FloorMatcherComponent, APassOnTheSameYoungGraphDoesNotConfirm) {
   floor::FloorGraph g2 = g0;  // a third graph, only to trigger a pass
   g2.graph_id = 9;
   runtime::Context context(onDomain(165));
-  ScriptedMatcher matcher(context,
-                          "{min_nodes: 10, min_new_nodes: 1, min_growth: 0.0, match_while_growing: true, "
-                          "match_after_idle: 0}",
-                          {two.truth});
-  matcher.configure();
-  matcher.activate();
-  FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
+  GrowingScriptedMatcher running(context, {two.truth});
+  ScriptedMatcher& matcher = running.matcher;
+  FloorGraphPublisher& graphs = running.graphs;
   graphs.publish(toUpdate(g0, 0, g0.nodes.size(), 0));
   ASSERT_TRUE(waitUntil([&] { return matcher.stats().updates_accepted == 1; }));
   const std::size_t half = g1.nodes.size() / 2;
@@ -406,7 +413,6 @@ TEST(FloorMatcherComponent, APassOnTheSameYoungGraphDoesNotConfirm) {
   ASSERT_TRUE(waitUntil([&] { return matcher.stats().matchings == 3; }));
   EXPECT_EQ(matcher.stats().constraints_published, 3u);
   EXPECT_EQ(matcher.stats().constraints_unconfirmed, 6u);
-  matcher.deactivate();
 }
 
 // What a growth pass held back is published when the input settles: by a flush, or after
