@@ -274,10 +274,11 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
       if (!drop[i]) standing.push_back(published[i]);
     int added = 0, added_wrong = 0, unconfirmed = 0;
     std::vector<std::string> wrong_notes;
+    const matching::GrowthPassConfirmation confirmation(graphs, result, history, retraction);
     for (const auto& c : result.constraints) {
-      // Until the last pass (a flush: the graphs are final), only what the pass before
-      // placed the same way.
-      if (confirm && !final_pass && !matching::confirmedWhileGrowing(c, graphs, result, history, retraction)) {
+      // Until the last pass (a flush: the graphs are final), only what the component's
+      // growth passes publish.
+      if (confirm && !final_pass && !confirmation.confirms(c)) {
         ++unconfirmed;
         continue;
       }
@@ -316,6 +317,9 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
     std::cout << "\n";
     for (const auto& r : retract) std::cout << "    retracted: " << r.reason << "\n";
     for (const auto& note : wrong_notes) std::cout << "    " << note << "\n";
+    if (confirm && !final_pass)
+      for (const auto& [graph, why] : confirmation.atOddsWithTransits())
+        std::cout << "    held back for graph " << graph << ": " << why << "\n";
   }
   std::cout << "stages: " << times.size() << " passes, " << total_retracted << " retracted";
   if (judged)

@@ -1,6 +1,8 @@
 // Which published constraints a new matching pass retracts (storey::matching::constraintsToRetract).
 #include <gtest/gtest.h>
 
+#include <tuple>
+
 #include "storey/common/config.h"
 #include "storey/matching/retraction.h"
 
@@ -251,23 +253,75 @@ TEST(PlacementConfirmation, BothSidesAskTheAcceptedCandidatesOfTheConstraintsPai
   r.pairs[0].candidates.push_back(candidate(true, CandidateStatus::kAccepted));
   EXPECT_TRUE(pairSeenFromBothSides(c, r));
 
-  // confirmedWhileGrowing: the history, and both sides when asked for.
+  // The growth pass's confirmation: the history, and both sides when asked for.
   PlacementHistory history;
   history.record(prefixes(b, 8), passAligning(b, b.truth1));
   RetractionOptions o;
   o.confirm_both_sides = true;
-  EXPECT_TRUE(confirmedWhileGrowing(c, b.graphs, r, history, o));
-  EXPECT_FALSE(confirmedWhileGrowing(c, prefixes(b, 8), r, history, o)) << "no growth";
+  EXPECT_TRUE(GrowthPassConfirmation(b.graphs, r, history, o).confirms(c));
+  const auto eight = prefixes(b, 8);
+  EXPECT_FALSE(GrowthPassConfirmation(eight, r, history, o).confirms(c)) << "no growth";
   const MatchResult one_side = passAligning(b, b.truth1);
-  EXPECT_FALSE(confirmedWhileGrowing(c, b.graphs, one_side, history, o));
+  EXPECT_FALSE(GrowthPassConfirmation(b.graphs, one_side, history, o).confirms(c));
   o.confirm_both_sides = false;
-  EXPECT_TRUE(confirmedWhileGrowing(c, b.graphs, one_side, history, o));
+  EXPECT_TRUE(GrowthPassConfirmation(b.graphs, one_side, history, o).confirms(c));
+}
+
+// `g` driven by `robot`, its nodes stamped one a second from `first`.
+floor::FloorGraph stamped(floor::FloorGraph g, const std::string& robot, double first) {
+  g.robot = robot;
+  for (std::size_t i = 0; i < g.nodes.size(); ++i) g.nodes[i].stamp = first + static_cast<double>(i);
+  return g;
+}
+
+TEST(TransitLinks, AreWhereOneRobotsNodesChangeGraph) {
+  std::vector<floor::FloorGraph> graphs{stamped(lineGraph(0, 10), "r", 0.0), stamped(lineGraph(1, 10), "r", 10.0),
+                                        stamped(lineGraph(2, 10), "s", 5.0)};
+  floor::FloorNode back;  // robot r returns to graph 0
+  back.id = 10;
+  back.stamp = 20.0;
+  graphs[0].nodes.push_back(back);
+  const auto links = transitLinks(graphs);
+  ASSERT_EQ(links.size(), 2u) << "robot s never changed floor; r did twice";
+  EXPECT_EQ(std::make_tuple(links[0].from_graph, links[0].from_node, links[0].to_graph, links[0].to_node),
+            std::make_tuple(0, 9, 1, 0));
+  EXPECT_EQ(std::make_tuple(links[1].from_graph, links[1].from_node, links[1].to_graph, links[1].to_node),
+            std::make_tuple(1, 9, 0, 10));
+}
+
+TEST(PlacementConfirmation, APlacementThatTearsAFloorChangeApartIsHeldBack) {
+  Building b;
+  b.graphs[0] = stamped(b.graphs[0], "r", 0.0);   // node 9 at (9, 0)...
+  b.graphs[1] = stamped(b.graphs[1], "r", 10.0);  // ...then node 0, by truth1 at (0.5, -0.2): 8.5 m on
+  b.graphs[2] = stamped(b.graphs[2], "s", 0.0);
+  const Pose2 far = Pose2(30.0, 0.0, 0.0) * b.truth1;  // a look-alike 30 m along
+  for (const bool is_far : {false, true}) {
+    const Pose2 t = is_far ? far : b.truth1;
+    const MatchResult pass = passAligning(b, t);
+    PlacementHistory history;
+    history.record(prefixes(b, 8), pass);  // an earlier pass placed graph 1 the same way
+    const InterFloorConstraint c = constraintFrom(b.graphs[0], 2, b.graphs[1], 2, t);
+    RetractionOptions o;  // radius 15 m
+    const GrowthPassConfirmation confirmation(b.graphs, pass, history, o);
+    if (!is_far) {
+      EXPECT_TRUE(confirmation.confirms(c));
+      EXPECT_TRUE(confirmation.atOddsWithTransits().empty());
+      continue;
+    }
+    EXPECT_FALSE(confirmation.confirms(c)) << "21.5 m apart";
+    ASSERT_EQ(confirmation.atOddsWithTransits().count(1), 1u);
+    EXPECT_NE(confirmation.atOddsWithTransits().at(1).find("21.5 m apart"), std::string::npos);
+    o.confirm_transit_radius = 25.0;
+    EXPECT_TRUE(GrowthPassConfirmation(b.graphs, pass, history, o).confirms(c));
+    o.confirm_transit_radius = 0.0;  // off
+    EXPECT_TRUE(GrowthPassConfirmation(b.graphs, pass, history, o).confirms(c));
+  }
 }
 
 TEST(ConstraintRetraction, OptionsAreReadStrictly) {
   const auto node = common::ConfigNode::loadString(
       "{enabled: false, translation: 0.8, rotation: 0.2, weak_sigmas: 2, confirm_growth: 0.5, "
-      "confirm_both_sides: true}", "r.yaml");
+      "confirm_both_sides: true, confirm_transit_radius: 7}", "r.yaml");
   const RetractionOptions o = readRetractionOptions(node);
   EXPECT_FALSE(o.enabled);
   EXPECT_DOUBLE_EQ(o.translation, 0.8);
@@ -275,6 +329,7 @@ TEST(ConstraintRetraction, OptionsAreReadStrictly) {
   EXPECT_DOUBLE_EQ(o.weak_sigmas, 2.0);
   EXPECT_DOUBLE_EQ(o.confirm_growth, 0.5);
   EXPECT_TRUE(o.confirm_both_sides);
+  EXPECT_DOUBLE_EQ(o.confirm_transit_radius, 7.0);
   EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{confirm_growth: -0.1}", "r.yaml")),
                std::exception);
   EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{weak_sigmas: -1}", "r.yaml")),

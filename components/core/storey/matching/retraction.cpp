@@ -2,11 +2,13 @@
 
 #include "storey/matching/constraint_judgement.h"
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <map>
 #include <queue>
 #include <set>
+#include <tuple>
 #include <sstream>
 
 namespace storey::matching {
@@ -21,6 +23,7 @@ RetractionOptions readRetractionOptions(const common::ConfigNode& node) {
   o.weak_sigmas = node.getDouble("weak_sigmas", o.weak_sigmas, 0.0, 100.0);
   o.confirm_growth = node.getDouble("confirm_growth", o.confirm_growth, 0.0, 100.0);
   o.confirm_both_sides = node.get<bool>("confirm_both_sides", o.confirm_both_sides);
+  o.confirm_transit_radius = node.getDouble("confirm_transit_radius", o.confirm_transit_radius, 0.0, 10000.0);
   node.finish();
   return o;
 }
@@ -146,11 +149,47 @@ bool pairSeenFromBothSides(const InterFloorConstraint& c, const MatchResult& res
   return forward && reversed;
 }
 
-bool confirmedWhileGrowing(const InterFloorConstraint& c, const std::vector<floor::FloorGraph>& graphs,
-                           const MatchResult& result, const PlacementHistory& history,
-                           const RetractionOptions& options) {
-  if (options.confirm_both_sides && !pairSeenFromBothSides(c, result)) return false;
-  return history.confirms(c, graphs, options);
+std::vector<TransitLink> transitLinks(const std::vector<floor::FloorGraph>& graphs) {
+  std::map<std::string, std::vector<std::tuple<double, int, int>>> by_robot;  // (stamp, graph, node)
+  for (const auto& g : graphs)
+    for (const auto& n : g.nodes) by_robot[g.robot].emplace_back(n.stamp, g.graph_id, n.id);
+  std::vector<TransitLink> links;
+  for (auto& [robot, nodes] : by_robot) {
+    std::sort(nodes.begin(), nodes.end());
+    for (std::size_t i = 1; i < nodes.size(); ++i) {
+      const auto& [t0, g0, n0] = nodes[i - 1];
+      const auto& [t1, g1, n1] = nodes[i];
+      if (g0 != g1) links.push_back({g0, n0, g1, n1});
+    }
+  }
+  return links;
+}
+
+GrowthPassConfirmation::GrowthPassConfirmation(const std::vector<floor::FloorGraph>& graphs,
+                                               const MatchResult& result, const PlacementHistory& history,
+                                               const RetractionOptions& options)
+    : graphs_(graphs), result_(result), history_(history), options_(options) {
+  if (options.confirm_transit_radius <= 0.0) return;
+  const GraphPlacement placement = placeGraphs(graphs, result);
+  for (const TransitLink& link : transitLinks(graphs)) {
+    if (!placement.joins(link.from_graph, link.to_graph)) continue;
+    const Pose2 a = placement.frame.at(link.from_graph) * findGraph(graphs, link.from_graph)->findNode(link.from_node)->pose;
+    const Pose2 b = placement.frame.at(link.to_graph) * findGraph(graphs, link.to_graph)->findNode(link.to_node)->pose;
+    const double apart = (a.translation() - b.translation()).norm();
+    if (apart <= options.confirm_transit_radius) continue;
+    std::ostringstream why;
+    why << std::fixed << std::setprecision(1) << "the pass puts the floor change from graph " << link.from_graph
+        << " (node " << link.from_node << ") to graph " << link.to_graph << " (node " << link.to_node << ") " << apart
+        << " m apart";
+    at_odds_.emplace(link.from_graph, why.str());
+    at_odds_.emplace(link.to_graph, why.str());
+  }
+}
+
+bool GrowthPassConfirmation::confirms(const InterFloorConstraint& c) const {
+  if (options_.confirm_both_sides && !pairSeenFromBothSides(c, result_)) return false;
+  if (at_odds_.count(c.graph_id) || at_odds_.count(c.reference_graph_id)) return false;
+  return history_.confirms(c, graphs_, options_);
 }
 
 namespace {

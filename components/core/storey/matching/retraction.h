@@ -43,6 +43,12 @@ struct RetractionOptions {
   // scans fit a local look-alike (a corridor's dead end at a lift) while its own scans,
   // in the other's whole map, do not agree.
   bool confirm_both_sides = false;
+  // > 0: ...and only when the pass's placement keeps each robot's floor changes together:
+  // the last node before a change (lift or stairs) and the first after it, in two graphs
+  // the pass joins, at most this far apart (m). A lift leaves a robot where it entered, a
+  // stairwell a few metres on; a young graph that fits a look-alike corridor end 50 m
+  // away does not. 0: off.
+  double confirm_transit_radius = 15.0;
 };
 RetractionOptions readRetractionOptions(const common::ConfigNode& node);
 
@@ -89,11 +95,32 @@ class PlacementHistory {
 // scans in its reference's map and the reference's scans in c's graph's map.
 bool pairSeenFromBothSides(const InterFloorConstraint& c, const MatchResult& result);
 
-// Whether a pass on growing graphs may publish `c` from `result`: `history` confirms it,
-// and (confirm_both_sides) the pass saw its pair from both sides.
-bool confirmedWhileGrowing(const InterFloorConstraint& c, const std::vector<floor::FloorGraph>& graphs,
-                           const MatchResult& result, const PlacementHistory& history,
-                           const RetractionOptions& options);
+// Where one robot changed floor graphs: its last node in one graph and its next node, in
+// the other (node stamps; the floor graphs of one robot and floor are one graph).
+struct TransitLink {
+  int from_graph = 0, from_node = 0;
+  int to_graph = 0, to_node = 0;
+};
+std::vector<TransitLink> transitLinks(const std::vector<floor::FloorGraph>& graphs);
+
+// What a pass on growing graphs may publish: a constraint that `history` confirms,
+// (confirm_both_sides) whose pair the pass saw from both sides, and (confirm_transit_radius)
+// whose graphs the pass places with their transit links' ends within the radius.
+class GrowthPassConfirmation {
+ public:
+  GrowthPassConfirmation(const std::vector<floor::FloorGraph>& graphs, const MatchResult& result,
+                         const PlacementHistory& history, const RetractionOptions& options);
+  bool confirms(const InterFloorConstraint& c) const;
+  // Graphs the pass places at odds with a transit link, with why.
+  const std::map<int, std::string>& atOddsWithTransits() const { return at_odds_; }
+
+ private:
+  const std::vector<floor::FloorGraph>& graphs_;
+  const MatchResult& result_;
+  const PlacementHistory& history_;
+  RetractionOptions options_;
+  std::map<int, std::string> at_odds_;
+};
 
 struct Retraction {
   std::size_t index = 0;  // into the published constraints

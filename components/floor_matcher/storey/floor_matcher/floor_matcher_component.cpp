@@ -249,15 +249,15 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   const std::size_t retracted = out.size();
   std::size_t unconfirmed = 0;
   held_back_.clear();  // this pass's verdict replaces the last one's
+  const matching::GrowthPassConfirmation confirmation(graphs, result, placement_history_, options_.retraction);
   for (const auto& c : result.constraints) {
     const auto key =
         std::make_tuple(c.reference_graph_id, c.reference_node_id, c.graph_id, c.node_id);
     if (published_.count(key)) continue;
     // A pass on growing graphs publishes only what an earlier pass, on less of the pair's
-    // smaller graph, placed the same way: a partial floor can look like somewhere else
-    // until the robot sees more of it.
-    const bool confirmed = !options_.confirm_while_growing || settled ||
-                           matching::confirmedWhileGrowing(c, graphs, result, placement_history_, options_.retraction);
+    // graphs, placed the same way (and where the robots' floor changes allow): a partial
+    // floor can look like somewhere else until the robot sees more of it.
+    const bool confirmed = !options_.confirm_while_growing || settled || confirmation.confirms(c);
     const matching::PairResult* pair = result.pairFor(c.graph_id);
     std::uint32_t support = 0;
     double l_min = 0.0;
