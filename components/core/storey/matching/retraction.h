@@ -63,8 +63,9 @@ struct GraphPlacement {
 GraphPlacement placeGraphs(const std::vector<floor::FloorGraph>& graphs, const MatchResult& result);
 // Whether `placement` puts constraint `c`'s node (current poses in `graphs`) where `c`
 // does, judged in the reference node's frame by what `c`'s information claims (the
-// wrong-constraint judge with the options as its limits): 0 within them, 1 beyond them (`why` says how far), -1 when it cannot
-// tell (a graph not placed or not joined to the other, or a node `graphs` lack).
+// wrong-constraint judge with the options as its limits): 0 within them, 1 beyond them
+// (`why` says how far), -1 when it cannot tell (a graph not placed or not joined to the
+// other, or a node `graphs` lack).
 int placementDisagreement(const InterFloorConstraint& c, const std::vector<floor::FloorGraph>& graphs,
                           const GraphPlacement& placement, const RetractionOptions& options,
                           std::string* why = nullptr);

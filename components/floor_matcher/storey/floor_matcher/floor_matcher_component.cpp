@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <set>
+#include <string>
 #include <vector>
 
 #include "storey/common/log.h"
@@ -250,6 +252,9 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   std::size_t unconfirmed = 0;
   held_back_.clear();  // this pass's verdict replaces the last one's
   const matching::GrowthPassConfirmation confirmation(graphs, result, placement_history_, options_.retraction);
+  std::set<std::string> held_back_notes;  // why graphs' constraints wait, once each
+  if (options_.confirm_while_growing && !settled)
+    for (const auto& [graph, why] : confirmation.atOddsWithTransits()) held_back_notes.insert(why);
   for (const auto& c : result.constraints) {
     const auto key =
         std::make_tuple(c.reference_graph_id, c.reference_node_id, c.graph_id, c.node_id);
@@ -284,6 +289,7 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   for (const auto& m : out)
     if (publisher) publisher->publish(m);
   for (const auto& why : retraction_notes) logInfo(str(name(), ": retracted a constraint: ", why));
+  for (const auto& why : held_back_notes) logInfo(str(name(), ": held back: ", why));
   // Logged every time: a deployment's operator (and the fault tests) see when it ran.
   logInfo(str(name(), ": matched ", graphs.size(), " floor graphs: ", result.constraints.size(),
               " constraints, ", out.size() - retracted, " new, published, ", retracted, " retracted, ", unconfirmed,
