@@ -237,12 +237,7 @@ void fitTruth(const std::vector<eval::PoseRow>& truth, const std::string& truth_
 void matchInStages(const matching::SimulatedFloors& floors, const matching::FloorMatcherOptions& options,
                    const matching::RetractionOptions& retraction, const std::vector<double>& times,
                    std::size_t min_nodes, bool confirm) {
-  double first = std::numeric_limits<double>::infinity(), last = -first;
-  for (const auto& g : floors.graphs)
-    if (!g.nodes.empty()) {
-      first = std::min(first, g.nodes.front().stamp);
-      last = std::max(last, g.nodes.back().stamp);
-    }
+  const double first = matching::nodeStampSpan(floors.graphs).first;
   const bool judged = floors.frames.size() == floors.graphs.size();
   auto wrong = [&](const matching::InterFloorConstraint& c) {
     return judged && matching::judgeConstraint(c, floors).wrong;
@@ -387,9 +382,7 @@ int run_match(Args& args) {
   } else if (inputs.size() == 1 && endsWith(inputs[0], ".bin")) {
     floors.graphs = journalFloorGraphs(inputs[0]);
     if (args.has("at") && !args.get("at").empty()) {
-      double first = std::numeric_limits<double>::infinity();
-      for (const auto& g : floors.graphs)
-        if (!g.nodes.empty()) first = std::min(first, g.nodes.front().stamp);
+      const double first = matching::nodeStampSpan(floors.graphs).first;
       floors.graphs = matching::graphsUntil(floors.graphs, first + args.getDouble("at"), 10);
     }
     std::string truth_path = args.get("truth");
@@ -433,12 +426,7 @@ int run_match(Args& args) {
     if (stages > 0 && args.flagSet("growth-passes")) throw UsageError("give --stages or --growth-passes, not both");
     std::vector<double> times;
     if (stages > 0) {
-      double first = std::numeric_limits<double>::infinity(), last = -first;
-      for (const auto& g : floors.graphs)
-        if (!g.nodes.empty()) {
-          first = std::min(first, g.nodes.front().stamp);
-          last = std::max(last, g.nodes.back().stamp);
-        }
+      const auto [first, last] = matching::nodeStampSpan(floors.graphs);
       for (int k = 1; k <= stages; ++k) times.push_back(first + (last - first) * k / stages);
     } else {
       times = matching::growthPassTimes(floors.graphs, component.trigger);

@@ -67,5 +67,11 @@ TEST(GrowthPasses, TheGraphsAsTheyStoodKeepTheirEarlierNodesAndEdges) {
   EXPECT_EQ(graphsUntil(graphs, 105.0, 5).size(), 2u);
 }
 
+TEST(GrowthPasses, TheStampSpanCoversEveryGraphsNodes) {
+  const std::vector<floor::FloorGraph> graphs{graphStamped(0, 50, 0.0), graphStamped(1, 35, 100.0)};
+  EXPECT_EQ(nodeStampSpan(graphs), std::make_pair(0.0, 134.0));
+  EXPECT_GT(nodeStampSpan({}).first, nodeStampSpan({}).second) << "no node: an empty span";
+}
+
 }  // namespace
 }  // namespace storey::matching

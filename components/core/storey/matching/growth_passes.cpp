@@ -1,6 +1,7 @@
 #include "storey/matching/growth_passes.h"
 
 #include <algorithm>
+#include <limits>
 #include <map>
 #include <set>
 #include <utility>
@@ -32,6 +33,16 @@ std::vector<floor::FloorGraph> graphsUntil(const std::vector<floor::FloorGraph>&
     if (prefix.nodes.size() >= min_nodes) out.push_back(std::move(prefix));
   }
   return out;
+}
+
+std::pair<double, double> nodeStampSpan(const std::vector<floor::FloorGraph>& graphs) {
+  double first = std::numeric_limits<double>::infinity(), last = -first;
+  for (const auto& g : graphs)
+    for (const auto& n : g.nodes) {
+      first = std::min(first, n.stamp);
+      last = std::max(last, n.stamp);
+    }
+  return {first, last};
 }
 
 std::vector<double> growthPassTimes(const std::vector<floor::FloorGraph>& graphs, const GrowthTrigger& trigger) {

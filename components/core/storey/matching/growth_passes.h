@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <utility>
 #include <vector>
 
 #include "storey/floor/floor_graph.h"
@@ -24,6 +25,9 @@ bool grewEnoughToMatch(std::size_t nodes, const std::size_t* matched_before, con
 // between them, poses the final ones; graphs with fewer than `min_nodes` are left out.
 std::vector<floor::FloorGraph> graphsUntil(const std::vector<floor::FloorGraph>& graphs, double until,
                                            std::size_t min_nodes);
+
+// The first and last node stamps of all graphs (+inf, -inf when they have no node).
+std::pair<double, double> nodeStampSpan(const std::vector<floor::FloorGraph>& graphs);
 
 // The stamps at which a matcher with `trigger` starts passes as the graphs' nodes arrive in
 // stamp order (each pass instant: a live matcher busy with one pass starts fewer), and the

@@ -8,8 +8,8 @@
 #include <map>
 #include <queue>
 #include <set>
-#include <tuple>
 #include <sstream>
+#include <tuple>
 
 namespace storey::matching {
 

@@ -82,7 +82,6 @@ class PlacementHistory {
   // passed a harder test; and a finished floor's graph never grows.)
   bool confirms(const InterFloorConstraint& c, const std::vector<floor::FloorGraph>& graphs,
                 const RetractionOptions& options) const;
-  bool empty() const { return passes_.empty(); }
 
  private:
   struct Pass {

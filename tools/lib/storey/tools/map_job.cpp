@@ -42,15 +42,11 @@ bool isYamlFile(const std::string& path) {
 }
 
 // Parameters of one component: its shipped file with this run's values set on top.
-std::string configFile(const std::string& config_dir, const std::string& kind) {
-  return (fs::path(config_dir) / (kind + ".yaml")).string();
-}
-
 common::ConfigNode componentParameters(const std::string& config_dir, const std::string& kind,
                                        const std::function<void(YAML::Node&)>& overrides) {
   YAML::Node parameters = parameterFile(config_dir, kind);
   overrides(parameters);
-  return common::ConfigNode(parameters, configFile(config_dir, kind), "");
+  return common::ConfigNode(parameters, parameterFilePath(config_dir, kind), "");
 }
 
 struct PreparedInput {
@@ -250,14 +246,14 @@ MapJobResult runMapJob(const MapJobOptions& options) {
     if (!robot_input[robot]->floor) {
       pipeline.push_back(registry.create("floor_detector", context,
                                          common::ConfigNode(floorDetectorParameters(config_dir, robot, setup),
-                                                            configFile(config_dir, "floor_detector"), ""),
+                                                            parameterFilePath(config_dir, "floor_detector"), ""),
                                          "floor_detector_" + robot));
     }
   }
   for (const auto& robot : robots) {
     pipeline.push_back(registry.create("floor_mapper", context,
                                        common::ConfigNode(floorMapperParameters(config_dir, robot, setup),
-                                                          configFile(config_dir, "floor_mapper"), ""),
+                                                          parameterFilePath(config_dir, "floor_mapper"), ""),
                                        "floor_mapper_" + robot));
     const auto tuning = setup.mapper_tuning.find(robot);
     if (tuning != setup.mapper_tuning.end()) {

@@ -23,8 +23,12 @@ RobotSetup robotSetup(const sim::Scenario& scenario) {
   return setup;
 }
 
+std::string parameterFilePath(const std::string& config_dir, const std::string& kind) {
+  return (fs::path(config_dir) / (kind + ".yaml")).string();
+}
+
 YAML::Node parameterFile(const std::string& config_dir, const std::string& kind) {
-  const std::string path = (fs::path(config_dir) / (kind + ".yaml")).string();
+  const std::string path = parameterFilePath(config_dir, kind);
   if (!fs::exists(path)) return YAML::Node(YAML::NodeType::Map);
   return YAML::Clone(common::ConfigNode::loadFile(path).yaml());
 }

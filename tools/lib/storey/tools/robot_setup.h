@@ -34,7 +34,8 @@ RobotSetup robotSetup(const sim::Scenario& scenario);
 // over it.
 YAML::Node floorDetectorParameters(const std::string& config_dir, const std::string& robot, const RobotSetup& setup);
 YAML::Node floorMapperParameters(const std::string& config_dir, const std::string& robot, const RobotSetup& setup);
-// `config_dir`/`kind`.yaml, or an empty mapping.
+// `config_dir`/`kind`.yaml (its path, and its contents or an empty mapping).
+std::string parameterFilePath(const std::string& config_dir, const std::string& kind);
 YAML::Node parameterFile(const std::string& config_dir, const std::string& kind);
 
 // `storey simulate`: writes into `dir` a bringup file, live.yaml, that runs the
