@@ -533,6 +533,77 @@ TEST(SolidWalls, AWallTheFloorsOwnBeamsPassedIsNotSolid) {
   EXPECT_GT(seeThroughFraction(f, walls, g, {{3, 3}}, 90, Pose2(1.0, 0.0, 0.0), 0.3), 0.9);
 }
 
+// A corridor 36 m long with a row of identical rooms every 6 m on its north side: locally
+// periodic, but its end walls tell the rooms apart.
+test::Walls periodicRowFloor() {
+  test::Walls w;
+  test::addWall(&w, 0, 0, 36, 0);
+  test::addWall(&w, 0, 0, 0, 2.5);
+  test::addWall(&w, 36, 0, 36, 2.5);
+  double from = 0.0;
+  for (int k = 0; k < 6; ++k) {
+    const double door = 6.0 * k + 3.0;  // a 1 m door in the middle of each room
+    test::addWall(&w, from, 2.5, door - 0.5, 2.5);
+    from = door + 0.5;
+    test::addWall(&w, door - 2.0, 2.5, door - 2.0, 6.5);
+    test::addWall(&w, door + 2.0, 2.5, door + 2.0, 6.5);
+    test::addWall(&w, door - 2.0, 6.5, door + 2.0, 6.5);
+  }
+  test::addWall(&w, from, 2.5, 36, 2.5);
+  return w;
+}
+
+TEST(SameFloorContradiction, TwoRobotsGraphsOfOneFloorAreNotPlacedRoomsApart) {
+  // Robot A maps the west end (rooms at 3 and 9 m), robot B the east end (rooms at 27 and
+  // 33 m): they share no structure, but B's graph shifted 6, 12, 18 or 24 m west puts one
+  // or both of its rooms on A's.
+  const test::Walls walls = periodicRowFloor();
+  const std::vector<Eigen::Vector2d> west{{1.5, 1.25}, {9, 1.25}, {9, 4.5}, {9, 1.25},
+                                          {3, 1.25},   {3, 4.5},  {3, 1.25}};
+  const std::vector<Eigen::Vector2d> east{{34.5, 1.25}, {27, 1.25}, {27, 4.5}, {27, 1.25},
+                                          {33, 1.25},   {33, 4.5},  {33, 1.25}};
+  const Pose2 frame_a(2.0, -1.0, 0.3), frame_b(-5.0, 4.0, -1.1);
+  test::DriveOptions drive;
+  drive.range_max = 40.0;  // a building-scale laser sees the corridor's far end
+  floor::FloorGraph a = driveFloor(walls, west, frame_a, 0, 0.0, 21, drive);
+  floor::FloorGraph b = driveFloor(walls, east, frame_b, 1, 0.0, 22, drive);
+  a.floor_id = b.floor_id = 2;
+  const FloorMatcherOptions o = fastOptions();
+  const PreparedFloor prepared_a = prepareFloor(a, o), prepared_b = prepareFloor(b, o);
+  const Pose2 truth = frame_a.inverse() * frame_b;  // B's frame in A's
+  EXPECT_EQ(sameFloorContradiction(prepared_a, prepared_b, truth, o), "");
+  EXPECT_EQ(sameFloorContradiction(prepared_b, prepared_a, truth.inverse(), o), "");
+  for (double shift : {-6.0, -12.0, -18.0, -24.0}) {
+    const Pose2 rooms_apart = frame_a.inverse() * Pose2(shift, 0.0, 0.0) * frame_b;
+    const std::string why = sameFloorContradiction(prepared_a, prepared_b, rooms_apart, o);
+    EXPECT_NE(why.find("are of floor 2"), std::string::npos) << shift << " m: " << why;
+    EXPECT_NE(sameFloorContradiction(prepared_b, prepared_a, rooms_apart.inverse(), o), "")
+        << shift << " m";
+  }
+  // Without the check, the matcher places B 18 m west (its room at 27 m on A's at 9 m);
+  // with it, that alignment is contradicted and no constraint is made.
+  FloorMatcherOptions off = o;
+  off.same_floor_see_through = 1.0;
+  const MatchResult unchecked = matchFloors({a, b}, off);
+  ASSERT_FALSE(unchecked.constraints.empty());
+  const PairResult* placed = unchecked.pairFor(1);
+  ASSERT_NE(placed, nullptr);
+  EXPECT_GT(
+      translationError(placed->alignment * b.nodes.front().pose, truth * b.nodes.front().pose),
+      5.0);
+  const MatchResult checked = matchFloors({a, b}, o);
+  std::ostringstream report;
+  printMatchReport(report, checked);
+  EXPECT_TRUE(checked.constraints.empty()) << report.str();
+  EXPECT_NE(report.str().find("contradicted"), std::string::npos) << report.str();
+  // Different floors may differ in their walls: the check does not apply to them.
+  b.floor_id = 3;
+  const PreparedFloor other_floor = prepareFloor(b, o);
+  EXPECT_EQ(sameFloorContradiction(prepared_a, other_floor,
+                                   frame_a.inverse() * Pose2(-18.0, 0.0, 0.0) * frame_b, o),
+            "");
+}
+
 TEST(ParticleFilter, WallModelLowersExactlyTheParticlesWhoseBeamsCrossWalls) {
   const auto g = driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 3);
   const LocalizationMap map(floor::renderFloorMap(g, {}), {});

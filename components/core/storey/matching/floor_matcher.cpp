@@ -71,6 +71,10 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
   o.match_both_directions = node.get<bool>("match_both_directions", o.match_both_directions);
   o.backwards_sequences = node.get<bool>("backwards_sequences", o.backwards_sequences);
   o.wall_recheck = node.getDouble("wall_recheck", o.wall_recheck, 0.0, 1.0);
+  o.same_floor_see_through =
+      node.getDouble("same_floor_see_through", o.same_floor_see_through, 0.0, 1.0);
+  o.same_floor_through_beams =
+      node.getInt("same_floor_through_beams", o.same_floor_through_beams, 1, 10000);
   o.wall_beams = node.getInt("wall_beams", o.wall_beams, 1, 10000);
   o.wall_recheck_max = node.getInt("wall_recheck_max", o.wall_recheck_max, 0, 1000000);
   o.wall_log_p = node.getDouble("wall_log_p", o.wall_log_p, -100.0, 0.0);
@@ -96,6 +100,8 @@ const char* candidateStatusName(CandidateStatus status) {
       return "ambiguous";
     case CandidateStatus::kUnderconstrained:
       return "underconstrained";
+    case CandidateStatus::kContradicted:
+      return "contradicted";
   }
   return "unknown";
 }
@@ -111,6 +117,9 @@ const PairResult* MatchResult::pairFor(int graph_id) const {
 }
 
 namespace {
+
+// Metres before its endpoint a beam may cross a wall: it may end just past the wall it hit.
+constexpr double kWallMargin = 0.3;
 
 // Deterministic per-job seeds, independent of thread scheduling.
 std::uint64_t mixSeed(std::uint64_t seed, std::uint64_t a, std::uint64_t b) {
@@ -471,6 +480,20 @@ double seeThroughFraction(const grid::GridFrame& f, const std::vector<std::uint8
   return total ? static_cast<double>(through) / static_cast<double>(total) : 0.0;
 }
 
+double seeThroughScanFraction(const grid::GridFrame& f, const std::vector<std::uint8_t>& walls,
+                              const floor::FloorGraph& graph, int beams, const Pose2& alignment,
+                              int min_beams) {
+  if (graph.nodes.empty()) return 0.0;
+  int seeing = 0;
+  for (int n = 0; n < static_cast<int>(graph.nodes.size()); ++n) {
+    const double through =
+        seeThroughFraction(f, walls, graph, {{n, n}}, beams, alignment, kWallMargin);
+    const std::size_t traced = selectBeams(graph.nodes[n].scan, beams).size();
+    seeing += through * static_cast<double>(traced) >= static_cast<double>(min_beams) - 0.5;
+  }
+  return static_cast<double>(seeing) / static_cast<double>(graph.nodes.size());
+}
+
 void PreparedFloor::computeWalls(const FloorMatcherOptions& options) const {
   std::call_once(walls_->once, [&] {
     walls_->cells = solidWalls(map->field(), *graph, options.refine_beams);
@@ -646,9 +669,9 @@ int recheckWalls(const PreparedFloor& map_floor, const PreparedFloor& scans_floo
   const int kp = backwards ? count - 1 - c->node_index : c->node_index;
   const int mp_before = backwards ? count - 1 - c->first_index : c->last_index;
   if (c->status != CandidateStatus::kOutlier) return mp_before;
-  c->see_through =
-      seeThroughFraction(map_floor.map->frame(), map_floor.walls(o), g,
-                         {{c->first_index, c->last_index}}, o.refine_beams, c->alignment, 0.3);
+  c->see_through = seeThroughFraction(map_floor.map->frame(), map_floor.walls(o), g,
+                                      {{c->first_index, c->last_index}}, o.refine_beams,
+                                      c->alignment, kWallMargin);
   if (c->see_through <= o.wall_recheck) return mp_before;
   if (counters->wall_rechecks >= o.wall_recheck_max) {
     // Unrelated floors give many candidates that see through walls; each recheck is a
@@ -662,7 +685,7 @@ int recheckWalls(const PreparedFloor& map_floor, const PreparedFloor& scans_floo
   ++counters->wall_rechecks;
   ParticleFilter filter(*map_floor.map, o.filter,
                         seed ^ (0x3A11ULL + 977ULL * static_cast<std::uint64_t>(kp)));
-  filter.setWallModel(&map_floor.wallModel(o), o.wall_beams, o.wall_log_p, 0.3);
+  filter.setWallModel(&map_floor.wallModel(o), o.wall_beams, o.wall_log_p, kWallMargin);
   filter.initializeUniform();
   const SequenceRun run = runSequence(&filter, g, at, kp, o);
   *evaluations += filter.beamEvaluations();
@@ -674,9 +697,9 @@ int recheckWalls(const PreparedFloor& map_floor, const PreparedFloor& scans_floo
     return mp_before;
   }
   *c = makeCandidate(map_floor, scans_floor, l_min, o, backwards, at, kp, run);
-  c->see_through =
-      seeThroughFraction(map_floor.map->frame(), map_floor.walls(o), g,
-                         {{c->first_index, c->last_index}}, o.refine_beams, c->alignment, 0.3);
+  c->see_through = seeThroughFraction(map_floor.map->frame(), map_floor.walls(o), g,
+                                      {{c->first_index, c->last_index}}, o.refine_beams,
+                                      c->alignment, kWallMargin);
   c->reason = common::str("re-localised with the wall model (the first estimate saw through ",
                           first_through, " of beams)", c->reason.empty() ? "" : "; ", c->reason);
   return std::max(mp_before, run.mp);
@@ -874,6 +897,16 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
             ? combineAlignments(forward, scanCount(ranges), backward, scanCount(reversed_ranges))
             : (use_forward ? forward : backward);
     result.alignment = joint;
+    const floor::FloorGraph& ref = *reference.graph;
+    const std::string contradiction = sameFloorContradiction(reference, floor_data, joint, o);
+    if (!contradiction.empty()) {
+      result.accepted = false;
+      result.contradicted = true;
+      result.reason = common::str("contradicted: ", best.size(), " consistent of ", pool.size(),
+                                  " gated candidates, but ", contradiction);
+      markAll(best, CandidateStatus::kContradicted, result.reason);
+      return;
+    }
     // Each accepted constraint is re-expressed through the joint alignment, which fits
     // every inlier's scans at once: one candidate's own refinement may be off by a few
     // tenths of a degree more than RANSAC's tolerance lets through. Not a reversed one:
@@ -881,7 +914,6 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
     // measurement, while the joint alignment places that node by g_i's whole graph (a
     // graph bent by 0.7 degrees along featureless's 127 m corridor put such constraints
     // 0.3-0.4 m off across it).
-    const floor::FloorGraph& ref = *reference.graph;
     for (std::size_t i : best) {
       Candidate& c = result.candidates[i];
       // With the distortion allowance on, any accepted candidate the joint alignment does
@@ -955,6 +987,7 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
     }
     for (const Candidate& r : back) result.candidates.push_back(reverseCandidate(r, ref, g));
     result.ambiguous = false;
+    result.contradicted = false;
     result.set_alignments.clear();
     decideConsistentSet(reference, floor_data, o, &rng, &result);
     result.sequences += reverse.sequences;
@@ -967,6 +1000,32 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
 }
 
 }  // namespace
+
+// Two graphs of one floor (one floor id: two robots', or a floor mapped again after a
+// failed relocalisation) were built from the same walls, so at the right alignment
+// neither graph's beams pass through the other's solid walls. A young graph placed a few
+// rooms along a periodic row fits there locally, but its beams down the corridor then
+// cross the other graph's end walls (and the other's beams its own). Empty when
+// `alignment` (g_i's frame in g_ref's) is consistent, else what contradicts it.
+std::string sameFloorContradiction(const PreparedFloor& reference, const PreparedFloor& floor_data,
+                                   const Pose2& alignment, const FloorMatcherOptions& o) {
+  const floor::FloorGraph& ref = *reference.graph;
+  const floor::FloorGraph& g = *floor_data.graph;
+  if (o.same_floor_see_through >= 1.0 || ref.graph_id == g.graph_id || ref.floor_id != g.floor_id ||
+      ref.nodes.empty() || g.nodes.empty())
+    return {};
+  const double g_in_ref =
+      seeThroughScanFraction(reference.map->frame(), reference.walls(o), g, o.refine_beams,
+                             alignment, o.same_floor_through_beams);
+  const double ref_in_g =
+      seeThroughScanFraction(floor_data.map->frame(), floor_data.walls(o), ref, o.refine_beams,
+                             alignment.inverse(), o.same_floor_through_beams);
+  if (std::min(g_in_ref, ref_in_g) <= o.same_floor_see_through) return {};
+  return common::str("graphs ", g.graph_id, " and ", ref.graph_id, " are of floor ", g.floor_id,
+                     ", and ", g_in_ref, " of ", g.graph_id, "'s scans see through ", ref.graph_id,
+                     "'s walls, ", ref_in_g, " the other way (at most ", o.same_floor_see_through,
+                     ")");
+}
 
 PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_data,
                      const FloorMatcherOptions& o, std::uint64_t seed) {
@@ -1178,8 +1237,18 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
       add(3, t_r * refinedOnScans(floor_data, r_graph, ranges[3], o, mean_in_r.inverse()).inverse());
   }
   const Pose2 joint = refined.empty() ? mean : meanAlignment(refined, weights);
-  out.alignment = joint;
   const Pose2 joint_in_r = t_r.inverse() * joint;
+  std::string contradiction = sameFloorContradiction(reference, floor_data, joint, o);
+  if (contradiction.empty())
+    contradiction = sameFloorContradiction(aligned, floor_data, joint_in_r, o);
+  if (!contradiction.empty()) {
+    out.accepted = false;
+    out.contradicted = true;
+    out.reason = common::str("with ", via_name, " (aligned): contradicted: ", contradiction);
+    markAll(best, CandidateStatus::kContradicted, out.reason);
+    return out;
+  }
+  out.alignment = joint;
   for (std::size_t i : best) {
     Candidate& c = out.candidates[i];
     const bool via_r = i >= first_via;
@@ -1299,6 +1368,10 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
   parallelFor(static_cast<int>(failed.size()), o.threads, [&](int j) {
     const int i = failed[j];
     const PairResult& before = *primary.at(i);
+    // A graph that another graph of its floor contradicts where its scans fit best is
+    // locally periodic (a young graph in a row of rooms): a map of another floor, whose
+    // walls cannot be checked so, would place it as wrongly. It waits for more of itself.
+    if (before.contradicted) return;
     std::vector<int> refs;
     for (int r : order)
       if (r != ref && r != i && graphs[r].floor_id == graphs[i].floor_id) refs.push_back(r);
@@ -1340,7 +1413,7 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
                                   prepared[r], prepared[i], o, seedFor(r, i) ^ 0xC0B1ULL);
         retries[j].push_back(std::move(both));
       }
-      if (retries[j].back().accepted) break;
+      if (retries[j].back().accepted || retries[j].back().contradicted) break;
     }
   });
   for (auto& p : first) result.pairs.push_back(std::move(p));

@@ -159,19 +159,32 @@ struct FloorMatcherOptions {
   int wall_beams = 12;
   int wall_recheck_max = 8;  // rechecks per pair (glass3 uses 0-4); past it, such are dropped
   double wall_log_p = -10.0;
+  // Two graphs of one floor id see the same walls: a pair's accepted alignment is
+  // rejected (kContradicted) when more than this fraction of each graph's scans see
+  // through the other's solid walls, a scan seeing through when `same_floor_through_beams`
+  // of its beams (refine_beams traced) cross one 0.3 m or more before their endpoint. A
+  // periodic row of rooms fits a young graph several rooms along, but there each graph's
+  // scans down the corridor see through the other's end walls. Both ways: at the right
+  // alignment one graph's scans may see through the other's walls where the two saw the
+  // floor differently (a door open for one robot and shut for the other; fleet seed 1's
+  // right F2 pair: 9-11 % of one graph's scans, none the other way). 1 turns it off.
+  double same_floor_see_through = 0.1;
+  int same_floor_through_beams = 3;
   int threads = 2;
   std::uint64_t seed = 1;
 };
 FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node);
 
 enum class CandidateStatus {
-  kAccepted,       // RANSAC inlier of an accepted floor
-  kLowLikelihood,  // l_t < l_min
-  kPoorFit,        // refinement moved too far or fit too low
-  kOutlier,        // not in the largest consistent set
-  kTooFew,         // the largest consistent set is below min_constraints
-  kAmbiguous,      // two disjoint consistent sets (symmetric floor)
+  kAccepted,          // RANSAC inlier of an accepted floor
+  kLowLikelihood,     // l_t < l_min
+  kPoorFit,           // refinement moved too far or fit too low
+  kOutlier,           // not in the largest consistent set
+  kTooFew,            // the largest consistent set is below min_constraints
+  kAmbiguous,         // two disjoint consistent sets (symmetric floor)
   kUnderconstrained,  // its scans do not pin one direction (max_weak_sigma)
+  kContradicted,      // its set places two graphs of one floor so that one sees through the
+                      // other's walls (same_floor_see_through)
 };
 const char* candidateStatusName(CandidateStatus status);
 
@@ -235,6 +248,9 @@ struct PairResult {
   bool accepted = false;
   bool ambiguous = false;  // two disjoint consistent sets: the floor's structure repeats
   std::vector<geometry::Pose2> set_alignments;  // when ambiguous: each set's alignment
+  // Its set placed two graphs of one floor where they see through each other's walls
+  // (same_floor_see_through): the graph tries no other this pass.
+  bool contradicted = false;
   std::string reason;                           // why not accepted (or "accepted")
   geometry::Pose2 alignment;                    // T_i from all inliers jointly (when accepted)
   double l_min = 0.0;
@@ -378,6 +394,22 @@ double seeThroughFraction(const grid::GridFrame& f, const std::vector<std::uint8
                           const floor::FloorGraph& graph,
                           const std::vector<std::pair<int, int>>& ranges, int beams,
                           const geometry::Pose2& alignment, double margin);
+
+// Two graphs of one floor id see the same walls (FloorMatcherOptions::same_floor_see_through):
+// empty unless `alignment` (floor's frame in reference's) lets more than
+// same_floor_see_through of each graph's scans see through the other's solid walls, else
+// what contradicts it. Graphs of different floor ids, or a
+// graph with itself, are never contradicted.
+std::string sameFloorContradiction(const PreparedFloor& reference, const PreparedFloor& floor,
+                                   const geometry::Pose2& alignment,
+                                   const FloorMatcherOptions& options);
+
+// Fraction of `graph`'s scans (up to `beams` traced each, placed at alignment * pose) of
+// which at least `min_beams` beams cross a cell of `walls` (over frame `f`) 0.3 m or more
+// before their endpoint.
+double seeThroughScanFraction(const grid::GridFrame& f, const std::vector<std::uint8_t>& walls,
+                              const floor::FloorGraph& graph, int beams,
+                              const geometry::Pose2& alignment, int min_beams);
 
 // The candidate-by-candidate provenance table.
 void printMatchReport(std::ostream& out, const MatchResult& result);
