@@ -604,6 +604,79 @@ TEST(SameFloorContradiction, TwoRobotsGraphsOfOneFloorAreNotPlacedRoomsApart) {
             "");
 }
 
+// A pass that placed each of two graphs of one floor through a third graph: one accepted
+// pair each, with one constraint that puts the graph where `alignment` says.
+PairResult placedThrough(const floor::FloorGraph& reference, const floor::FloorGraph& g,
+                         const Pose2& alignment) {
+  PairResult p;
+  p.reference_graph_id = reference.graph_id;
+  p.graph_id = g.graph_id;
+  p.accepted = true;
+  p.alignment = alignment;
+  Candidate c;
+  c.reference_graph_id = reference.graph_id;
+  c.graph_id = g.graph_id;
+  c.node_index = 0;
+  c.node_id = g.nodes.front().id;
+  c.reference_node_id = reference.nodes.front().id;
+  c.measurement = reference.nodes.front().pose.between(alignment * g.nodes.front().pose);
+  c.alignment = alignment;
+  c.status = CandidateStatus::kAccepted;
+  p.candidates.push_back(c);
+  return p;
+}
+
+TEST(SameFloorContradiction, GraphsOfOneFloorPlacedThroughAnotherFloorAreCheckedAgainstEachOther) {
+  // A and B as above (floor 2); R, a graph of the west end on floor 7, placed A right and
+  // B 18 m west (its rooms on another floor's look-alike ones).
+  const test::Walls walls = periodicRowFloor();
+  const std::vector<Eigen::Vector2d> west{{1.5, 1.25}, {9, 1.25}, {9, 4.5}, {9, 1.25},
+                                          {3, 1.25},   {3, 4.5},  {3, 1.25}};
+  const std::vector<Eigen::Vector2d> east{{34.5, 1.25}, {27, 1.25}, {27, 4.5}, {27, 1.25},
+                                          {33, 1.25},   {33, 4.5},  {33, 1.25}};
+  const Pose2 frame_a(2.0, -1.0, 0.3), frame_b(-5.0, 4.0, -1.1), frame_r(1.0, 1.0, 0.5);
+  test::DriveOptions drive;
+  drive.range_max = 40.0;
+  std::vector<floor::FloorGraph> graphs{driveFloor(walls, west, frame_r, 7, 10.0, 20, drive),
+                                        driveFloor(walls, west, frame_a, 0, 0.0, 21, drive),
+                                        driveFloor(walls, east, frame_b, 1, 0.0, 22, drive)};
+  graphs[1].floor_id = graphs[2].floor_id = 2;
+  const FloorMatcherOptions o = fastOptions();
+  std::vector<PreparedFloor> prepared;
+  for (const auto& g : graphs) prepared.push_back(prepareFloor(g, o));
+  auto passPlacingB = [&](const Pose2& b_in_building) {
+    MatchResult r;
+    r.pairs.push_back(placedThrough(graphs[0], graphs[1], frame_r.inverse() * frame_a));
+    r.pairs.push_back(placedThrough(graphs[0], graphs[2], frame_r.inverse() * b_in_building));
+    for (const auto& p : r.pairs) {
+      InterFloorConstraint c;
+      c.reference_graph_id = p.reference_graph_id;
+      c.graph_id = p.graph_id;
+      c.reference_node_id = p.candidates[0].reference_node_id;
+      c.node_id = p.candidates[0].node_id;
+      c.measurement = p.candidates[0].measurement;
+      r.constraints.push_back(c);
+    }
+    return r;
+  };
+  MatchResult right = passPlacingB(frame_b);
+  EXPECT_FALSE(rejectContradictedPlacements(graphs, prepared, o, &right));
+  EXPECT_TRUE(right.pairs[0].accepted && right.pairs[1].accepted);
+  MatchResult wrong = passPlacingB(Pose2(-18.0, 0.0, 0.0) * frame_b);
+  EXPECT_TRUE(rejectContradictedPlacements(graphs, prepared, o, &wrong));
+  for (const auto& p : wrong.pairs) {
+    // Nothing says which of the two is wrong: both are withdrawn.
+    EXPECT_FALSE(p.accepted) << p.graph_id;
+    EXPECT_TRUE(p.contradicted) << p.graph_id;
+    EXPECT_EQ(p.candidates[0].status, CandidateStatus::kContradicted);
+    EXPECT_NE(p.reason.find("are of floor 2"), std::string::npos) << p.reason;
+  }
+  FloorMatcherOptions off = o;
+  off.same_floor_see_through = 1.0;
+  MatchResult unchecked = passPlacingB(Pose2(-18.0, 0.0, 0.0) * frame_b);
+  EXPECT_FALSE(rejectContradictedPlacements(graphs, prepared, off, &unchecked));
+}
+
 TEST(ParticleFilter, WallModelLowersExactlyTheParticlesWhoseBeamsCrossWalls) {
   const auto g = driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 3);
   const LocalizationMap map(floor::renderFloorMap(g, {}), {});

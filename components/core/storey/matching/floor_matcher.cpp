@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "storey/common/log.h"
+#include "storey/matching/retraction.h"
 
 namespace storey::matching {
 
@@ -1284,6 +1285,81 @@ Eigen::Matrix3d constraintInformation(const Candidate& c, const FloorMatcherOpti
   return information;
 }
 
+namespace {
+
+// Every accepted candidate of an accepted pair, as a constraint.
+void collectConstraints(const FloorMatcherOptions& o, MatchResult* result) {
+  result->constraints.clear();
+  for (const auto& p : result->pairs) {
+    if (!p.accepted) continue;
+    for (const auto& c : p.candidates) {
+      if (c.status != CandidateStatus::kAccepted) continue;
+      InterFloorConstraint ic;
+      ic.reference_graph_id = c.reference_graph_id;
+      ic.reference_node_id = c.reference_node_id;
+      ic.graph_id = c.graph_id;
+      ic.node_id = c.node_id;
+      ic.measurement = c.measurement;
+      ic.dz = c.dz;
+      ic.information = constraintInformation(c, o);
+      ic.likelihood = c.likelihood;
+      ic.first_index = c.first_index;
+      ic.last_index = c.last_index;
+      result->constraints.push_back(ic);
+    }
+  }
+}
+
+}  // namespace
+
+// Two graphs of one floor id that the pass placed through other graphs (each aligned to a
+// third floor) were never checked against each other by sameFloorContradiction: a young
+// graph fitted a few rooms along another floor's periodic row is. When the placement they
+// imply contradicts, one of them is wrong and nothing says which: both graphs' pairs (and
+// pairs that took one of them as their reference) are withdrawn from the pass. Returns
+// whether any was.
+bool rejectContradictedPlacements(const std::vector<floor::FloorGraph>& graphs,
+                                  const std::vector<PreparedFloor>& prepared,
+                                  const FloorMatcherOptions& o, MatchResult* result) {
+  if (o.same_floor_see_through >= 1.0) return false;
+  const GraphPlacement placement = placeGraphs(graphs, *result);
+  std::set<std::pair<int, int>> paired;  // accepted pairs, checked when accepted
+  for (const auto& p : result->pairs)
+    if (p.accepted) {
+      paired.insert({p.reference_graph_id, p.graph_id});
+      paired.insert({p.graph_id, p.reference_graph_id});
+    }
+  std::map<int, std::string> contradicted;  // graph id -> why
+  for (std::size_t a = 0; a < graphs.size(); ++a)
+    for (std::size_t b = a + 1; b < graphs.size(); ++b) {
+      const int id_a = graphs[a].graph_id, id_b = graphs[b].graph_id;
+      if (graphs[a].floor_id != graphs[b].floor_id || !placement.joins(id_a, id_b) ||
+          paired.count({id_a, id_b}))
+        continue;
+      const Pose2 b_in_a = placement.frame.at(id_a).inverse() * placement.frame.at(id_b);
+      const std::string why = sameFloorContradiction(prepared[a], prepared[b], b_in_a, o);
+      if (why.empty()) continue;
+      contradicted.emplace(id_a, why);
+      contradicted.emplace(id_b, why);
+    }
+  if (contradicted.empty()) return false;
+  for (auto& p : result->pairs) {
+    if (!p.accepted) continue;
+    auto it = contradicted.find(p.graph_id);
+    if (it == contradicted.end()) it = contradicted.find(p.reference_graph_id);
+    if (it == contradicted.end()) continue;
+    p.accepted = false;
+    p.contradicted = true;
+    p.reason += "; withdrawn: where the pass places them, " + it->second;
+    for (auto& c : p.candidates)
+      if (c.status == CandidateStatus::kAccepted) {
+        c.status = CandidateStatus::kContradicted;
+        c.reason = "its graph's placement is contradicted by another graph of its floor";
+      }
+  }
+  return true;
+}
+
 MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
                         const FloorMatcherOptions& o) {
   const auto start = std::chrono::steady_clock::now();
@@ -1420,25 +1496,9 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
   for (auto& list : retries)
     for (auto& p : list) result.pairs.push_back(std::move(p));
 
-  for (const auto& p : result.pairs) {
-    result.beam_evaluations += p.beam_evaluations;
-    if (!p.accepted) continue;
-    for (const auto& c : p.candidates) {
-      if (c.status != CandidateStatus::kAccepted) continue;
-      InterFloorConstraint ic;
-      ic.reference_graph_id = c.reference_graph_id;
-      ic.reference_node_id = c.reference_node_id;
-      ic.graph_id = c.graph_id;
-      ic.node_id = c.node_id;
-      ic.measurement = c.measurement;
-      ic.dz = c.dz;
-      ic.information = constraintInformation(c, o);
-      ic.likelihood = c.likelihood;
-      ic.first_index = c.first_index;
-      ic.last_index = c.last_index;
-      result.constraints.push_back(ic);
-    }
-  }
+  for (const auto& p : result.pairs) result.beam_evaluations += p.beam_evaluations;
+  collectConstraints(o, &result);
+  if (rejectContradictedPlacements(graphs, prepared, o, &result)) collectConstraints(o, &result);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

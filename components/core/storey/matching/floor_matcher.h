@@ -249,7 +249,8 @@ struct PairResult {
   bool ambiguous = false;  // two disjoint consistent sets: the floor's structure repeats
   std::vector<geometry::Pose2> set_alignments;  // when ambiguous: each set's alignment
   // Its set placed two graphs of one floor where they see through each other's walls
-  // (same_floor_see_through): the graph tries no other this pass.
+  // (same_floor_see_through): the graph tries no other this pass. Also set on a pair
+  // withdrawn by rejectContradictedPlacements.
   bool contradicted = false;
   std::string reason;                           // why not accepted (or "accepted")
   geometry::Pose2 alignment;                    // T_i from all inliers jointly (when accepted)
@@ -358,7 +359,9 @@ Eigen::Matrix3d constraintInformation(const Candidate& c, const FloorMatcherOpti
 // too few consistent candidates tries the others (same floor id first, then by
 // structure) until one accepts; one found ambiguous tries only graphs already aligned
 // to the reference (its own floor id first), and such a retry must agree, through the
-// reference, with one of its two sets.
+// reference, with one of its two sets; one whose pair is contradicted tries none. Last,
+// graphs of one floor placed through others are checked against each other
+// (rejectContradictedPlacements).
 MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
                         const FloorMatcherOptions& options);
 
@@ -403,6 +406,16 @@ double seeThroughFraction(const grid::GridFrame& f, const std::vector<std::uint8
 std::string sameFloorContradiction(const PreparedFloor& reference, const PreparedFloor& floor,
                                    const geometry::Pose2& alignment,
                                    const FloorMatcherOptions& options);
+
+// After a pass: two graphs of one floor id that it placed only through other graphs (each
+// aligned to a third) and whose implied placement sameFloorContradiction rejects. Both
+// graphs' accepted pairs, and pairs taking either as their reference, are withdrawn
+// (accepted false, contradicted, candidates kContradicted); result->constraints is left for
+// the caller to rebuild. `prepared` is in `graphs`' order. Returns whether any pair was
+// withdrawn. matchFloors calls it; declared here for tests.
+bool rejectContradictedPlacements(const std::vector<floor::FloorGraph>& graphs,
+                                  const std::vector<PreparedFloor>& prepared,
+                                  const FloorMatcherOptions& options, MatchResult* result);
 
 // Fraction of `graph`'s scans (up to `beams` traced each, placed at alignment * pose) of
 // which at least `min_beams` beams cross a cell of `walls` (over frame `f`) 0.3 m or more
