@@ -553,20 +553,27 @@ test::Walls periodicRowFloor() {
   return w;
 }
 
+// In periodicRowFloor: a robot mapping the west end (rooms at 3 and 9 m) or the east end
+// (rooms at 27 and 33 m), with a building-scale laser that sees the corridor's far end.
+floor::FloorGraph periodicRowGraph(bool west, const Pose2& frame, int graph_id, double height,
+                                   unsigned seed) {
+  const std::vector<Eigen::Vector2d> west_path{{1.5, 1.25}, {9, 1.25}, {9, 4.5}, {9, 1.25},
+                                               {3, 1.25},   {3, 4.5},  {3, 1.25}};
+  const std::vector<Eigen::Vector2d> east_path{{34.5, 1.25}, {27, 1.25}, {27, 4.5}, {27, 1.25},
+                                               {33, 1.25},   {33, 4.5},  {33, 1.25}};
+  test::DriveOptions drive;
+  drive.range_max = 40.0;
+  return driveFloor(periodicRowFloor(), west ? west_path : east_path, frame, graph_id, height, seed,
+                    drive);
+}
+
 TEST(SameFloorContradiction, TwoRobotsGraphsOfOneFloorAreNotPlacedRoomsApart) {
   // Robot A maps the west end (rooms at 3 and 9 m), robot B the east end (rooms at 27 and
   // 33 m): they share no structure, but B's graph shifted 6, 12, 18 or 24 m west puts one
   // or both of its rooms on A's.
-  const test::Walls walls = periodicRowFloor();
-  const std::vector<Eigen::Vector2d> west{{1.5, 1.25}, {9, 1.25}, {9, 4.5}, {9, 1.25},
-                                          {3, 1.25},   {3, 4.5},  {3, 1.25}};
-  const std::vector<Eigen::Vector2d> east{{34.5, 1.25}, {27, 1.25}, {27, 4.5}, {27, 1.25},
-                                          {33, 1.25},   {33, 4.5},  {33, 1.25}};
   const Pose2 frame_a(2.0, -1.0, 0.3), frame_b(-5.0, 4.0, -1.1);
-  test::DriveOptions drive;
-  drive.range_max = 40.0;  // a building-scale laser sees the corridor's far end
-  floor::FloorGraph a = driveFloor(walls, west, frame_a, 0, 0.0, 21, drive);
-  floor::FloorGraph b = driveFloor(walls, east, frame_b, 1, 0.0, 22, drive);
+  floor::FloorGraph a = periodicRowGraph(true, frame_a, 0, 0.0, 21);
+  floor::FloorGraph b = periodicRowGraph(false, frame_b, 1, 0.0, 22);
   a.floor_id = b.floor_id = 2;
   const FloorMatcherOptions o = fastOptions();
   const PreparedFloor prepared_a = prepareFloor(a, o), prepared_b = prepareFloor(b, o);
@@ -629,17 +636,10 @@ PairResult placedThrough(const floor::FloorGraph& reference, const floor::FloorG
 TEST(SameFloorContradiction, GraphsOfOneFloorPlacedThroughAnotherFloorAreCheckedAgainstEachOther) {
   // A and B as above (floor 2); R, a graph of the west end on floor 7, placed A right and
   // B 18 m west (its rooms on another floor's look-alike ones).
-  const test::Walls walls = periodicRowFloor();
-  const std::vector<Eigen::Vector2d> west{{1.5, 1.25}, {9, 1.25}, {9, 4.5}, {9, 1.25},
-                                          {3, 1.25},   {3, 4.5},  {3, 1.25}};
-  const std::vector<Eigen::Vector2d> east{{34.5, 1.25}, {27, 1.25}, {27, 4.5}, {27, 1.25},
-                                          {33, 1.25},   {33, 4.5},  {33, 1.25}};
   const Pose2 frame_a(2.0, -1.0, 0.3), frame_b(-5.0, 4.0, -1.1), frame_r(1.0, 1.0, 0.5);
-  test::DriveOptions drive;
-  drive.range_max = 40.0;
-  std::vector<floor::FloorGraph> graphs{driveFloor(walls, west, frame_r, 7, 10.0, 20, drive),
-                                        driveFloor(walls, west, frame_a, 0, 0.0, 21, drive),
-                                        driveFloor(walls, east, frame_b, 1, 0.0, 22, drive)};
+  std::vector<floor::FloorGraph> graphs{periodicRowGraph(true, frame_r, 7, 10.0, 20),
+                                        periodicRowGraph(true, frame_a, 0, 0.0, 21),
+                                        periodicRowGraph(false, frame_b, 1, 0.0, 22)};
   graphs[1].floor_id = graphs[2].floor_id = 2;
   const FloorMatcherOptions o = fastOptions();
   std::vector<PreparedFloor> prepared;
