@@ -176,6 +176,33 @@ TEST_F(LaunchTest, ReportsAChildKilledByASignal) {
   }
 }
 
+TEST_F(LaunchTest, AChildThatCrashesSaysWhere) {
+  write("crash.yaml", "after_s: 0.3\nsignal: 11\n");
+  const auto bringup = readBringup(
+      pingBringup(150, 0,
+                  "  - name: crasher_process\n    domain_id: 150\n    components:\n"
+                  "      - {kind: test_crasher, name: crasher, parameters: crash.yaml}\n"),
+      testRegistry());
+  LaunchOptions options;
+  options.duration_s = 15;
+  testing::internal::CaptureStderr();
+  const int result = launchProcesses(bringup, kTestNode, options);
+  const std::string log = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(result, 1);
+  // The crash report re-raises the signal: the launcher still sees a segmentation fault.
+  EXPECT_NE(log.find("process 'crasher_process'"), std::string::npos) << log;
+  EXPECT_NE(log.find("killed by signal 11"), std::string::npos) << log;
+#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+  // ...after writing its stack, with frames in the test node itself.
+  const auto report = log.find("[fatal] SIGSEGV: stack follows");
+  ASSERT_NE(report, std::string::npos) << log;
+  EXPECT_NE(log.find("runtime_test_node", report), std::string::npos) << log;
+#endif
+  if (std::system("fastdds shm clean >/dev/null 2>&1") != 0) {
+    std::printf("note: fastdds shm clean failed\n");
+  }
+}
+
 std::vector<pid_t> childrenOf(pid_t pid) {
   std::ifstream in("/proc/" + std::to_string(pid) + "/task/" + std::to_string(pid) + "/children");
   std::vector<pid_t> children;

@@ -76,6 +76,7 @@ Component& ComponentGroup::component(const std::string& name) {
 
 int runComponents(const std::vector<ComponentSpec>& specs, const ComponentRegistry& registry,
                   const RunOptions& options) {
+  installCrashReport();
   // Blocked before the Context starts any thread, so every thread inherits the mask and
   // the signals wait for sigtimedwait below.
   BlockedTerminationSignals blocked;

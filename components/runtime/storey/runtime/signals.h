@@ -23,4 +23,11 @@ class BlockedTerminationSignals {
   sigset_t previous_;
 };
 
+// A process that crashes (SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT) writes the signal and
+// its stack to stderr as module(+offset) lines (`addr2line -f -C -e MODULE OFFSET` names
+// them), then dies of the same signal, so a launcher still reports it as killed by that
+// signal. A shutdown that crashes once in a few hundred runs then says where. Installed
+// once per process (runComponents does); not in sanitizer builds, whose reports are better.
+void installCrashReport();
+
 }  // namespace storey::runtime
