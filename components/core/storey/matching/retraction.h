@@ -23,11 +23,13 @@ namespace storey::matching {
 struct RetractionOptions {
   bool enabled = true;
   // How far the new pass may place a published constraint's node from where the
-  // constraint put it before that constraint is retracted: the limits by which the
-  // scenarios judge a constraint wrong (0.3 m, 2 deg). 0.5 m / 0.1 rad left young graphs'
-  // constraints 2-3 deg off standing (docs/floor_matcher.md, session 20).
+  // constraint put it before that constraint is retracted, and how closely an earlier pass
+  // must agree to confirm one: the translation by which the scenarios judge a constraint
+  // wrong (0.3 m), half their rotation (1 deg of 2). 0.5 m / 0.1 rad left young graphs'
+  // constraints 2-3 deg off standing (session 20); 2 deg confirmed and kept one 2.01 deg
+  // off (fleet seed 3, session 23; docs/floor_matcher.md).
   double translation = 0.3;  // m
-  double rotation = 0.035;   // rad
+  double rotation = 0.0175;  // rad
   // Along a constraint's weak direction (a corridor's length) the limit is this many of
   // the sigmas its information claims, if that is more: the wrong-constraint judge's rule
   // (constraint_judgement.h). A fixed limit withdrew right corridor constraints whose
