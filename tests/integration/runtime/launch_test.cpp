@@ -11,7 +11,9 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
 #include <thread>
+#include <utility>
 
 #include "storey/runtime/launcher.h"
 #include "storey/runtime/publisher.h"
@@ -54,10 +56,29 @@ class LaunchTest : public ::testing::Test {
                      "      - {kind: test_listener, name: listener, parameters: listener.yaml}\n" +
                      extra);
   }
+  // The ping bringup plus a crasher process (crash.yaml: `crash`) on `domain`, launched
+  // for at most 15 s: the launcher's result and everything written to stderr.
+  std::pair<int, std::string> launchWithCrasher(int domain, const std::string& crash);
   std::string dir_;
 };
 
 const ChildCommand kTestNode{RUNTIME_TEST_NODE, {}};
+
+std::pair<int, std::string> LaunchTest::launchWithCrasher(int domain, const std::string& crash) {
+  write("crash.yaml", crash);
+  const std::string d = std::to_string(domain);
+  const auto bringup = readBringup(
+      pingBringup(domain, 0,
+                  "  - name: crasher_process\n    domain_id: " + d +
+                      "\n    components:\n"
+                      "      - {kind: test_crasher, name: crasher, parameters: crash.yaml}\n"),
+      testRegistry());
+  LaunchOptions options;
+  options.duration_s = 15;
+  testing::internal::CaptureStderr();
+  const int result = launchProcesses(bringup, kTestNode, options);
+  return {result, testing::internal::GetCapturedStderr()};
+}
 
 TEST_F(LaunchTest, TwoProcessesExchangeMessagesOverLoopback) {
   const auto bringup = readBringup(pingBringup(120, 20), testRegistry());
@@ -135,17 +156,7 @@ TEST_F(LaunchTest, SingleProcessRefusesTwoDomains) {
 }
 
 TEST_F(LaunchTest, ReportsAChildThatExitsWithAnError) {
-  write("crash.yaml", "after_s: 0.3\nexit_code: 3\n");
-  const auto bringup = readBringup(
-      pingBringup(122, 0,
-                  "  - name: crasher_process\n    domain_id: 122\n    components:\n"
-                  "      - {kind: test_crasher, name: crasher, parameters: crash.yaml}\n"),
-      testRegistry());
-  LaunchOptions options;
-  options.duration_s = 15;
-  testing::internal::CaptureStderr();
-  const int result = launchProcesses(bringup, kTestNode, options);
-  const std::string log = testing::internal::GetCapturedStderr();
+  const auto [result, log] = launchWithCrasher(122, "after_s: 0.3\nexit_code: 3\n");
   EXPECT_EQ(result, 1);
   EXPECT_NE(log.find("process 'crasher_process'"), std::string::npos) << log;
   EXPECT_NE(log.find("exited with code 3"), std::string::npos) << log;
@@ -156,17 +167,7 @@ TEST_F(LaunchTest, ReportsAChildThatExitsWithAnError) {
 }
 
 TEST_F(LaunchTest, ReportsAChildKilledByASignal) {
-  write("crash.yaml", "after_s: 0.3\nsignal: 9\n");
-  const auto bringup = readBringup(
-      pingBringup(123, 0,
-                  "  - name: crasher_process\n    domain_id: 123\n    components:\n"
-                  "      - {kind: test_crasher, name: crasher, parameters: crash.yaml}\n"),
-      testRegistry());
-  LaunchOptions options;
-  options.duration_s = 15;
-  testing::internal::CaptureStderr();
-  const int result = launchProcesses(bringup, kTestNode, options);
-  const std::string log = testing::internal::GetCapturedStderr();
+  const auto [result, log] = launchWithCrasher(123, "after_s: 0.3\nsignal: 9\n");
   EXPECT_EQ(result, 1);
   EXPECT_NE(log.find("process 'crasher_process'"), std::string::npos) << log;
   EXPECT_NE(log.find("killed by signal 9"), std::string::npos) << log;
@@ -177,17 +178,7 @@ TEST_F(LaunchTest, ReportsAChildKilledByASignal) {
 }
 
 TEST_F(LaunchTest, AChildThatCrashesSaysWhere) {
-  write("crash.yaml", "after_s: 0.3\nsignal: 11\n");
-  const auto bringup = readBringup(
-      pingBringup(150, 0,
-                  "  - name: crasher_process\n    domain_id: 150\n    components:\n"
-                  "      - {kind: test_crasher, name: crasher, parameters: crash.yaml}\n"),
-      testRegistry());
-  LaunchOptions options;
-  options.duration_s = 15;
-  testing::internal::CaptureStderr();
-  const int result = launchProcesses(bringup, kTestNode, options);
-  const std::string log = testing::internal::GetCapturedStderr();
+  const auto [result, log] = launchWithCrasher(150, "after_s: 0.3\nsignal: 11\n");
   EXPECT_EQ(result, 1);
   // The crash report re-raises the signal: the launcher still sees a segmentation fault.
   EXPECT_NE(log.find("process 'crasher_process'"), std::string::npos) << log;
