@@ -64,6 +64,14 @@ class LaunchTest : public ::testing::Test {
 
 const ChildCommand kTestNode{RUNTIME_TEST_NODE, {}};
 
+// A killed or crashed process leaves its Fast DDS shared-memory segments behind; this
+// removes only those no process maps.
+void removeUnusedSharedMemory() {
+  if (std::system("fastdds shm clean >/dev/null 2>&1") != 0) {
+    std::printf("note: fastdds shm clean failed\n");
+  }
+}
+
 std::pair<int, std::string> LaunchTest::launchWithCrasher(int domain, const std::string& crash) {
   write("crash.yaml", crash);
   const std::string d = std::to_string(domain);
@@ -171,10 +179,7 @@ TEST_F(LaunchTest, ReportsAChildKilledByASignal) {
   EXPECT_EQ(result, 1);
   EXPECT_NE(log.find("process 'crasher_process'"), std::string::npos) << log;
   EXPECT_NE(log.find("killed by signal 9"), std::string::npos) << log;
-  // The killed process left its shared-memory segments; this removes only unused ones.
-  if (std::system("fastdds shm clean >/dev/null 2>&1") != 0) {
-    std::printf("note: fastdds shm clean failed\n");
-  }
+  removeUnusedSharedMemory();
 }
 
 TEST_F(LaunchTest, AChildThatCrashesSaysWhere) {
@@ -190,9 +195,7 @@ TEST_F(LaunchTest, AChildThatCrashesSaysWhere) {
   const auto report = log.find("[fatal] SIGSEGV: stack follows");
   ASSERT_NE(report, std::string::npos) << log;
   EXPECT_NE(log.find("runtime_test_node", report), std::string::npos) << log;
-  if (std::system("fastdds shm clean >/dev/null 2>&1") != 0) {
-    std::printf("note: fastdds shm clean failed\n");
-  }
+  removeUnusedSharedMemory();
 #endif
 }
 

@@ -122,6 +122,20 @@ namespace {
 // Metres before its endpoint a beam may cross a wall: it may end just past the wall it hit.
 constexpr double kWallMargin = 0.3;
 
+// An accepted pair whose placement two graphs of one floor contradict: not accepted, and
+// its accepted candidates are marked so (sameFloorContradiction).
+void withdrawAsContradicted(const std::string& pair_reason, const std::string& candidate_reason,
+                            PairResult* p) {
+  p->accepted = false;
+  p->contradicted = true;
+  p->reason = pair_reason;
+  for (auto& c : p->candidates)
+    if (c.status == CandidateStatus::kAccepted) {
+      c.status = CandidateStatus::kContradicted;
+      c.reason = candidate_reason;
+    }
+}
+
 // Deterministic per-job seeds, independent of thread scheduling.
 std::uint64_t mixSeed(std::uint64_t seed, std::uint64_t a, std::uint64_t b) {
   std::uint64_t z = seed ^ (a * 0x9E3779B97F4A7C15ULL) ^ (b * 0xC2B2AE3D27D4EB4FULL);
@@ -450,32 +464,52 @@ std::vector<std::uint8_t> solidWalls(const grid::LikelihoodField& field,
   return solid;
 }
 
+namespace {
+
+// Of one node's scan (up to `beams` traced, placed at alignment * pose): how many beams
+// cross a cell of `walls` more than `margin` before their endpoint (`through`), of `total`.
+struct BeamsThroughWalls {
+  std::size_t through = 0, total = 0;
+};
+BeamsThroughWalls beamsThroughWalls(const grid::GridFrame& f,
+                                    const std::vector<std::uint8_t>& walls,
+                                    const floor::FloorNode& node, int beams, const Pose2& alignment,
+                                    double margin) {
+  // Half-cell steps cannot jump over a wall one cell thick.
+  const double step = 0.5 * f.resolution;
+  BeamsThroughWalls count;
+  const Pose2 robot = alignment * node.pose;
+  const Eigen::Vector2d origin = (robot * node.scan.sensor_offset).translation();
+  for (const Eigen::Vector2d& end : robot.transformPoints(selectBeams(node.scan, beams))) {
+    const Eigen::Vector2d d = end - origin;
+    const double length = d.norm() - margin;
+    ++count.total;
+    if (length <= 0.0) continue;
+    const Eigen::Vector2d u = d / d.norm();
+    for (double t = step; t < length; t += step) {
+      const Eigen::Vector2i c = f.cellOf(origin + t * u);
+      if (f.contains(c.x(), c.y()) && walls[f.index(c.x(), c.y())]) {
+        ++count.through;
+        break;
+      }
+    }
+  }
+  return count;
+}
+
+}  // namespace
+
 double seeThroughFraction(const grid::GridFrame& f, const std::vector<std::uint8_t>& walls,
                           const floor::FloorGraph& graph,
                           const std::vector<std::pair<int, int>>& ranges, int beams,
                           const Pose2& alignment, double margin) {
-  // Half-cell steps cannot jump over a wall one cell thick.
-  const double step = 0.5 * f.resolution;
   std::size_t total = 0, through = 0;
   for (const auto& [first, last] : ranges) {
     for (int n = first; n <= last; ++n) {
-      const auto& node = graph.nodes[n];
-      const Pose2 robot = alignment * node.pose;
-      const Eigen::Vector2d origin = (robot * node.scan.sensor_offset).translation();
-      for (const Eigen::Vector2d& end : robot.transformPoints(selectBeams(node.scan, beams))) {
-        const Eigen::Vector2d d = end - origin;
-        const double length = d.norm() - margin;
-        ++total;
-        if (length <= 0.0) continue;
-        const Eigen::Vector2d u = d / d.norm();
-        for (double t = step; t < length; t += step) {
-          const Eigen::Vector2i c = f.cellOf(origin + t * u);
-          if (f.contains(c.x(), c.y()) && walls[f.index(c.x(), c.y())]) {
-            ++through;
-            break;
-          }
-        }
-      }
+      const BeamsThroughWalls count =
+          beamsThroughWalls(f, walls, graph.nodes[n], beams, alignment, margin);
+      through += count.through;
+      total += count.total;
     }
   }
   return total ? static_cast<double>(through) / static_cast<double>(total) : 0.0;
@@ -486,12 +520,9 @@ double seeThroughScanFraction(const grid::GridFrame& f, const std::vector<std::u
                               int min_beams) {
   if (graph.nodes.empty()) return 0.0;
   int seeing = 0;
-  for (int n = 0; n < static_cast<int>(graph.nodes.size()); ++n) {
-    const double through =
-        seeThroughFraction(f, walls, graph, {{n, n}}, beams, alignment, kWallMargin);
-    const std::size_t traced = selectBeams(graph.nodes[n].scan, beams).size();
-    seeing += through * static_cast<double>(traced) >= static_cast<double>(min_beams) - 0.5;
-  }
+  for (const auto& node : graph.nodes)
+    seeing += beamsThroughWalls(f, walls, node, beams, alignment, kWallMargin).through >=
+              static_cast<std::size_t>(min_beams);
   return static_cast<double>(seeing) / static_cast<double>(graph.nodes.size());
 }
 
@@ -901,11 +932,9 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
     const floor::FloorGraph& ref = *reference.graph;
     const std::string contradiction = sameFloorContradiction(reference, floor_data, joint, o);
     if (!contradiction.empty()) {
-      result.accepted = false;
-      result.contradicted = true;
-      result.reason = common::str("contradicted: ", best.size(), " consistent of ", pool.size(),
-                                  " gated candidates, but ", contradiction);
-      markAll(best, CandidateStatus::kContradicted, result.reason);
+      const std::string why = common::str("contradicted: ", best.size(), " consistent of ",
+                                          pool.size(), " gated candidates, but ", contradiction);
+      withdrawAsContradicted(why, why, &result);
       return;
     }
     // Each accepted constraint is re-expressed through the joint alignment, which fits
@@ -1243,10 +1272,9 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
   if (contradiction.empty())
     contradiction = sameFloorContradiction(aligned, floor_data, joint_in_r, o);
   if (!contradiction.empty()) {
-    out.accepted = false;
-    out.contradicted = true;
-    out.reason = common::str("with ", via_name, " (aligned): contradicted: ", contradiction);
-    markAll(best, CandidateStatus::kContradicted, out.reason);
+    const std::string why =
+        common::str("with ", via_name, " (aligned): contradicted: ", contradiction);
+    withdrawAsContradicted(why, why, &out);
     return out;
   }
   out.alignment = joint;
@@ -1348,14 +1376,9 @@ bool rejectContradictedPlacements(const std::vector<floor::FloorGraph>& graphs,
     auto it = contradicted.find(p.graph_id);
     if (it == contradicted.end()) it = contradicted.find(p.reference_graph_id);
     if (it == contradicted.end()) continue;
-    p.accepted = false;
-    p.contradicted = true;
-    p.reason += "; withdrawn: where the pass places them, " + it->second;
-    for (auto& c : p.candidates)
-      if (c.status == CandidateStatus::kAccepted) {
-        c.status = CandidateStatus::kContradicted;
-        c.reason = "its graph's placement is contradicted by another graph of its floor";
-      }
+    withdrawAsContradicted(p.reason + "; withdrawn: where the pass places them, " + it->second,
+                           "its graph's placement is contradicted by another graph of its floor",
+                           &p);
   }
   return true;
 }

@@ -401,8 +401,8 @@ double seeThroughFraction(const grid::GridFrame& f, const std::vector<std::uint8
 // Two graphs of one floor id see the same walls (FloorMatcherOptions::same_floor_see_through):
 // empty unless `alignment` (floor's frame in reference's) lets more than
 // same_floor_see_through of each graph's scans see through the other's solid walls, else
-// what contradicts it. Graphs of different floor ids, or a
-// graph with itself, are never contradicted.
+// what contradicts it. Graphs of different floor ids, or a graph with itself, are never
+// contradicted.
 std::string sameFloorContradiction(const PreparedFloor& reference, const PreparedFloor& floor,
                                    const geometry::Pose2& alignment,
                                    const FloorMatcherOptions& options);
