@@ -5,8 +5,10 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <mutex>
 #include <set>
+#include <stdexcept>
 #include <thread>
 
 #include "storey/floor_matcher/conversions.h"
@@ -155,6 +157,33 @@ TEST(FloorMatcherComponent, FlushReturnsWhenOnlyOneFloorGraphExists) {
   EXPECT_EQ(matcher.stats().constraints_published, 0u);
   matcher.deactivate();
   matcher.cleanup();
+}
+
+// A node crosses DDS with its pose and the robot's raw odometry; the matcher replays
+// scans with the pose it was first sent with and checks floor changes with the odometry.
+TEST(FloorGraphNodeMessage, CarriesTheRawOdometryBesideThePose) {
+  floor::FloorNode n;
+  n.id = 7;
+  n.pose = geometry::Pose2(1.0, 2.0, 0.5);
+  n.first_pose = geometry::Pose2(0.9, 2.1, 0.4);  // the mapper's pose before optimising
+  n.odometry = geometry::Pose2(-30.0, 12.0, -2.0);
+  n.scan.angle_min = -1.0;
+  n.scan.angle_increment = 0.1;
+  n.scan.range_min = 0.1;
+  n.scan.range_max = 10.0;
+  n.scan.ranges.assign(21, 2.0f);
+  auto message = runtime::toMessage(n, 3);
+  const floor::FloorNode back = runtime::fromMessage(message, "update");
+  EXPECT_EQ(back.odometry.vector(), n.odometry.vector());
+  EXPECT_EQ(back.pose.vector(), n.pose.vector());
+  EXPECT_EQ(back.first_pose.vector(), n.pose.vector()) << "sent once, with the pose it had then";
+  message.odom_theta(std::nan(""));
+  try {
+    runtime::fromMessage(message, "update");
+    ADD_FAILURE() << "a non-finite odometry heading was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("node 7.odom_theta"), std::string::npos) << e.what();
+  }
 }
 
 TEST(FloorMatcherComponent, BadUpdatesAreRejectedAndCounted) {

@@ -304,6 +304,42 @@ TEST(FloorMatcher, BothDirectionsAddReversedCandidatesThatReadAsForwardOnes) {
   EXPECT_LT(translationError(both.alignment, frame), 0.05) << report.str();
 }
 
+// A floor visited twice is one graph; between the visits the robot's odometry ran on
+// through the rides, so it jumps where the second visit starts.
+TEST(FloorMatcher, AFloorVisitedTwiceAlignsDespiteTheOdometryJumpBetweenVisits) {
+  const Pose2 frame(1.3, -0.7, 0.3);
+  std::vector<floor::FloorGraph> graphs{
+      driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 8),
+      driveFloor(officeFloor(1), officePath(1), frame, 1, 3.2, 9)};
+  const Pose2 away(35.0, -12.0, 2.5);  // where the odometry went meanwhile
+  auto& nodes = graphs[1].nodes;
+  for (std::size_t i = nodes.size() / 2; i < nodes.size(); ++i)
+    nodes[i].odometry = away * nodes[i].odometry;
+  const MatchResult r = matchFloors(graphs, fastOptions());
+  std::ostringstream report;
+  printMatchReport(report, r);
+  const PairResult* pair = r.pairFor(r.reference_graph_id == 0 ? 1 : 0);
+  ASSERT_NE(pair, nullptr);
+  ASSERT_TRUE(pair->accepted) << report.str();
+  ASSERT_GE(r.constraints.size(), 3u) << report.str();
+  const Pose2 truth = r.reference_graph_id == 0 ? frame : frame.inverse();
+  EXPECT_LT(translationError(pair->alignment, truth), 0.05) << report.str();
+  EXPECT_LT(angleError(pair->alignment, truth), 0.0035);
+  // Every sequence that ran across the second visit's start converged where the others did.
+  int across = 0;
+  const int second = static_cast<int>(nodes.size() / 2);
+  for (const auto& p : r.pairs)
+    for (const auto& c : p.candidates) {
+      const int replayed = c.reversed ? p.reference_graph_id : p.graph_id;
+      if (replayed != 1 || std::min(c.first_index, c.last_index) >= second ||
+          std::max(c.first_index, c.last_index) < second)
+        continue;
+      ++across;
+      EXPECT_NE(c.status, CandidateStatus::kOutlier) << report.str();
+    }
+  EXPECT_GT(across, 0) << "no sequence converged across the second visit's start";
+}
+
 TEST(FloorMatcher, SameSeedSameResult) {
   std::vector<floor::FloorGraph> graphs{
       driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 8),

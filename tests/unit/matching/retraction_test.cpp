@@ -1,10 +1,12 @@
 // Which published constraints a new matching pass retracts (storey::matching::constraintsToRetract).
+#include "storey/matching/retraction.h"
+
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <tuple>
 
 #include "storey/common/config.h"
-#include "storey/matching/retraction.h"
 
 namespace storey::matching {
 namespace {
@@ -318,10 +320,47 @@ TEST(PlacementConfirmation, APlacementThatTearsAFloorChangeApartIsHeldBack) {
   }
 }
 
+TEST(PlacementConfirmation, APlacementThatTurnsAFloorChangeAgainstOdometryIsHeldBack) {
+  Building b;
+  b.graphs[0] = stamped(b.graphs[0], "r", 0.0);
+  b.graphs[1] = stamped(b.graphs[1], "r", 10.0);
+  b.graphs[2] = stamped(b.graphs[2], "s", 0.0);
+  // The robot's odometry runs on through the change: graph 0's frame, graph 1 by truth1
+  // (no odometry error, so every placement's turn is measured against the truth's).
+  for (auto& n : b.graphs[0].nodes) n.odometry = n.pose;
+  for (auto& n : b.graphs[1].nodes) n.odometry = b.truth1 * n.pose;
+  // Graph 1 turned end for end about the change's last node (9, 0): its first node lands
+  // as far from there as the truth's (8.5 m, inside the radius), facing the other way.
+  const Pose2 flipped = Pose2(18.0, 0.0, M_PI) * b.truth1;
+  for (const bool is_flipped : {false, true}) {
+    const Pose2 t = is_flipped ? flipped : b.truth1;
+    const MatchResult pass = passAligning(b, t);
+    PlacementHistory history;
+    history.record(prefixes(b, 8), pass);
+    const InterFloorConstraint c = constraintFrom(b.graphs[0], 2, b.graphs[1], 2, t);
+    RetractionOptions o;  // radius 15 m, heading 0.35 rad
+    const GrowthPassConfirmation confirmation(b.graphs, pass, history, o);
+    if (!is_flipped) {
+      EXPECT_TRUE(confirmation.confirms(c));
+      EXPECT_TRUE(confirmation.atOddsWithTransits().empty());
+      continue;
+    }
+    EXPECT_FALSE(confirmation.confirms(c));
+    ASSERT_EQ(confirmation.atOddsWithTransits().count(0), 1u);
+    EXPECT_NE(
+        confirmation.atOddsWithTransits().at(0).find("turned 180.0 deg from the robot's odometry"),
+        std::string::npos)
+        << confirmation.atOddsWithTransits().at(0);
+    o.confirm_transit_heading = 0.0;  // off: the radius alone lets the flip through
+    EXPECT_TRUE(GrowthPassConfirmation(b.graphs, pass, history, o).confirms(c));
+  }
+}
+
 TEST(ConstraintRetraction, OptionsAreReadStrictly) {
   const auto node = common::ConfigNode::loadString(
       "{enabled: false, translation: 0.8, rotation: 0.2, weak_sigmas: 2, confirm_growth: 0.5, "
-      "confirm_both_sides: true, confirm_transit_radius: 7}", "r.yaml");
+      "confirm_both_sides: true, confirm_transit_radius: 7, confirm_transit_heading: 0.2}",
+      "r.yaml");
   const RetractionOptions o = readRetractionOptions(node);
   EXPECT_FALSE(o.enabled);
   EXPECT_DOUBLE_EQ(o.translation, 0.8);
@@ -330,6 +369,10 @@ TEST(ConstraintRetraction, OptionsAreReadStrictly) {
   EXPECT_DOUBLE_EQ(o.confirm_growth, 0.5);
   EXPECT_TRUE(o.confirm_both_sides);
   EXPECT_DOUBLE_EQ(o.confirm_transit_radius, 7.0);
+  EXPECT_DOUBLE_EQ(o.confirm_transit_heading, 0.2);
+  EXPECT_THROW(readRetractionOptions(
+                   common::ConfigNode::loadString("{confirm_transit_heading: 4}", "r.yaml")),
+               std::exception);
   EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{confirm_growth: -0.1}", "r.yaml")),
                std::exception);
   EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{weak_sigmas: -1}", "r.yaml")),

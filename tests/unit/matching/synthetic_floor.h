@@ -108,6 +108,7 @@ inline floor::FloorGraph driveFloor(const Walls& walls,
     node.stamp = static_cast<double>(i);
     node.pose = frame.inverse() * truth[i];
     node.odometry = odom;
+    node.first_pose = odom;
     sensor::LaserScan& scan = node.scan;
     scan.stamp = node.stamp;
     scan.angle_min = -o.fov / 2;

@@ -123,6 +123,7 @@ JournalRecord decodeRecord(const std::uint8_t* data, std::size_t size) {
       n.stamp = d.get<double>();
       n.pose = d.getPose();
       n.odometry = d.getPose();
+      n.first_pose = n.pose;  // a delta's new nodes have the pose they were first given
       n.scan.stamp = d.get<double>();
       n.scan.angle_min = d.get<double>();
       n.scan.angle_increment = d.get<double>();

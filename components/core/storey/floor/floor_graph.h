@@ -19,6 +19,10 @@ struct FloorNode {
   double stamp = 0.0;
   geometry::Pose2 pose;      // optimised pose in the floor graph's frame
   geometry::Pose2 odometry;  // raw odometry pose when the scan was taken
+  // The pose the floor graph first gave the node, before optimisation moved it: the front
+  // end's scan-matched odometry, which the matcher replays the scans with (the raw
+  // odometry is noisier, and jumps where the floor is visited again after a ride).
+  geometry::Pose2 first_pose;
   sensor::LaserScan scan;
 };
 

@@ -542,6 +542,7 @@ void FloorSlam::appendNode(const sensor::LaserScan& scan, const Pose2& odometry,
   node.id = floor_graph_.nodes.empty() ? 0 : floor_graph_.nodes.back().id + 1;
   node.stamp = scan.stamp;
   node.pose = pose;
+  node.first_pose = pose;
   node.odometry = odometry;
   node.scan = scan;
   pose_graph_.addNode(node.id, pose, /*fixed=*/floor_graph_.nodes.empty(), floor_graph_.floor_id,

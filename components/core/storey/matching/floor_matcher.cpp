@@ -602,7 +602,8 @@ SequenceRun runSequence(ParticleFilter* filter, const floor::FloorGraph& g, At a
   SequenceRun run;
   for (run.mp = kp; run.mp < end; ++run.mp) {
     const int n = at(run.mp);
-    if (run.mp > kp) filter->predict(g.nodes[at(run.mp - 1)].odometry.between(g.nodes[n].odometry));
+    if (run.mp > kp)
+      filter->predict(g.nodes[at(run.mp - 1)].first_pose.between(g.nodes[n].first_pose));
     run.lt = filter->update(g.nodes[n].scan);
     run.state = filter->state();
     if (run.mp - kp + 1 >= o.min_sequence && run.state.converged) {

@@ -42,6 +42,7 @@ floor::FloorGraph floorGraphFromLasers(const std::vector<io::CarmenLaser>& laser
     node.stamp = laser.scan.stamp;
     node.pose = inverse * pose;
     node.odometry = odometry;
+    node.first_pose = odometry;  // no front end here: odometry is the first estimate
     node.scan = laser.scan;
     g.nodes.push_back(std::move(node));
     previous = pose;

@@ -24,6 +24,8 @@ RetractionOptions readRetractionOptions(const common::ConfigNode& node) {
   o.confirm_growth = node.getDouble("confirm_growth", o.confirm_growth, 0.0, 100.0);
   o.confirm_both_sides = node.get<bool>("confirm_both_sides", o.confirm_both_sides);
   o.confirm_transit_radius = node.getDouble("confirm_transit_radius", o.confirm_transit_radius, 0.0, 10000.0);
+  o.confirm_transit_heading =
+      node.getDouble("confirm_transit_heading", o.confirm_transit_heading, 0.0, M_PI);
   node.finish();
   return o;
 }
@@ -169,18 +171,30 @@ GrowthPassConfirmation::GrowthPassConfirmation(const std::vector<floor::FloorGra
                                                const MatchResult& result, const PlacementHistory& history,
                                                const RetractionOptions& options)
     : graphs_(graphs), result_(result), history_(history), options_(options) {
-  if (options.confirm_transit_radius <= 0.0) return;
+  const bool check_radius = options.confirm_transit_radius > 0.0;
+  const bool check_heading = options.confirm_transit_heading > 0.0;
+  if (!check_radius && !check_heading) return;
   const GraphPlacement placement = placeGraphs(graphs, result);
   for (const TransitLink& link : transitLinks(graphs)) {
     if (!placement.joins(link.from_graph, link.to_graph)) continue;
-    const Pose2 a = placement.frame.at(link.from_graph) * findGraph(graphs, link.from_graph)->findNode(link.from_node)->pose;
-    const Pose2 b = placement.frame.at(link.to_graph) * findGraph(graphs, link.to_graph)->findNode(link.to_node)->pose;
+    const floor::FloorNode* from = findGraph(graphs, link.from_graph)->findNode(link.from_node);
+    const floor::FloorNode* to = findGraph(graphs, link.to_graph)->findNode(link.to_node);
+    const Pose2 a = placement.frame.at(link.from_graph) * from->pose;
+    const Pose2 b = placement.frame.at(link.to_graph) * to->pose;
     const double apart = (a.translation() - b.translation()).norm();
-    if (apart <= options.confirm_transit_radius) continue;
+    const double turn_off = std::abs(
+        geometry::angleDiff(a.between(b).theta(), from->odometry.between(to->odometry).theta()));
     std::ostringstream why;
-    why << std::fixed << std::setprecision(1) << "the pass puts the floor change from graph " << link.from_graph
-        << " (node " << link.from_node << ") to graph " << link.to_graph << " (node " << link.to_node << ") " << apart
-        << " m apart";
+    why << std::fixed << std::setprecision(1) << "the pass puts the floor change from graph "
+        << link.from_graph << " (node " << link.from_node << ") to graph " << link.to_graph
+        << " (node " << link.to_node << ") ";
+    if (check_radius && apart > options.confirm_transit_radius) {
+      why << apart << " m apart";
+    } else if (check_heading && turn_off > options.confirm_transit_heading) {
+      why << "turned " << turn_off * 180.0 / M_PI << " deg from the robot's odometry";
+    } else {
+      continue;
+    }
     at_odds_.emplace(link.from_graph, why.str());
     at_odds_.emplace(link.to_graph, why.str());
   }

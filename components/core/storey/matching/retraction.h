@@ -51,6 +51,11 @@ struct RetractionOptions {
   // stairwell a few metres on; a young graph that fits a look-alike corridor end 50 m
   // away does not. 0: off.
   double confirm_transit_radius = 15.0;
+  // > 0: ...and with the turn between those two nodes that the pass implies within this
+  // much (rad) of the robot's odometry through the change. Odometry carries on through a
+  // ride (a wheel-slip degree or two when turning in the cabin); a floor placed turned
+  // about its lift, the end of a corridor at each side, does not. 0: off.
+  double confirm_transit_heading = 0.35;
 };
 RetractionOptions readRetractionOptions(const common::ConfigNode& node);
 
@@ -107,7 +112,8 @@ std::vector<TransitLink> transitLinks(const std::vector<floor::FloorGraph>& grap
 
 // What a pass on growing graphs may publish: a constraint that `history` confirms,
 // (confirm_both_sides) whose pair the pass saw from both sides, and (confirm_transit_radius)
-// whose graphs the pass places with their transit links' ends within the radius.
+// whose graphs the pass places with their transit links' ends within the radius and
+// (confirm_transit_heading) turned as the robot's odometry turned.
 class GrowthPassConfirmation {
  public:
   GrowthPassConfirmation(const std::vector<floor::FloorGraph>& graphs, const MatchResult& result,

@@ -75,6 +75,7 @@ SimulatedFloors floorGraphsFromSimulation(const sim::Simulation& simulation,
       node.stamp = stamp;
       node.pose = truth.pose;  // building frame for now
       node.odometry = odom;
+      node.first_pose = odom;  // no front end here: odometry is the first estimate
       node.scan = run.scans[s];
       g.nodes.push_back(std::move(node));
     }

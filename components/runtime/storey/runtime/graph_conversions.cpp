@@ -35,6 +35,9 @@ storey_msgs::msg::FloorGraphNode toMessage(const floor::FloorNode& n, std::uint3
   node.sensor_x(n.scan.sensor_offset.x());
   node.sensor_y(n.scan.sensor_offset.y());
   node.sensor_theta(n.scan.sensor_offset.theta());
+  node.odom_x(n.odometry.x());
+  node.odom_y(n.odometry.y());
+  node.odom_theta(n.odometry.theta());
   return node;
 }
 
@@ -76,11 +79,15 @@ floor::FloorNode fromMessage(const storey_msgs::msg::FloorGraphNode& n, const st
   requireFinite(n.sensor_x(), at + ".sensor_x");
   requireFinite(n.sensor_y(), at + ".sensor_y");
   requireFinite(n.sensor_theta(), at + ".sensor_theta");
+  requireFinite(n.odom_x(), at + ".odom_x");
+  requireFinite(n.odom_y(), at + ".odom_y");
+  requireFinite(n.odom_theta(), at + ".odom_theta");
   floor::FloorNode node;
   node.id = static_cast<int>(n.node_id());
   node.stamp = fromTimeMessage(n.stamp());
   node.pose = geometry::Pose2(n.x(), n.y(), n.theta());
-  node.odometry = node.pose;
+  node.first_pose = node.pose;  // a node is sent with its pose once, when it is new
+  node.odometry = geometry::Pose2(n.odom_x(), n.odom_y(), n.odom_theta());
   node.scan.stamp = node.stamp;
   node.scan.angle_min = n.angle_min();
   node.scan.angle_increment = n.angle_increment();
