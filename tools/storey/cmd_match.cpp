@@ -257,7 +257,11 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
       continue;
     }
     const matching::MatchResult result = matching::matchFloors(graphs, options);
-    const auto retract = matching::constraintsToRetract(published, graphs, result, retraction);
+    const matching::GrowthPassConfirmation confirmation(graphs, result, history, retraction);
+    std::vector<matching::Retraction> retract;
+    for (const auto& r : matching::constraintsToRetract(published, graphs, result, retraction))
+      if (!confirm || final_pass || confirmation.mayRetract(published[r.index]))
+        retract.push_back(r);
     int retracted_wrong = 0;
     std::vector<bool> drop(published.size(), false);
     for (const auto& r : retract) {
@@ -269,7 +273,6 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
       if (!drop[i]) standing.push_back(published[i]);
     int added = 0, added_wrong = 0, unconfirmed = 0;
     std::vector<std::string> wrong_notes;
-    const matching::GrowthPassConfirmation confirmation(graphs, result, history, retraction);
     for (const auto& c : result.constraints) {
       // Until the last pass (a flush: the graphs are final), only what the component's
       // growth passes publish.

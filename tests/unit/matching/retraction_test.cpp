@@ -320,7 +320,8 @@ TEST(PlacementConfirmation, APlacementThatTearsAFloorChangeApartIsHeldBack) {
   }
 }
 
-TEST(PlacementConfirmation, APlacementThatTurnsAFloorChangeAgainstOdometryIsHeldBack) {
+TEST(PlacementConfirmation,
+     APlacementThatTurnsAFloorChangeAgainstOdometryIsHeldBackAndRetractsNothing) {
   Building b;
   b.graphs[0] = stamped(b.graphs[0], "r", 0.0);
   b.graphs[1] = stamped(b.graphs[1], "r", 10.0);
@@ -342,10 +343,15 @@ TEST(PlacementConfirmation, APlacementThatTurnsAFloorChangeAgainstOdometryIsHeld
     const GrowthPassConfirmation confirmation(b.graphs, pass, history, o);
     if (!is_flipped) {
       EXPECT_TRUE(confirmation.confirms(c));
+      EXPECT_TRUE(confirmation.mayRetract(c));
       EXPECT_TRUE(confirmation.atOddsWithTransits().empty());
       continue;
     }
     EXPECT_FALSE(confirmation.confirms(c));
+    // Nor does the flipped pass withdraw what a pass before it placed right.
+    const InterFloorConstraint right = constraintFrom(b.graphs[0], 5, b.graphs[1], 5, b.truth1);
+    ASSERT_EQ(constraintsToRetract({right}, b.graphs, pass, o).size(), 1u);
+    EXPECT_FALSE(confirmation.mayRetract(right));
     ASSERT_EQ(confirmation.atOddsWithTransits().count(0), 1u);
     EXPECT_NE(
         confirmation.atOddsWithTransits().at(0).find("turned 180.0 deg from the robot's odometry"),

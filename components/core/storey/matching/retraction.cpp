@@ -200,6 +200,10 @@ GrowthPassConfirmation::GrowthPassConfirmation(const std::vector<floor::FloorGra
   }
 }
 
+bool GrowthPassConfirmation::mayRetract(const InterFloorConstraint& c) const {
+  return !at_odds_.count(c.graph_id) && !at_odds_.count(c.reference_graph_id);
+}
+
 bool GrowthPassConfirmation::confirms(const InterFloorConstraint& c) const {
   if (options_.confirm_both_sides && !pairSeenFromBothSides(c, result_)) return false;
   if (at_odds_.count(c.graph_id) || at_odds_.count(c.reference_graph_id)) return false;

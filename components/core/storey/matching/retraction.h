@@ -119,6 +119,10 @@ class GrowthPassConfirmation {
   GrowthPassConfirmation(const std::vector<floor::FloorGraph>& graphs, const MatchResult& result,
                          const PlacementHistory& history, const RetractionOptions& options);
   bool confirms(const InterFloorConstraint& c) const;
+  // Whether the pass may withdraw published constraint `c`: not when it places c's
+  // graphs at odds with a robot's floor change (a pass that turns a floor about its lift
+  // is no judge of where the floor lies).
+  bool mayRetract(const InterFloorConstraint& c) const;
   // Graphs the pass places at odds with a transit link, with why.
   const std::map<int, std::string>& atOddsWithTransits() const { return at_odds_; }
 

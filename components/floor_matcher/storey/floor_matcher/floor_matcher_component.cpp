@@ -197,7 +197,7 @@ void FloorMatcherComponent::adoptServerHeld() {
 
 std::vector<storey_msgs::msg::InterFloorConstraint> FloorMatcherComponent::retractStale(
     const std::vector<floor::FloorGraph>& graphs, const matching::MatchResult& result,
-    std::vector<std::string>* reasons) {
+    const matching::GrowthPassConfirmation* confirmation, std::vector<std::string>* reasons) {
   std::vector<matching::InterFloorConstraint> standing;
   std::vector<std::tuple<int, int, int, int>> keys;
   for (const auto& [key, p] : published_) {
@@ -206,6 +206,7 @@ std::vector<storey_msgs::msg::InterFloorConstraint> FloorMatcherComponent::retra
   }
   std::vector<storey_msgs::msg::InterFloorConstraint> out;
   for (const auto& r : matching::constraintsToRetract(standing, graphs, result, options_.retraction)) {
+    if (confirmation && !confirmation->mayRetract(standing[r.index])) continue;
     storey_msgs::msg::InterFloorConstraint m = published_.at(keys[r.index]).message;
     m.retracted(true);
     m.reason(r.reason);
@@ -244,16 +245,18 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   std::vector<std::string> retraction_notes;
   lock.lock();
   ++stats_.matchings;
+  const matching::GrowthPassConfirmation confirmation(graphs, result, placement_history_,
+                                                      options_.retraction);
+  const bool growing = options_.confirm_while_growing && !settled;
   if (matched) {
     adoptServerHeld();
-    out = retractStale(graphs, result, &retraction_notes);
+    out = retractStale(graphs, result, growing ? &confirmation : nullptr, &retraction_notes);
   }
   const std::size_t retracted = out.size();
   std::size_t unconfirmed = 0;
-  held_back_.clear();  // this pass's verdict replaces the last one's
-  const matching::GrowthPassConfirmation confirmation(graphs, result, placement_history_, options_.retraction);
+  held_back_.clear();                     // this pass's verdict replaces the last one's
   std::set<std::string> held_back_notes;  // why graphs' constraints wait, once each
-  if (options_.confirm_while_growing && !settled)
+  if (growing)
     for (const auto& [graph, why] : confirmation.atOddsWithTransits()) held_back_notes.insert(why);
   for (const auto& c : result.constraints) {
     const auto key =

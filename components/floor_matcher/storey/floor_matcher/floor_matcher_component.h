@@ -99,11 +99,12 @@ class FloorMatcherComponent : public runtime::Component {
   // (Callers hold mutex_.) The server's constraints this instance did not publish (its
   // predecessor's, before a restart) join published_, to be checked as its own.
   void adoptServerHeld();
-  // Withdraws from published_ what `result` no longer stands behind; returns the
-  // retraction messages to publish, and each reason in `reasons`.
-  std::vector<storey_msgs::msg::InterFloorConstraint> retractStale(const std::vector<floor::FloorGraph>& graphs,
-                                                                    const matching::MatchResult& result,
-                                                                    std::vector<std::string>* reasons);
+  // Withdraws from published_ what `result` no longer stands behind (with `confirmation`,
+  // a growth pass's: only what it may retract); returns the retraction messages to
+  // publish, and each reason in `reasons`.
+  std::vector<storey_msgs::msg::InterFloorConstraint> retractStale(
+      const std::vector<floor::FloorGraph>& graphs, const matching::MatchResult& result,
+      const matching::GrowthPassConfirmation* confirmation, std::vector<std::string>* reasons);
   // Publishes what the last pass held back unconfirmed (the graphs have not grown since).
   void releaseHeldBack(std::unique_lock<std::mutex>& lock);
   void stopWorker();
