@@ -258,10 +258,8 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
     }
     const matching::MatchResult result = matching::matchFloors(graphs, options);
     const matching::GrowthPassConfirmation confirmation(graphs, result, history, retraction);
-    std::vector<matching::Retraction> retract;
-    for (const auto& r : matching::constraintsToRetract(published, graphs, result, retraction))
-      if (!confirm || final_pass || confirmation.mayRetract(published[r.index]))
-        retract.push_back(r);
+    const auto retract = matching::constraintsToRetract(
+        published, graphs, result, retraction, confirm && !final_pass ? &confirmation : nullptr);
     int retracted_wrong = 0;
     std::vector<bool> drop(published.size(), false);
     for (const auto& r : retract) {

@@ -200,13 +200,17 @@ GrowthPassConfirmation::GrowthPassConfirmation(const std::vector<floor::FloorGra
   }
 }
 
+bool GrowthPassConfirmation::placedAtOdds(const InterFloorConstraint& c) const {
+  return at_odds_.count(c.graph_id) || at_odds_.count(c.reference_graph_id);
+}
+
 bool GrowthPassConfirmation::mayRetract(const InterFloorConstraint& c) const {
-  return !at_odds_.count(c.graph_id) && !at_odds_.count(c.reference_graph_id);
+  return !placedAtOdds(c);
 }
 
 bool GrowthPassConfirmation::confirms(const InterFloorConstraint& c) const {
   if (options_.confirm_both_sides && !pairSeenFromBothSides(c, result_)) return false;
-  if (at_odds_.count(c.graph_id) || at_odds_.count(c.reference_graph_id)) return false;
+  if (placedAtOdds(c)) return false;
   return history_.confirms(c, graphs_, options_);
 }
 
@@ -228,12 +232,15 @@ std::string ambiguity(int id, const MatchResult& result, const GraphPlacement& p
 
 std::vector<Retraction> constraintsToRetract(const std::vector<InterFloorConstraint>& published,
                                              const std::vector<floor::FloorGraph>& graphs,
-                                             const MatchResult& result, const RetractionOptions& options) {
+                                             const MatchResult& result,
+                                             const RetractionOptions& options,
+                                             const GrowthPassConfirmation* growth) {
   std::vector<Retraction> out;
   if (!options.enabled) return out;
   const GraphPlacement placement = placeGraphs(graphs, result);
   for (std::size_t i = 0; i < published.size(); ++i) {
     const InterFloorConstraint& c = published[i];
+    if (growth && !growth->mayRetract(c)) continue;
     if (placement.joins(c.reference_graph_id, c.graph_id)) {
       std::string disagreement;
       if (placementDisagreement(c, graphs, placement, options, &disagreement) == 1)

@@ -132,6 +132,8 @@ class GrowthPassConfirmation {
   const PlacementHistory& history_;
   RetractionOptions options_;
   std::map<int, std::string> at_odds_;
+
+  bool placedAtOdds(const InterFloorConstraint& c) const;  // either of c's graphs
 };
 
 struct Retraction {
@@ -140,10 +142,13 @@ struct Retraction {
 };
 
 // `published`: constraints accepted by earlier passes and not retracted; `graphs`: the
-// floor graphs the new pass matched (current node poses); `result`: that pass. Returns
-// the published constraints to retract, in order, each with why.
+// floor graphs the new pass matched (current node poses); `result`: that pass; `growth`:
+// when the pass is a growth pass, its confirmation, and only what it may retract
+// (mayRetract) is. Returns the published constraints to retract, in order, each with why.
 std::vector<Retraction> constraintsToRetract(const std::vector<InterFloorConstraint>& published,
                                              const std::vector<floor::FloorGraph>& graphs,
-                                             const MatchResult& result, const RetractionOptions& options);
+                                             const MatchResult& result,
+                                             const RetractionOptions& options,
+                                             const GrowthPassConfirmation* growth = nullptr);
 
 }  // namespace storey::matching

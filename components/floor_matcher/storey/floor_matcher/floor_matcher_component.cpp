@@ -205,8 +205,8 @@ std::vector<storey_msgs::msg::InterFloorConstraint> FloorMatcherComponent::retra
     standing.push_back(p.constraint);
   }
   std::vector<storey_msgs::msg::InterFloorConstraint> out;
-  for (const auto& r : matching::constraintsToRetract(standing, graphs, result, options_.retraction)) {
-    if (confirmation && !confirmation->mayRetract(standing[r.index])) continue;
+  for (const auto& r : matching::constraintsToRetract(standing, graphs, result, options_.retraction,
+                                                      confirmation)) {
     storey_msgs::msg::InterFloorConstraint m = published_.at(keys[r.index]).message;
     m.retracted(true);
     m.reason(r.reason);
