@@ -928,6 +928,130 @@ TEST(FloorMatcher, ARivalSetThroughAnAlignedFloorIsJudgedByTheWholeFloorsFit) {
   for (const auto& k : five.candidates) EXPECT_NE(k.status, CandidateStatus::kAccepted);
 }
 
+// Two floors that share only a lift and the 2 m x 4 m corridor before it (glass3's
+// shape): everything else differs, so most of the second floor's scan points find no wall
+// of the first's.
+test::Walls liftLobbyFloor(int variant) {
+  test::Walls w;
+  test::addWall(&w, 11, 3, 11, 9);    // corridor and cabin, west
+  test::addWall(&w, 13, 3, 13, 9);    // east
+  test::addWall(&w, 11, 9, 13, 9);    // the cabin's back
+  test::addWall(&w, 11, 7, 11.5, 7);  // the cabin's front, a 1 m door
+  test::addWall(&w, 12.5, 7, 13, 7);
+  if (variant == 0) {
+    test::addBox(&w, 0, -8, 24, 16);
+    test::addWall(&w, 0, 3, 8, 3);
+    test::addWall(&w, 16, 3, 24, 3);
+    test::addWall(&w, 6, -8, 6, -3);
+    test::addBox(&w, 2.5, 9.5, 3.5, 10.5);
+  } else {
+    test::addBox(&w, 2, -6, 22, 13);
+    test::addWall(&w, 2, 0, 9, 0);
+    test::addWall(&w, 17, -6, 17, 0);
+    test::addBox(&w, 18, 4.6, 20, 5.4);
+    test::addBox(&w, 6.5, -3.3, 9.5, -2.7);
+  }
+  return w;
+}
+
+// The joint alignment of a set whose inliers all lie in the lobby, started 0.6 degrees and
+// 6 cm off: the whole floor's points mostly miss the reference's walls, so they cannot
+// refine it, and the inliers' own points do.
+TEST(FloorMatcher, AJointAlignmentOfFloorsThatShareOnlyALobbyIsRefinedOnTheLobbysPoints) {
+  const Pose2 frame(-0.8, 0.5, -0.2);  // the second graph's frame in the first's: sought
+  const auto first =
+      driveFloor(liftLobbyFloor(0), {{4, -4}, {4, 1}, {12, 1}, {12, 8.2}}, Pose2(), 0, 0.0, 11);
+  const auto second =
+      driveFloor(liftLobbyFloor(1), {{12, 8.2}, {12, 2}, {4, 2}, {4, 10}, {4, 2}, {15, -3}}, frame,
+                 1, 4.0, 12);
+  FloorMatcherOptions o = fastOptions();
+  const PreparedFloor reference = prepareFloor(first, o);
+  int lobby_end = 0;  // the second floor's nodes in the cabin and the corridor
+  while ((frame * second.nodes[lobby_end + 1].pose).y() > 3.0) ++lobby_end;
+  ASSERT_GE(lobby_end, 10);
+  const std::vector<std::pair<int, int>> lobby{{0, lobby_end}};
+  const Pose2 start = frame * Pose2(0.06, -0.03, 0.0105);
+  Pose2 on_field = start;
+  refineAlignment(reference.map->field(), second, lobby, o.refine_beams, o.refine_iterations,
+                  &on_field);
+  const Pose2 refined = refinedOnScans(reference, second, lobby, o, start);
+  // Errors where the floors meet (the corridor's middle, in the first floor's frame).
+  const Eigen::Vector2d lobby_middle(12.0, 5.0);
+  auto metres = [&](const Pose2& a) {
+    return (a.transformPoint(frame.inverse().transformPoint(lobby_middle)) - lobby_middle).norm();
+  };
+  EXPECT_LT(metres(refined), 0.01);
+  EXPECT_LT(angleError(refined, frame), 0.025 * M_PI / 180);
+  // The likelihood field alone leaves it further off, and the whole floor's points are no help.
+  EXPECT_GT(angleError(on_field, frame), 2.0 * angleError(refined, frame));
+  const std::vector<Eigen::Vector2d> whole =
+      floor::floorPoints(second, 0, second.nodes.size(), o.map.max_insert_range);
+  grid::PointAlignmentOptions whole_fit;
+  whole_fit.max_correspondence_distance = o.point_correspondence_distance;
+  whole_fit.robust_distance = o.point_robust_distance;
+  EXPECT_LT(grid::alignToPoints(reference.points, whole, on_field, whole_fit).weight_sum,
+            0.5 * static_cast<double>(whole.size()));
+}
+
+// Three candidates 0.8 degrees off form the set; a fourth, far along the floor, joins
+// through the distortion allowance (0.35 m off, within 0.3 m + 2 % of 12 m, and turned 3.4
+// degrees, within the 2.9 degrees' rotation tolerance of the set's mean). The joint alignment,
+// refined on the scans, is right, and the fourth keeps its own translation, where the floor is, but
+// not its heading: the allowance is for a floor stretched, not turned.
+TEST(FloorMatcher, ACandidateJoinedThroughTheDistortionAllowanceTakesTheJointsHeading) {
+  const Pose2 frame(-0.8, 0.5, -0.2);  // the second graph's frame in the first's: sought
+  const auto first = driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 8);
+  const auto second = driveFloor(officeFloor(1), officePath(0), frame, 1, 3.2, 10);
+  FloorMatcherOptions o = fastOptions();
+  o.ransac_distortion = 0.02;
+  const PreparedFloor reference = prepareFloor(first, o), floor_data = prepareFloor(second, o);
+  // A candidate of `second`'s nodes [k, k + 4] whose alignment places node k at `placed`.
+  auto candidate = [&](int k, const Pose2& placed) {
+    Candidate c;
+    c.reference_graph_id = first.graph_id;
+    c.graph_id = second.graph_id;
+    c.first_index = k;
+    c.last_index = k + 4;
+    c.node_index = k;
+    c.node_id = second.nodes[k].id;
+    c.alignment = placed * second.nodes[k].pose.inverse();
+    const int q = first.nearestNodeIndex(placed.translation());
+    c.reference_node_id = first.nodes[q].id;
+    c.measurement = first.nodes[q].pose.between(placed);
+    c.likelihood = 1.0;
+    c.status = CandidateStatus::kOutlier;  // passed the gate
+    return c;
+  };
+  PairResult pair;
+  pair.reference_graph_id = first.graph_id;
+  pair.graph_id = second.graph_id;
+  for (int k : {0, 6, 12})
+    pair.candidates.push_back(candidate(k, frame * second.nodes[k].pose * Pose2(0, 0, 0.014)));
+  int far = 13;  // the first node 12 m or more from the set's nodes
+  auto from_set = [&](int n) {
+    double d = 1e9;
+    for (int k : {0, 6, 12})
+      d = std::min(
+          d, (second.nodes[n].pose.translation() - second.nodes[k].pose.translation()).norm());
+    return d;
+  };
+  while (from_set(far) < 12.0) ++far;
+  ASSERT_LT(far + 4, static_cast<int>(second.nodes.size()));
+  const Pose2 far_truth = frame * second.nodes[far].pose;
+  const Pose2 far_placed(far_truth.x() + 0.35, far_truth.y(), far_truth.theta() + 0.059);
+  pair.candidates.push_back(candidate(far, far_placed));
+  std::mt19937_64 rng(5);
+  decideConsistentSet(reference, floor_data, o, &rng, &pair);
+  ASSERT_TRUE(pair.accepted) << pair.reason;
+  for (const auto& c : pair.candidates)
+    EXPECT_EQ(c.status, CandidateStatus::kAccepted) << c.first_index << ": " << c.reason;
+  EXPECT_LT(angleError(pair.alignment, frame), 0.2 * M_PI / 180);
+  const Candidate& joined = pair.candidates.back();
+  const Pose2 measured = first.findNode(joined.reference_node_id)->pose * joined.measurement;
+  EXPECT_NEAR((measured.translation() - far_placed.translation()).norm(), 0.0, 1e-9);  // its own
+  EXPECT_LT(std::abs(geometry::angleDiff(measured.theta(), far_truth.theta())), 0.2 * M_PI / 180);
+}
+
 TEST(ConstraintJudgement, AnErrorAlongAClaimedWeakDirectionIsNotWrongAcrossItIs) {
   FloorMatcherOptions o;
   Candidate c;

@@ -39,6 +39,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <random>
 #include <string>
 #include <utility>
 #include <vector>
@@ -326,6 +327,24 @@ double learnLikelihoodThreshold(const floor::FloorGraph& graph, const FloorMatch
 // accept and options.match_both_directions, g_ref's scans localised in g_i's map join in.
 PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor,
                      const FloorMatcherOptions& options, std::uint64_t seed);
+
+// RANSAC over one directed pair's candidates that passed the gate (status kOutlier on
+// entry), rival sets, and the accepted set's joint alignment and constraints: each
+// candidate's final status, and the measurement of each accepted one. matchPair calls
+// it; declared here for tests.
+void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& floor,
+                         const FloorMatcherOptions& options, std::mt19937_64* rng,
+                         PairResult* result);
+
+// `alignment` (scans_graph's frame into map_floor's) refined on scans_graph's scans
+// `ranges` in map_floor's map: on the likelihood field, then on the map's points, with
+// the whole floor's scans where most of them lie on its walls (floors that share their
+// layout; point_refinement_whole_floor), else with the ranges' own. The field's
+// refinement of a few metres of scans can be off by half a degree, which the points
+// resolve (glass3: floors that share only a lift and its lobby). Declared for tests.
+geometry::Pose2 refinedOnScans(const PreparedFloor& map_floor, const floor::FloorGraph& scans_graph,
+                               const std::vector<std::pair<int, int>>& ranges,
+                               const FloorMatcherOptions& options, geometry::Pose2 alignment);
 
 // Evidence through an aligned graph: g_i (`floor`) failed against the reference for too
 // few consistent candidates (`direct`) and again against g_r (`aligned`), whose accepted
