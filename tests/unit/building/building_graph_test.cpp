@@ -90,6 +90,40 @@ TEST(BuildingGraph, UnconstrainedFloorIsNotAligned) {
   EXPECT_FALSE(s.placement(4)->aligned);
 }
 
+// One robot maps floor 0, rides a lift and maps floor 1, and no constraint joins them:
+// floor 1 is not aligned, but it lies where the robot's odometry through the ride puts it
+// (exact odometry here, in a frame of its own), not at the building's origin.
+TEST(BuildingGraph, AnUnconstrainedFloorLiesWhereTheRobotsOdometryPutsIt) {
+  const Pose2 frame1(3.0, -2.0, 0.4), odometry_frame(-7.0, 1.0, -1.1);
+  std::vector<Pose2> truth0, truth1;
+  floor::FloorGraph g0 = makeLoop(0, 0, 0.0, Pose2(), &truth0),
+                    g1 = makeLoop(1, 1, 3.0, frame1, &truth1);
+  for (auto* g : {&g0, &g1}) {
+    g->robot = "r";
+    const std::vector<Pose2>& truth = g == &g0 ? truth0 : truth1;
+    for (std::size_t i = 0; i < g->nodes.size(); ++i) {
+      g->nodes[i].stamp += g == &g0 ? 0.0 : 100.0;  // floor 1 after floor 0
+      g->nodes[i].odometry = odometry_frame * truth[i];
+    }
+  }
+  BuildingGraph building;
+  building.upsertFloorGraph(g0);
+  building.upsertFloorGraph(g1);
+  const BuildingSolution s = building.optimize();
+  const FloorPlacement* p1 = s.placement(1);
+  ASSERT_NE(p1, nullptr);
+  EXPECT_FALSE(p1->aligned);
+  EXPECT_NEAR(p1->transform.x(), 3.0, 1e-6);
+  EXPECT_NEAR(p1->transform.y(), -2.0, 1e-6);
+  EXPECT_NEAR(p1->transform.theta(), 0.4, 1e-6);
+  // Another robot's graph, with no floor change to a placed one, stays in its own frame.
+  g1.robot = "s";
+  BuildingGraph separate;
+  separate.upsertFloorGraph(g0);
+  separate.upsertFloorGraph(g1);
+  EXPECT_NEAR(separate.optimize().placement(1)->transform.translation().norm(), 0.0, 1e-9);
+}
+
 TEST(BuildingGraph, BadConstraintsAreRejectedWithTheirId) {
   BuildingGraph building;
   building.upsertFloorGraph(makeLoop(0, 0, 0.0, Pose2(), nullptr));

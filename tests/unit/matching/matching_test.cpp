@@ -1052,6 +1052,54 @@ TEST(FloorMatcher, ACandidateJoinedThroughTheDistortionAllowanceTakesTheJointsHe
   EXPECT_LT(std::abs(geometry::angleDiff(measured.theta(), far_truth.theta())), 0.2 * M_PI / 180);
 }
 
+// A robot drives graph 0 east to (9, 0), rides a lift that leaves it where it entered with
+// its odometry turned 2 degrees, and starts graph 1 (its own frame: the first node at the
+// origin). A placement of graph 1 that keeps the ride together is not contradicted; one
+// turned about the lift by 90 degrees, or 20 m away, is, and the reason names the nodes.
+TEST(FloorMatcher, APlacementIsCheckedAgainstTheRobotsFloorChanges) {
+  std::vector<floor::FloorGraph> graphs(2);
+  for (int g = 0; g < 2; ++g) {
+    graphs[g].graph_id = g;
+    graphs[g].floor_id = g;
+    graphs[g].robot = "r";
+    for (int i = 0; i < 10; ++i) {
+      floor::FloorNode n;
+      n.id = i;
+      n.stamp = 10.0 * g + i;
+      n.pose = Pose2(static_cast<double>(i), 0.0, 0.0);
+      // Odometry runs on through the ride, 2 degrees of slip in the cabin.
+      n.odometry = g == 0 ? n.pose : Pose2(9.0, 0.0, 0.035) * n.pose;
+      graphs[g].nodes.push_back(n);
+    }
+  }
+  const auto links = floor::transitLinks(graphs);
+  ASSERT_EQ(links.size(), 1u);
+  FloorMatcherOptions o;
+  o.floor_change_radius = 15.0;
+  o.floor_change_heading = 0.35;
+  const std::map<int, Pose2> placed{{0, Pose2()}};
+  const Pose2 kept_together(9.0, 0.0, 0.0);
+  EXPECT_EQ(floorChangeContradiction(graphs, links, 1, kept_together, placed, o), "");
+  const std::string turned =
+      floorChangeContradiction(graphs, links, 1, Pose2(9.0, 0.0, M_PI / 2), placed, o);
+  EXPECT_NE(turned.find("floor change from graph 0 (node 9) to graph 1 (node 0)"),
+            std::string::npos)
+      << turned;
+  EXPECT_NE(turned.find("deg from the robot's odometry"), std::string::npos) << turned;
+  const std::string far =
+      floorChangeContradiction(graphs, links, 1, Pose2(29.0, 0.0, 0.0), placed, o);
+  EXPECT_NE(far.find("m apart"), std::string::npos) << far;
+  // Seen from the other side: graph 0 placed against a placed graph 1.
+  EXPECT_NE(
+      floorChangeContradiction(graphs, links, 0, Pose2(0, 0, -M_PI / 2), {{1, kept_together}}, o),
+      "");
+  // Not judged: the other graph not placed, or the check off.
+  EXPECT_EQ(floorChangeContradiction(graphs, links, 1, Pose2(9.0, 0.0, M_PI / 2), {}, o), "");
+  o.floor_change_radius = 0.0;
+  o.floor_change_heading = 0.0;
+  EXPECT_EQ(floorChangeContradiction(graphs, links, 1, Pose2(29.0, 0.0, M_PI / 2), placed, o), "");
+}
+
 TEST(ConstraintJudgement, AnErrorAlongAClaimedWeakDirectionIsNotWrongAcrossItIs) {
   FloorMatcherOptions o;
   Candidate c;
@@ -1137,6 +1185,12 @@ TEST(FloorMatcherOptions, ReadsValuesAndRejectsUnknownKeys) {
   EXPECT_THROW(readFloorMatcherOptions(common::ConfigNode::loadString("min_sequense: 4\n")),
                common::ConfigError);
   EXPECT_THROW(readFloorMatcherOptions(common::ConfigNode::loadString("filter: {beams: 0}\n")),
+               common::ConfigError);
+  const FloorMatcherOptions changes = readFloorMatcherOptions(
+      common::ConfigNode::loadString("floor_change_radius: 12\nfloor_change_heading: 0.3\n"));
+  EXPECT_DOUBLE_EQ(changes.floor_change_radius, 12.0);
+  EXPECT_DOUBLE_EQ(changes.floor_change_heading, 0.3);
+  EXPECT_THROW(readFloorMatcherOptions(common::ConfigNode::loadString("floor_change_heading: 4\n")),
                common::ConfigError);
 }
 

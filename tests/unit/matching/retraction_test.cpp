@@ -283,7 +283,7 @@ TEST(TransitLinks, AreWhereOneRobotsNodesChangeGraph) {
   back.id = 10;
   back.stamp = 20.0;
   graphs[0].nodes.push_back(back);
-  const auto links = transitLinks(graphs);
+  const auto links = floor::transitLinks(graphs);
   ASSERT_EQ(links.size(), 2u) << "robot s never changed floor; r did twice";
   EXPECT_EQ(std::make_tuple(links[0].from_graph, links[0].from_node, links[0].to_graph, links[0].to_node),
             std::make_tuple(0, 9, 1, 0));

@@ -125,6 +125,8 @@ BuildingSolution BuildingGraph::optimize() {
     }
   }
 
+  placeByFloorChanges(component_root, reference, &transform);
+
   pose_graph_ = graph::PoseGraph();
   std::set<int> roots_fixed;
   for (int g : order) {
@@ -166,6 +168,39 @@ BuildingSolution BuildingGraph::optimize() {
   }
   solution_ = solution;
   return solution;
+}
+
+void BuildingGraph::placeByFloorChanges(const std::map<int, int>& component_root, int reference,
+                                        std::map<int, geometry::Pose2>* transform) const {
+  std::vector<const floor::FloorGraph*> graphs;
+  for (const auto& [id, g] : graphs_) graphs.push_back(&g);
+  const std::vector<floor::TransitLink> links = floor::transitLinks(graphs);
+  std::set<int> placed{component_root.at(reference)};
+  for (bool moved = true; moved;) {
+    moved = false;
+    for (const floor::TransitLink& link : links) {
+      const int from_root = component_root.at(link.from_graph),
+                to_root = component_root.at(link.to_graph);
+      const bool from_placed = placed.count(from_root) > 0, to_placed = placed.count(to_root) > 0;
+      if (from_placed == to_placed) continue;
+      const floor::FloorNode* from = graphs_.at(link.from_graph).findNode(link.from_node);
+      const floor::FloorNode* to = graphs_.at(link.to_graph).findNode(link.to_node);
+      const geometry::Pose2 ride = from->odometry.between(to->odometry);
+      if (!ride.isFinite()) continue;
+      // The unplaced side's set moves rigidly so that the two nodes lie as the odometry says.
+      const int graph = from_placed ? link.to_graph : link.from_graph;
+      const geometry::Pose2 wanted =
+          from_placed
+              ? transform->at(link.from_graph) * from->pose * ride * to->pose.inverse()
+              : transform->at(link.to_graph) * to->pose * ride.inverse() * from->pose.inverse();
+      const geometry::Pose2 shift = wanted * transform->at(graph).inverse();
+      const int root = from_placed ? to_root : from_root;
+      for (const auto& [g, r] : component_root)
+        if (r == root) (*transform)[g] = shift * transform->at(g);
+      placed.insert(root);
+      moved = true;
+    }
+  }
 }
 
 void BuildingGraph::addEdges(graph::PoseGraph& pose_graph) const {

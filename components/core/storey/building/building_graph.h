@@ -89,7 +89,9 @@ class BuildingGraph {
 
   // Optimises all floor graphs and constraints together. The reference (gauge) is the
   // lowest graph id with constraints (or the lowest id); graphs that no constraint joins
-  // to the reference keep their own frame and are reported as not aligned.
+  // to the reference are reported as not aligned, and placed where a robot's odometry
+  // through a floor change (its last node in a placed graph, its next in one of theirs)
+  // puts them, the paper's baseline; with no such change, in their own frame.
   BuildingSolution optimize();
   // The pose graph of the last optimize().
   const graph::PoseGraph& poseGraph() const { return pose_graph_; }
@@ -104,6 +106,10 @@ class BuildingGraph {
 
  private:
   void addEdges(graph::PoseGraph& pose_graph) const;
+  // Moves each set of graphs the constraints join (component_root: graph -> the set's
+  // root) that is not the reference's to where a floor change from a placed set puts it.
+  void placeByFloorChanges(const std::map<int, int>& component_root, int reference,
+                           std::map<int, geometry::Pose2>* transform) const;
 
   BuildingGraphOptions options_;
   std::map<int, floor::FloorGraph> graphs_;

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <limits>
+#include <map>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 
 namespace storey::floor {
 
@@ -73,6 +75,29 @@ std::vector<Eigen::Vector2d> floorPoints(const FloorGraph& graph, std::size_t fi
   std::vector<std::size_t> indices;
   for (std::size_t i = first; i < last && i < graph.nodes.size(); ++i) indices.push_back(i);
   return floorPoints(graph, indices, max_range);
+}
+
+std::vector<TransitLink> transitLinks(const std::vector<FloorGraph>& graphs) {
+  std::vector<const FloorGraph*> pointers;
+  for (const auto& g : graphs) pointers.push_back(&g);
+  return transitLinks(pointers);
+}
+
+std::vector<TransitLink> transitLinks(const std::vector<const FloorGraph*>& graphs) {
+  std::map<std::string, std::vector<std::tuple<double, int, int>>>
+      by_robot;  // (stamp, graph, node)
+  for (const FloorGraph* g : graphs)
+    for (const auto& n : g->nodes) by_robot[g->robot].emplace_back(n.stamp, g->graph_id, n.id);
+  std::vector<TransitLink> links;
+  for (auto& [robot, nodes] : by_robot) {
+    std::sort(nodes.begin(), nodes.end());
+    for (std::size_t i = 1; i < nodes.size(); ++i) {
+      const auto& [t0, g0, n0] = nodes[i - 1];
+      const auto& [t1, g1, n1] = nodes[i];
+      if (g0 != g1) links.push_back({g0, n0, g1, n1});
+    }
+  }
+  return links;
 }
 
 }  // namespace storey::floor

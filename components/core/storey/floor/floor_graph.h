@@ -70,4 +70,14 @@ std::vector<Eigen::Vector2d> floorPoints(const FloorGraph& graph, std::size_t fi
 std::vector<Eigen::Vector2d> floorPoints(const FloorGraph& graph, const std::vector<std::size_t>& indices,
                                          double max_range);
 
+// Where one robot changed floor graphs (a lift or stairs): its last node in one graph and
+// its next node, in the other (node stamps; the floor graphs of one robot and floor are
+// one graph).
+struct TransitLink {
+  int from_graph = 0, from_node = 0;
+  int to_graph = 0, to_node = 0;
+};
+std::vector<TransitLink> transitLinks(const std::vector<FloorGraph>& graphs);
+std::vector<TransitLink> transitLinks(const std::vector<const FloorGraph*>& graphs);
+
 }  // namespace storey::floor

@@ -76,6 +76,9 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
       node.getDouble("same_floor_see_through", o.same_floor_see_through, 0.0, 1.0);
   o.same_floor_through_beams =
       node.getInt("same_floor_through_beams", o.same_floor_through_beams, 1, 10000);
+  o.floor_change_radius = node.getDouble("floor_change_radius", o.floor_change_radius, 0.0, 1e4);
+  o.floor_change_heading =
+      node.getDouble("floor_change_heading", o.floor_change_heading, 0.0, M_PI);
   o.wall_beams = node.getInt("wall_beams", o.wall_beams, 1, 10000);
   o.wall_recheck_max = node.getInt("wall_recheck_max", o.wall_recheck_max, 0, 1000000);
   o.wall_log_p = node.getDouble("wall_log_p", o.wall_log_p, -100.0, 0.0);
@@ -1013,9 +1016,21 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
 
 namespace {
 
+// Gated candidates whose alignment `refuted` refutes leave RANSAC's pool.
+void markRefuted(const AlignmentCheck& refuted, std::vector<Candidate>* candidates) {
+  if (!refuted) return;
+  for (Candidate& c : *candidates) {
+    if (c.status != CandidateStatus::kOutlier) continue;
+    const std::string why = refuted(c.alignment);
+    if (why.empty()) continue;
+    c.status = CandidateStatus::kContradicted;
+    c.reason = "placed so, " + why;
+  }
+}
+
 PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor& floor_data,
-                             const FloorMatcherOptions& o, std::uint64_t seed,
-                             bool both_directions) {
+                             const FloorMatcherOptions& o, std::uint64_t seed, bool both_directions,
+                             const AlignmentCheck& refuted) {
   const auto start = std::chrono::steady_clock::now();
   const floor::FloorGraph& ref = *reference.graph;
   const floor::FloorGraph& g = *floor_data.graph;
@@ -1027,6 +1042,7 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
   std::uint64_t evaluations = 0;
   result.candidates = localiseSequences(reference, floor_data, result.l_min, o, seed, false, false,
                                         &result, &evaluations);
+  markRefuted(refuted, &result.candidates);
   decideConsistentSet(reference, floor_data, o, &rng, &result);
   if (!result.accepted && both_directions && ref.graph_id != g.graph_id) {
     // Too few or two rival consistent sets: g_ref's scans localised in g_i's map are
@@ -1062,6 +1078,7 @@ PairResult matchPairDirected(const PreparedFloor& reference, const PreparedFloor
     result.ambiguous = false;
     result.contradicted = false;
     result.set_alignments.clear();
+    markRefuted(refuted, &result.candidates);
     decideConsistentSet(reference, floor_data, o, &rng, &result);
     result.sequences += reverse.sequences;
     result.not_converged += reverse.not_converged;
@@ -1101,8 +1118,9 @@ std::string sameFloorContradiction(const PreparedFloor& reference, const Prepare
 }
 
 PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor_data,
-                     const FloorMatcherOptions& o, std::uint64_t seed) {
-  return matchPairDirected(reference, floor_data, o, seed, o.match_both_directions);
+                     const FloorMatcherOptions& o, std::uint64_t seed,
+                     const AlignmentCheck& refuted) {
+  return matchPairDirected(reference, floor_data, o, seed, o.match_both_directions, refuted);
 }
 
 namespace {
@@ -1133,7 +1151,7 @@ FloorCheck checkSelfSimilarity(const PreparedFloor& floor_data, const FloorMatch
   check.graph_id = floor_data.graph->graph_id;
   check.structure = floor_data.structure;
   check.l_min = floor_data.l_min;
-  const PairResult own = matchPairDirected(floor_data, floor_data, o, seed, false);
+  const PairResult own = matchPairDirected(floor_data, floor_data, o, seed, false, {});
   std::vector<std::size_t> elsewhere, at_home;
   for (std::size_t i = 0; i < own.candidates.size(); ++i) {
     const Candidate& c = own.candidates[i];
@@ -1214,8 +1232,10 @@ PairResult combineThroughAligned(const PairResult& direct, const PairResult& via
     in_reference[i].alignment = t_r * in_reference[i].alignment;
   std::vector<std::size_t> pool;
   for (std::size_t i = 0; i < out.candidates.size(); ++i) {
+    // Not a candidate whose own set was contradicted (a floor change or another graph of
+    // its floor): that placement is already refuted.
     const CandidateStatus s = out.candidates[i].status;
-    if (passedGate(s)) {
+    if (passedGate(s) && s != CandidateStatus::kContradicted) {
       pool.push_back(i);
       out.candidates[i].status = CandidateStatus::kOutlier;
     }
@@ -1426,6 +1446,43 @@ bool rejectContradictedPlacements(const std::vector<floor::FloorGraph>& graphs,
   return true;
 }
 
+std::string floorChangeContradiction(const std::vector<floor::FloorGraph>& graphs,
+                                     const std::vector<floor::TransitLink>& links, int graph_id,
+                                     const Pose2& placed, const std::map<int, Pose2>& placed_graphs,
+                                     const FloorMatcherOptions& o) {
+  const bool check_radius = o.floor_change_radius > 0.0,
+             check_heading = o.floor_change_heading > 0.0;
+  if (!check_radius && !check_heading) return "";
+  auto node = [&](int graph, int id) -> const floor::FloorNode* {
+    for (const auto& g : graphs)
+      if (g.graph_id == graph) return g.findNode(id);
+    return nullptr;
+  };
+  for (const floor::TransitLink& link : links) {
+    if (link.from_graph != graph_id && link.to_graph != graph_id) continue;
+    const int other = link.from_graph == graph_id ? link.to_graph : link.from_graph;
+    const auto at = placed_graphs.find(other);
+    if (other == graph_id || at == placed_graphs.end()) continue;
+    const floor::FloorNode* from = node(link.from_graph, link.from_node);
+    const floor::FloorNode* to = node(link.to_graph, link.to_node);
+    if (!from || !to) continue;
+    const Pose2 a = (link.from_graph == graph_id ? placed : at->second) * from->pose;
+    const Pose2 b = (link.to_graph == graph_id ? placed : at->second) * to->pose;
+    const double apart = (a.translation() - b.translation()).norm();
+    const double turn_off = std::abs(
+        geometry::angleDiff(a.between(b).theta(), from->odometry.between(to->odometry).theta()));
+    const std::string change =
+        common::str("the floor change from graph ", link.from_graph, " (node ", link.from_node,
+                    ") to graph ", link.to_graph, " (node ", link.to_node, ")");
+    if (check_radius && apart > o.floor_change_radius)
+      return common::str("it puts ", change, " ", apart, " m apart");
+    if (check_heading && turn_off > o.floor_change_heading)
+      return common::str("it turns ", change, " ", turn_off * 180.0 / M_PI,
+                         " deg from the robot's odometry");
+  }
+  return "";
+}
+
 MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
                         const FloorMatcherOptions& o) {
   const auto start = std::chrono::steady_clock::now();
@@ -1486,10 +1543,48 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
                    static_cast<std::uint64_t>(graphs[i].graph_id));
   };
 
+  // A candidate, and an accepted pair, whose placement contradicts a robot's floor change
+  // to or from a graph already placed (floorChangeContradiction) is refuted; the graph
+  // tries the others.
+  const std::vector<floor::TransitLink> links = floor::transitLinks(graphs);
+  auto byGraphId = [&](const std::map<int, Pose2>& by_index) {
+    std::map<int, Pose2> out;
+    for (const auto& [index, frame] : by_index) out[graphs[index].graph_id] = frame;
+    return out;
+  };
+  // Graph i placed by an alignment into r's frame, r placed by `placed` (by index).
+  auto floorChangeCheck = [&](int i, int r, const std::map<int, Pose2>& placed) -> AlignmentCheck {
+    if (o.floor_change_radius <= 0.0 && o.floor_change_heading <= 0.0) return {};
+    const auto at = placed.find(r);
+    const Pose2 r_frame = at == placed.end() ? Pose2() : at->second;
+    const std::map<int, Pose2> placed_graphs =
+        at == placed.end() ? std::map<int, Pose2>{{graphs[r].graph_id, Pose2()}}
+                           : byGraphId(placed);
+    const int id = graphs[i].graph_id;
+    return [&graphs, &links, &o, id, r_frame, placed_graphs](const Pose2& alignment) {
+      return floorChangeContradiction(graphs, links, id, r_frame * alignment, placed_graphs, o);
+    };
+  };
+  auto rejectAtOddsWithFloorChanges = [&](PairResult* p, const AlignmentCheck& check) {
+    if (!p->accepted || !check) return;
+    const std::string why = check(p->alignment);
+    if (why.empty()) return;
+    p->accepted = false;
+    p->reason += "; rejected: " + why;
+    for (auto& c : p->candidates)
+      if (c.status == CandidateStatus::kAccepted) {
+        c.status = CandidateStatus::kContradicted;
+        c.reason = "its set's placement contradicts a robot's floor change: " + why;
+      }
+  };
+
   std::vector<int> others(order.begin() + 1, order.end());
   std::vector<PairResult> first(others.size());
+  const std::map<int, Pose2> reference_only{{ref, Pose2()}};
   parallelFor(static_cast<int>(others.size()), o.threads, [&](int j) {
-    first[j] = matchPair(prepared[ref], prepared[others[j]], o, seedFor(ref, others[j]));
+    const AlignmentCheck check = floorChangeCheck(others[j], ref, reference_only);
+    first[j] = matchPair(prepared[ref], prepared[others[j]], o, seedFor(ref, others[j]), check);
+    rejectAtOddsWithFloorChanges(&first[j], check);
   });
   // A floor that failed for lack of evidence tries the other floors, those of the same
   // floor id (another robot's graph of the same floor) first, then by structure. One
@@ -1521,7 +1616,8 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
       if (r != ref && r != i && graphs[r].floor_id != graphs[i].floor_id) refs.push_back(r);
     for (int r : refs) {
       if (before.ambiguous && !to_reference.count(r)) continue;
-      PairResult p = matchPair(prepared[r], prepared[i], o, seedFor(r, i));
+      const AlignmentCheck check = floorChangeCheck(i, r, to_reference);
+      PairResult p = matchPair(prepared[r], prepared[i], o, seedFor(r, i), check);
       if (p.accepted && before.ambiguous) {
         Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
         for (const auto& n : graphs[i].nodes) centroid += n.pose.translation();
@@ -1545,6 +1641,7 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
           p.reason += "; confirmed through the reference";
         }
       }
+      rejectAtOddsWithFloorChanges(&p, check);
       const bool combine =
           !p.accepted && !p.ambiguous && !before.ambiguous && to_reference.count(r) && r != ref;
       retries[j].push_back(std::move(p));
@@ -1553,6 +1650,7 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
         PairResult both =
             combineThroughAligned(before, retries[j].back(), to_reference.at(r), prepared[ref],
                                   prepared[r], prepared[i], o, seedFor(r, i) ^ 0xC0B1ULL);
+        rejectAtOddsWithFloorChanges(&both, floorChangeCheck(i, ref, to_reference));
         retries[j].push_back(std::move(both));
       }
       if (retries[j].back().accepted || retries[j].back().contradicted) break;

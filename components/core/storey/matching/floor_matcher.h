@@ -35,7 +35,9 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <iosfwd>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -171,6 +173,19 @@ struct FloorMatcherOptions {
   // right F2 pair: 9-11 % of one graph's scans, none the other way). 1 turns it off.
   double same_floor_see_through = 0.1;
   int same_floor_through_beams = 3;
+  // A robot's floor change (lift or stairs: its last node in one graph and its next node in
+  // another) is evidence where the floors lie: a lift leaves the robot where it entered, a
+  // stairwell a few metres on, and its odometry carries the heading through (a degree or
+  // two of wheel slip when it turns in the cabin). A pair's accepted alignment that puts
+  // such a change, to a graph already placed, more than floor_change_radius (m) apart or
+  // turned more than floor_change_heading (rad) from the robot's odometry is rejected
+  // (kContradicted) and the graph tries the others (glass3 seed 12: floor 2 fitted to a
+  // look-alike of floor 1 turned 90 degrees). 0: off, the library's default (its unit tests'
+  // synthetic graphs share one robot and overlapping stamps); config/floor_matcher.yaml
+  // sets 15 m and 0.35 rad. Journals written before session 24 carry no raw odometry: set
+  // the heading to 0 for them.
+  double floor_change_radius = 0.0;
+  double floor_change_heading = 0.0;
   int threads = 2;
   std::uint64_t seed = 1;
 };
@@ -185,7 +200,9 @@ enum class CandidateStatus {
   kAmbiguous,         // two disjoint consistent sets (symmetric floor)
   kUnderconstrained,  // its scans do not pin one direction (max_weak_sigma)
   kContradicted,      // its set places two graphs of one floor so that one sees through the
-                      // other's walls (same_floor_see_through)
+                      // other's walls (same_floor_see_through), or it or its set places a
+                      // robot's floor change at odds with its odometry (floor_change_radius,
+                      // floor_change_heading)
 };
 const char* candidateStatusName(CandidateStatus status);
 
@@ -323,10 +340,16 @@ PreparedFloor prepareFloor(const floor::FloorGraph& graph, const FloorMatcherOpt
 double learnLikelihoodThreshold(const floor::FloorGraph& graph, const FloorMatcherOptions& options,
                                 std::uint64_t seed);
 
+// Why a candidate's alignment (g_i's frame into g_ref's) is refuted before RANSAC ("" when
+// it is not): matchFloors checks it against the robots' floor changes.
+using AlignmentCheck = std::function<std::string(const geometry::Pose2& alignment)>;
+
 // Algorithm 1 for one pair: candidates, gate, refinement, RANSAC; when that does not
 // accept and options.match_both_directions, g_ref's scans localised in g_i's map join in.
+// Candidates that `refuted` refutes take no part in RANSAC (kContradicted).
 PairResult matchPair(const PreparedFloor& reference, const PreparedFloor& floor,
-                     const FloorMatcherOptions& options, std::uint64_t seed);
+                     const FloorMatcherOptions& options, std::uint64_t seed,
+                     const AlignmentCheck& refuted = {});
 
 // RANSAC over one directed pair's candidates that passed the gate (status kOutlier on
 // entry), rival sets, and the accepted set's joint alignment and constraints: each
@@ -378,9 +401,11 @@ Eigen::Matrix3d constraintInformation(const Candidate& c, const FloorMatcherOpti
 // too few consistent candidates tries the others (same floor id first, then by
 // structure) until one accepts; one found ambiguous tries only graphs already aligned
 // to the reference (its own floor id first), and such a retry must agree, through the
-// reference, with one of its two sets; one whose pair is contradicted tries none. Last,
-// graphs of one floor placed through others are checked against each other
-// (rejectContradictedPlacements).
+// reference, with one of its two sets; one whose pair is contradicted tries none. Every
+// pair's candidates, and its accepted alignment, are checked against the robots' floor
+// changes to graphs already placed (floorChangeContradiction; refuted candidates take no
+// part in RANSAC). Last, graphs of one floor placed through others are checked against
+// each other (rejectContradictedPlacements).
 MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
                         const FloorMatcherOptions& options);
 
@@ -425,6 +450,17 @@ double seeThroughFraction(const grid::GridFrame& f, const std::vector<std::uint8
 std::string sameFloorContradiction(const PreparedFloor& reference, const PreparedFloor& floor,
                                    const geometry::Pose2& alignment,
                                    const FloorMatcherOptions& options);
+
+// Why placing graph `graph_id` at `placed` (its frame into the reference's) contradicts
+// one of `links` (floor::transitLinks of `graphs`) to or from a graph in `placed_graphs`
+// (graph id -> its frame in the reference's): "" when none does
+// (FloorMatcherOptions::floor_change_radius, floor_change_heading). matchFloors calls it
+// for every accepted pair; declared here for tests.
+std::string floorChangeContradiction(const std::vector<floor::FloorGraph>& graphs,
+                                     const std::vector<floor::TransitLink>& links, int graph_id,
+                                     const geometry::Pose2& placed,
+                                     const std::map<int, geometry::Pose2>& placed_graphs,
+                                     const FloorMatcherOptions& options);
 
 // After a pass: two graphs of one floor id that it placed only through other graphs (each
 // aligned to a third) and whose implied placement sameFloorContradiction rejects. Both

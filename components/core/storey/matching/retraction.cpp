@@ -151,22 +151,6 @@ bool pairSeenFromBothSides(const InterFloorConstraint& c, const MatchResult& res
   return forward && reversed;
 }
 
-std::vector<TransitLink> transitLinks(const std::vector<floor::FloorGraph>& graphs) {
-  std::map<std::string, std::vector<std::tuple<double, int, int>>> by_robot;  // (stamp, graph, node)
-  for (const auto& g : graphs)
-    for (const auto& n : g.nodes) by_robot[g.robot].emplace_back(n.stamp, g.graph_id, n.id);
-  std::vector<TransitLink> links;
-  for (auto& [robot, nodes] : by_robot) {
-    std::sort(nodes.begin(), nodes.end());
-    for (std::size_t i = 1; i < nodes.size(); ++i) {
-      const auto& [t0, g0, n0] = nodes[i - 1];
-      const auto& [t1, g1, n1] = nodes[i];
-      if (g0 != g1) links.push_back({g0, n0, g1, n1});
-    }
-  }
-  return links;
-}
-
 GrowthPassConfirmation::GrowthPassConfirmation(const std::vector<floor::FloorGraph>& graphs,
                                                const MatchResult& result, const PlacementHistory& history,
                                                const RetractionOptions& options)
@@ -175,7 +159,7 @@ GrowthPassConfirmation::GrowthPassConfirmation(const std::vector<floor::FloorGra
   const bool check_heading = options.confirm_transit_heading > 0.0;
   if (!check_radius && !check_heading) return;
   const GraphPlacement placement = placeGraphs(graphs, result);
-  for (const TransitLink& link : transitLinks(graphs)) {
+  for (const floor::TransitLink& link : floor::transitLinks(graphs)) {
     if (!placement.joins(link.from_graph, link.to_graph)) continue;
     const floor::FloorNode* from = findGraph(graphs, link.from_graph)->findNode(link.from_node);
     const floor::FloorNode* to = findGraph(graphs, link.to_graph)->findNode(link.to_node);

@@ -102,14 +102,6 @@ class PlacementHistory {
 // scans in its reference's map and the reference's scans in c's graph's map.
 bool pairSeenFromBothSides(const InterFloorConstraint& c, const MatchResult& result);
 
-// Where one robot changed floor graphs: its last node in one graph and its next node, in
-// the other (node stamps; the floor graphs of one robot and floor are one graph).
-struct TransitLink {
-  int from_graph = 0, from_node = 0;
-  int to_graph = 0, to_node = 0;
-};
-std::vector<TransitLink> transitLinks(const std::vector<floor::FloorGraph>& graphs);
-
 // What a pass on growing graphs may publish: a constraint that `history` confirms,
 // (confirm_both_sides) whose pair the pass saw from both sides, and (confirm_transit_radius)
 // whose graphs the pass places with their transit links' ends within the radius and
