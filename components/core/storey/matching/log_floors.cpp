@@ -4,6 +4,7 @@
 #include <cmath>
 #include <optional>
 #include <random>
+#include <string>
 
 namespace storey::matching {
 
@@ -15,6 +16,9 @@ floor::FloorGraph floorGraphFromLasers(const std::vector<io::CarmenLaser>& laser
   g.graph_id = o.graph_id;
   g.floor_id = o.floor_id;
   g.floor_height = o.floor_height;
+  // The graph's odometry starts afresh at its first node, so no robot's floor change links
+  // it to another graph (floor::transitLinks): each is a robot of its own.
+  g.robot = "log_graph_" + std::to_string(o.graph_id);
   std::mt19937_64 rng(o.seed);
   std::normal_distribution<double> n01(0.0, 1.0);
   const Pose2 inverse = o.frame.inverse();
