@@ -999,27 +999,16 @@ TEST(FloorMatcher, AJointAlignmentOfFloorsThatShareOnlyALobbyIsRefinedOnTheLobby
 // refined on the scans, is right, and the fourth keeps its own translation, where the floor is, but
 // not its heading: the allowance is for a floor stretched, not turned.
 TEST(FloorMatcher, ACandidateJoinedThroughTheDistortionAllowanceTakesTheJointsHeading) {
-  const Pose2 frame(-0.8, 0.5, -0.2);  // the second graph's frame in the first's: sought
-  const auto first = driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 8);
-  const auto second = driveFloor(officeFloor(1), officePath(0), frame, 1, 3.2, 10);
-  FloorMatcherOptions o = fastOptions();
+  const ThreeFloors f;  // A (the reference) and C, whose frame in A's is sought
+  const floor::FloorGraph& first = f.graphs[0];
+  const floor::FloorGraph& second = f.c();
+  const Pose2 frame = f.frame_c;
+  FloorMatcherOptions o = f.options;
   o.ransac_distortion = 0.02;
-  const PreparedFloor reference = prepareFloor(first, o), floor_data = prepareFloor(second, o);
-  // A candidate of `second`'s nodes [k, k + 4] whose alignment places node k at `placed`.
+  // A gated candidate of `second`'s nodes [k, k + 4] whose alignment places node k at `placed`.
   auto candidate = [&](int k, const Pose2& placed) {
-    Candidate c;
-    c.reference_graph_id = first.graph_id;
-    c.graph_id = second.graph_id;
-    c.first_index = k;
-    c.last_index = k + 4;
-    c.node_index = k;
-    c.node_id = second.nodes[k].id;
-    c.alignment = placed * second.nodes[k].pose.inverse();
-    const int q = first.nearestNodeIndex(placed.translation());
-    c.reference_node_id = first.nodes[q].id;
-    c.measurement = first.nodes[q].pose.between(placed);
-    c.likelihood = 1.0;
-    c.status = CandidateStatus::kOutlier;  // passed the gate
+    Candidate c = f.gated(first, k, placed * second.nodes[k].pose.inverse(), false);
+    c.status = CandidateStatus::kOutlier;
     return c;
   };
   PairResult pair;
@@ -1041,7 +1030,7 @@ TEST(FloorMatcher, ACandidateJoinedThroughTheDistortionAllowanceTakesTheJointsHe
   const Pose2 far_placed(far_truth.x() + 0.35, far_truth.y(), far_truth.theta() + 0.059);
   pair.candidates.push_back(candidate(far, far_placed));
   std::mt19937_64 rng(5);
-  decideConsistentSet(reference, floor_data, o, &rng, &pair);
+  decideConsistentSet(f.prepared[0], f.prepared[2], o, &rng, &pair);
   ASSERT_TRUE(pair.accepted) << pair.reason;
   for (const auto& c : pair.candidates)
     EXPECT_EQ(c.status, CandidateStatus::kAccepted) << c.first_index << ": " << c.reason;
