@@ -172,10 +172,16 @@ BuildingSolution BuildingGraph::optimize() {
 
 void BuildingGraph::placeByFloorChanges(const std::map<int, int>& component_root, int reference,
                                         std::map<int, geometry::Pose2>* transform) const {
+  // Most updates join every graph to the reference: then there is nothing to place, and
+  // no need to sort every node by stamp.
+  const int reference_root = component_root.at(reference);
+  if (std::all_of(component_root.begin(), component_root.end(),
+                  [&](const auto& entry) { return entry.second == reference_root; }))
+    return;
   std::vector<const floor::FloorGraph*> graphs;
   for (const auto& [id, g] : graphs_) graphs.push_back(&g);
   const std::vector<floor::TransitLink> links = floor::transitLinks(graphs);
-  std::set<int> placed{component_root.at(reference)};
+  std::set<int> placed{reference_root};
   for (bool moved = true; moved;) {
     moved = false;
     for (const floor::TransitLink& link : links) {

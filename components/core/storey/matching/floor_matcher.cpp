@@ -14,6 +14,7 @@
 #include <ostream>
 #include <random>
 #include <set>
+#include <sstream>
 #include <thread>
 
 #include "storey/common/log.h"
@@ -125,18 +126,23 @@ namespace {
 // Metres before its endpoint a beam may cross a wall: it may end just past the wall it hit.
 constexpr double kWallMargin = 0.3;
 
-// An accepted pair whose placement two graphs of one floor contradict: not accepted, and
-// its accepted candidates are marked so (sameFloorContradiction).
-void withdrawAsContradicted(const std::string& pair_reason, const std::string& candidate_reason,
-                            PairResult* p) {
+// An accepted pair taken back: not accepted, and its accepted candidates kContradicted.
+void takeBack(const std::string& candidate_reason, PairResult* p) {
   p->accepted = false;
-  p->contradicted = true;
-  p->reason = pair_reason;
   for (auto& c : p->candidates)
     if (c.status == CandidateStatus::kAccepted) {
       c.status = CandidateStatus::kContradicted;
       c.reason = candidate_reason;
     }
+}
+
+// An accepted pair whose placement two graphs of one floor contradict: taken back, and
+// the graph tries no other this pass (sameFloorContradiction).
+void withdrawAsContradicted(const std::string& pair_reason, const std::string& candidate_reason,
+                            PairResult* p) {
+  takeBack(candidate_reason, p);
+  p->contradicted = true;
+  p->reason = pair_reason;
 }
 
 // Deterministic per-job seeds, independent of thread scheduling.
@@ -1446,13 +1452,31 @@ bool rejectContradictedPlacements(const std::vector<floor::FloorGraph>& graphs,
   return true;
 }
 
+std::string floorChangeAtOdds(const floor::TransitLink& link, const floor::FloorNode& from,
+                              const Pose2& from_frame, const floor::FloorNode& to,
+                              const Pose2& to_frame, double radius, double heading) {
+  const Pose2 a = from_frame * from.pose, b = to_frame * to.pose;
+  const double apart = (a.translation() - b.translation()).norm();
+  const double turn_off = std::abs(
+      geometry::angleDiff(a.between(b).theta(), from.odometry.between(to.odometry).theta()));
+  std::ostringstream why;
+  why << std::fixed << std::setprecision(1) << "puts the floor change from graph "
+      << link.from_graph << " (node " << link.from_node << ") to graph " << link.to_graph
+      << " (node " << link.to_node << ") ";
+  if (radius > 0.0 && apart > radius)
+    why << apart << " m apart";
+  else if (heading > 0.0 && turn_off > heading)
+    why << "turned " << turn_off * 180.0 / M_PI << " deg from the robot's odometry";
+  else
+    return "";
+  return why.str();
+}
+
 std::string floorChangeContradiction(const std::vector<floor::FloorGraph>& graphs,
                                      const std::vector<floor::TransitLink>& links, int graph_id,
                                      const Pose2& placed, const std::map<int, Pose2>& placed_graphs,
                                      const FloorMatcherOptions& o) {
-  const bool check_radius = o.floor_change_radius > 0.0,
-             check_heading = o.floor_change_heading > 0.0;
-  if (!check_radius && !check_heading) return "";
+  if (o.floor_change_radius <= 0.0 && o.floor_change_heading <= 0.0) return "";
   auto node = [&](int graph, int id) -> const floor::FloorNode* {
     for (const auto& g : graphs)
       if (g.graph_id == graph) return g.findNode(id);
@@ -1466,19 +1490,11 @@ std::string floorChangeContradiction(const std::vector<floor::FloorGraph>& graph
     const floor::FloorNode* from = node(link.from_graph, link.from_node);
     const floor::FloorNode* to = node(link.to_graph, link.to_node);
     if (!from || !to) continue;
-    const Pose2 a = (link.from_graph == graph_id ? placed : at->second) * from->pose;
-    const Pose2 b = (link.to_graph == graph_id ? placed : at->second) * to->pose;
-    const double apart = (a.translation() - b.translation()).norm();
-    const double turn_off = std::abs(
-        geometry::angleDiff(a.between(b).theta(), from->odometry.between(to->odometry).theta()));
-    const std::string change =
-        common::str("the floor change from graph ", link.from_graph, " (node ", link.from_node,
-                    ") to graph ", link.to_graph, " (node ", link.to_node, ")");
-    if (check_radius && apart > o.floor_change_radius)
-      return common::str("it puts ", change, " ", apart, " m apart");
-    if (check_heading && turn_off > o.floor_change_heading)
-      return common::str("it turns ", change, " ", turn_off * 180.0 / M_PI,
-                         " deg from the robot's odometry");
+    const std::string why =
+        floorChangeAtOdds(link, *from, link.from_graph == graph_id ? placed : at->second, *to,
+                          link.to_graph == graph_id ? placed : at->second, o.floor_change_radius,
+                          o.floor_change_heading);
+    if (!why.empty()) return "it " + why;
   }
   return "";
 }
@@ -1569,13 +1585,8 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
     if (!p->accepted || !check) return;
     const std::string why = check(p->alignment);
     if (why.empty()) return;
-    p->accepted = false;
+    takeBack("its set's placement contradicts a robot's floor change: " + why, p);
     p->reason += "; rejected: " + why;
-    for (auto& c : p->candidates)
-      if (c.status == CandidateStatus::kAccepted) {
-        c.status = CandidateStatus::kContradicted;
-        c.reason = "its set's placement contradicts a robot's floor change: " + why;
-      }
   };
 
   std::vector<int> others(order.begin() + 1, order.end());

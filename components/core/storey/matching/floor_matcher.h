@@ -451,6 +451,16 @@ std::string sameFloorContradiction(const PreparedFloor& reference, const Prepare
                                    const geometry::Pose2& alignment,
                                    const FloorMatcherOptions& options);
 
+// How a placement puts one robot's floor change `link`, its nodes `from` and `to` placed
+// by `from_frame` and `to_frame`: "" when the two lie within `radius` (m) of each other and
+// the turn between them is within `heading` (rad) of the robot's odometry's (0: not
+// checked), else "puts the floor change from graph A (node a) to graph B (node b) D m
+// apart" or "... turned N deg from the robot's odometry". The matcher's floor-change check
+// and a growth pass's confirmation (retraction.h) both judge by it.
+std::string floorChangeAtOdds(const floor::TransitLink& link, const floor::FloorNode& from,
+                              const geometry::Pose2& from_frame, const floor::FloorNode& to,
+                              const geometry::Pose2& to_frame, double radius, double heading);
+
 // Why placing graph `graph_id` at `placed` (its frame into the reference's) contradicts
 // one of `links` (floor::transitLinks of `graphs`) to or from a graph in `placed_graphs`
 // (graph id -> its frame in the reference's): "" when none does

@@ -1,7 +1,5 @@
 #include "storey/matching/retraction.h"
 
-#include "storey/matching/constraint_judgement.h"
-
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
@@ -9,7 +7,8 @@
 #include <queue>
 #include <set>
 #include <sstream>
-#include <tuple>
+
+#include "storey/matching/constraint_judgement.h"
 
 namespace storey::matching {
 
@@ -155,32 +154,19 @@ GrowthPassConfirmation::GrowthPassConfirmation(const std::vector<floor::FloorGra
                                                const MatchResult& result, const PlacementHistory& history,
                                                const RetractionOptions& options)
     : graphs_(graphs), result_(result), history_(history), options_(options) {
-  const bool check_radius = options.confirm_transit_radius > 0.0;
-  const bool check_heading = options.confirm_transit_heading > 0.0;
-  if (!check_radius && !check_heading) return;
+  if (options.confirm_transit_radius <= 0.0 && options.confirm_transit_heading <= 0.0) return;
   const GraphPlacement placement = placeGraphs(graphs, result);
   for (const floor::TransitLink& link : floor::transitLinks(graphs)) {
     if (!placement.joins(link.from_graph, link.to_graph)) continue;
     const floor::FloorNode* from = findGraph(graphs, link.from_graph)->findNode(link.from_node);
     const floor::FloorNode* to = findGraph(graphs, link.to_graph)->findNode(link.to_node);
-    const Pose2 a = placement.frame.at(link.from_graph) * from->pose;
-    const Pose2 b = placement.frame.at(link.to_graph) * to->pose;
-    const double apart = (a.translation() - b.translation()).norm();
-    const double turn_off = std::abs(
-        geometry::angleDiff(a.between(b).theta(), from->odometry.between(to->odometry).theta()));
-    std::ostringstream why;
-    why << std::fixed << std::setprecision(1) << "the pass puts the floor change from graph "
-        << link.from_graph << " (node " << link.from_node << ") to graph " << link.to_graph
-        << " (node " << link.to_node << ") ";
-    if (check_radius && apart > options.confirm_transit_radius) {
-      why << apart << " m apart";
-    } else if (check_heading && turn_off > options.confirm_transit_heading) {
-      why << "turned " << turn_off * 180.0 / M_PI << " deg from the robot's odometry";
-    } else {
-      continue;
-    }
-    at_odds_.emplace(link.from_graph, why.str());
-    at_odds_.emplace(link.to_graph, why.str());
+    const std::string at_odds = floorChangeAtOdds(
+        link, *from, placement.frame.at(link.from_graph), *to, placement.frame.at(link.to_graph),
+        options.confirm_transit_radius, options.confirm_transit_heading);
+    if (at_odds.empty()) continue;
+    const std::string why = "the pass " + at_odds;
+    at_odds_.emplace(link.from_graph, why);
+    at_odds_.emplace(link.to_graph, why);
   }
 }
 
