@@ -217,12 +217,13 @@ int run_slam(Args& args) {
   std::ostringstream report;
   report << "log: " << log_path << "\n"
          << "scans: " << scans.size() << "  nodes: " << st.nodes << "  skipped: " << st.skipped
-         << "  rejected: " << st.rejected << "  matched: " << st.matched << "  match failures: " << st.match_failures
-         << " (" << st.matches_against_odometry << " against odometry)"
+         << "  rejected: " << st.rejected << "  matched: " << st.matched
+         << "  match failures: " << st.match_failures << " (" << st.matches_against_odometry
+         << " against odometry)  successor matches: " << st.successor_matches
          << "\nloop closures: " << st.loop_closures << " of " << st.loop_attempts << " attempts ("
          << st.loop_rejected_inconsistent << " rejected as inconsistent, " << st.loop_ambiguous
-         << " ambiguous; " << st.loop_maps_built << " candidate maps built), optimisations: " << st.optimizations
-         << "\n";
+         << " ambiguous; " << st.loop_maps_built
+         << " candidate maps built), optimisations: " << st.optimizations << "\n";
   report << std::fixed << std::setprecision(2) << "processing: " << run.seconds << " s";
   if (duration > 0.0) report << "  log duration: " << duration << " s  real-time factor: " << duration / run.seconds;
   else report << "  log duration: unknown (bad stamps)  scans/s: " << scans.size() / run.seconds;

@@ -82,6 +82,55 @@ TEST(FloorSlam, TracksThroughAnOfficeWithNoisyOdometry) {
   EXPECT_GT(run.stats.matched, run.stats.nodes * 9 / 10);
 }
 
+TEST(FloorSlam, ANodeIsAlsoMatchedAgainstTheScansAfterIt) {
+  // Each node's scan, matched against the map of the 5 nodes after it, gives an edge from
+  // the next node back to it that agrees with the true step; with those edges the steps'
+  // headings are closer to the truth than with tracking edges alone.
+  const test::World world = test::officeWorld();
+  const auto truth = pathThrough(
+      {{1, 1}, {4.5, 1}, {4.5, 4.5}, {8, 4}, {11, 1}, {11, 4.5}, {6, 7}, {1, 7}, {1, 1}});
+  const auto odometry = simulateOdometry(truth, OdometryNoise{}, 7);
+  FloorSlamOptions with;
+  with.successor_match_nodes = 5;
+  FloorSlam slam(with, "robot", 0, 0, 0.0);
+  std::vector<Pose2> node_truth;
+  for (std::size_t i = 0; i < truth.size(); ++i)
+    if (slam.addScan(world.scan(truth[i], 0.1 * i), odometry[i]).status == ScanStatus::kNode)
+      node_truth.push_back(truth[i]);
+  // Each edge's error against the true step, weighed by the information it claims (3 on
+  // average for a covariance that is right; these are halved by successor_match_weight).
+  std::size_t back_edges = 0;
+  double nees_sum = 0.0, worst_nees = 0.0;
+  for (const auto& e : slam.floorGraph().edges) {
+    if (e.kind != floor::EdgeKind::kScanMatch || e.to != e.from - 1) continue;
+    ++back_edges;
+    const Pose2 error = node_truth[e.from].between(node_truth[e.to]).between(e.measurement);
+    const Eigen::Vector3d v(error.x(), error.y(), error.theta());
+    nees_sum += v.dot(e.information * v);
+    worst_nees = std::max(worst_nees, v.dot(e.information * v));
+  }
+  std::printf("successor edges %zu: mean NEES %.2f, worst %.2f\n", back_edges,
+              nees_sum / back_edges, worst_nees);
+  const std::size_t nodes = slam.floorGraph().nodes.size();
+  EXPECT_EQ(back_edges, slam.stats().successor_matches);
+  EXPECT_LE(back_edges, nodes - 6);  // the last 5 nodes have no 5 successors yet
+  EXPECT_GT(back_edges, (nodes - 6) * 9 / 10);
+  EXPECT_LT(nees_sum / back_edges, 3.0);
+  EXPECT_LT(worst_nees, 20.0);
+
+  FloorSlamOptions without;
+  const RelationErrors tracked =
+      relationErrors(runWorld(world, truth, without, odometry).estimate, truth);
+  const RelationErrors both =
+      relationErrors(runWorld(world, truth, with, odometry).estimate, truth);
+  std::printf(
+      "nearby rotation %.3f deg with successor matches, %.3f deg without; translation %.4f / %.4f "
+      "m\n",
+      both.nearby.rotation_mean * 180 / M_PI, tracked.nearby.rotation_mean * 180 / M_PI,
+      both.nearby.translation_mean, tracked.nearby.translation_mean);
+  EXPECT_LT(both.nearby.rotation_mean, tracked.nearby.rotation_mean);
+}
+
 TEST(FloorSlam, AlongABareCorridorOdometryDecides) {
   // Two parallel walls and nothing else in range: scans say nothing about the position
   // along the corridor. The match's correlative result there lags at the local map's
@@ -551,6 +600,12 @@ TEST(FloorSlamOptions, ShippedConfigurationLoads) {
   EXPECT_GT(o.loop_closure.single_unique_distance, 0.0);  // and so are the rules for a lost graph
   EXPECT_TRUE(o.loop_closure.follow_relocated);
   EXPECT_EQ(o.max_tracking_chi2, 0.0);  // off where it ships: it needs a calibrated odometry model
+  const FloorSlamOptions successors = readFloorSlamOptions(
+      common::ConfigNode::loadString("successor_match_nodes: 7\nsuccessor_match_weight: 0.25\n"));
+  EXPECT_EQ(successors.successor_match_nodes, 7);
+  EXPECT_DOUBLE_EQ(successors.successor_match_weight, 0.25);
+  EXPECT_THROW(readFloorSlamOptions(common::ConfigNode::loadString("successor_match_weight: 0\n")),
+               common::ConfigError);
   EXPECT_THROW(readFloorSlamOptions(common::ConfigNode::loadString("node_creation: {min_translaton: 1}\n")),
                common::ConfigError);
   EXPECT_THROW(readFloorSlamOptions(common::ConfigNode::loadString("bogus: 1\n")), common::ConfigError);

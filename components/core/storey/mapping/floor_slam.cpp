@@ -174,6 +174,9 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
   o.jump_angular_window = node.getDouble("jump_angular_window", o.jump_angular_window, 0.0, M_PI);
   o.degenerate_ratio = node.getDouble("degenerate_ratio", o.degenerate_ratio, 0.0, 1e6);
   o.max_tracking_chi2 = node.getDouble("max_tracking_chi2", o.max_tracking_chi2, 0.0, 1e12);
+  o.successor_match_nodes = node.getInt("successor_match_nodes", o.successor_match_nodes, 0, 1000);
+  o.successor_match_weight =
+      node.getDouble("successor_match_weight", o.successor_match_weight, 1e-6, 1.0);
   o.map_arrival_scans = node.get<bool>("map_arrival_scans", o.map_arrival_scans);
   node.finish();
   return o;
@@ -268,6 +271,7 @@ struct FloorSlam::Impl {
   std::size_t beam_count = 0;
   Pose2 ref_pose, ref_odometry;  // prediction = ref_pose * ref_odometry^-1 * odometry
   bool jump_since_node = false;
+  std::size_t chain_start = 0;  // first node of the current run of tracked nodes
   int nodes_since_attempt = 0;
   // Relocalisation state.
   Pose2 reloc_guess;
@@ -513,7 +517,9 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     common::logDebug(str("floor_slam: scan at ", scan.stamp, " not matched (", match.problem,
                          "); using odometry"));
   }
+  const std::size_t chain_start = s.chain_start;
   appendNode(scan, odometry, pose);
+  if (!jumped) s.chain_start = chain_start;
   const int to = floor_graph_.nodes.back().id;
   Eigen::Matrix3d step_cov = odom_info.inverse();
   if (!jumped) appendEdge(from, to, motion, odom_info, floor::EdgeKind::kOdometry);
@@ -522,6 +528,7 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     step_cov = jumped ? rel_cov : Eigen::Matrix3d((rel_cov.inverse() + odom_info).inverse());
   }
   covariance_ = geometry::composeCovariance(last_pose, covariance_, last_pose.between(pose), step_cov);
+  if (options_.successor_match_nodes > 0) matchAgainstSuccessors();
   result.status = ScanStatus::kNode;
   result.node_id = to;
   result.pose = pose;
@@ -552,6 +559,7 @@ void FloorSlam::appendNode(const sensor::LaserScan& scan, const Pose2& odometry,
   s.ref_pose = pose;
   s.ref_odometry = odometry;
   s.jump_since_node = false;
+  s.chain_start = floor_graph_.nodes.size() - 1;
   if (++s.nodes_since_rebuild >= options_.local_map.rebuild_every_n_nodes || pose_graph_.numNodes() <= 1)
     s.local_dirty = true;
   s.floor_target_valid = false;
@@ -571,6 +579,28 @@ std::size_t FloorSlam::appendEdge(int from, int to, const Pose2& z, const Eigen:
   floor_graph_.edges.push_back(e);
   impl_->update_edges.push_back(e);
   return pose_graph_.numEdges() - 1;
+}
+
+void FloorSlam::matchAgainstSuccessors() {
+  Impl& s = *impl_;
+  const auto w = static_cast<std::size_t>(options_.successor_match_nodes);
+  const std::size_t n = floor_graph_.nodes.size();
+  if (n < s.chain_start + w + 1) return;  // a jump or a relocalisation lies between
+  const std::size_t k = n - 1 - w;
+  const MatchTarget target = buildTarget(floor_graph_, k + 1, n, options_.local_map,
+                                         options_.local_map.pyramid_levels, s.matcher);
+  const floor::FloorNode& node = floor_graph_.nodes[k];
+  const MatchResult match = s.matcher.match(
+      target, filterPoints(node.scan.pointsInRobotFrame(), options_.matcher.point_filter_distance),
+      node.pose);
+  if (!match.success) return;
+  const floor::FloorNode& next = floor_graph_.nodes[k + 1];
+  const Eigen::Matrix3d information =
+      options_.successor_match_weight *
+      safeInformation(rotateCovariance(match.covariance, next.pose.theta()));
+  appendEdge(next.id, node.id, next.pose.between(match.pose), information,
+             floor::EdgeKind::kScanMatch);
+  ++stats_.successor_matches;
 }
 
 bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {

@@ -189,6 +189,14 @@ struct FloorSlamOptions {
   // (csail .gfs), right matches are refused and loops stay open. 0: every match is used
   // (docs/floor_mapper.md, "An odometry gate").
   double max_tracking_chi2 = 0.0;
+  // Once a node has successor_match_nodes tracked nodes after it, its scan is also matched
+  // against their map, and the match becomes an edge from the next node back to it. The
+  // tracking edge measures a step from the scans before it, this one from the scans
+  // after it (csail, intel, infinite-corridor: nearby rotation 10-25 % lower). Both reuse
+  // the same scans, so this edge's information is scaled by successor_match_weight.
+  // 0: off (docs/floor_mapper.md, "Scans after a node").
+  int successor_match_nodes = 0;
+  double successor_match_weight = 0.5;
 };
 // Reads the front end's options (all keys optional; unknown keys are errors). Sections:
 // scan_matcher, node_creation, local_map (with likelihood_field), odometry_noise,
@@ -257,6 +265,7 @@ struct FloorSlamStats {
   std::size_t scans = 0, nodes = 0, skipped = 0, rejected = 0;
   std::size_t matched = 0, match_failures = 0, odometry_jumps = 0;
   std::size_t matches_against_odometry = 0;  // matches refused by max_tracking_chi2
+  std::size_t successor_matches = 0;         // edges from matching a node against its successors
   std::size_t loop_attempts = 0, loop_closures = 0, loop_rejected_inconsistent = 0;
   std::size_t loop_ambiguous = 0;  // attempts whose scan fit as well elsewhere
   std::size_t loop_clusters = 0;   // clusters of agreeing closures accepted together
@@ -314,6 +323,7 @@ class FloorSlam {
   ScanResult relocalizeWith(const sensor::LaserScan& scan, const geometry::Pose2& odometry,
                             const std::vector<Eigen::Vector2d>& points);
   bool tryLoopClosure(const std::vector<Eigen::Vector2d>& points);
+  void matchAgainstSuccessors();
   // Adds the held hypotheses `members` (indices) as loop-closure edges and optimises
   // (at full weight first when `bend_first`); keeps them when every one's χ² is within
   // max_chi2, else undoes them all. Returns whether they were kept.
