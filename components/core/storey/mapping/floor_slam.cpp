@@ -448,7 +448,7 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
 
   // First scan of the floor: the origin.
   if (floor_graph_.nodes.empty()) {
-    appendNode(scan, odometry, Pose2());
+    appendNode(scan, odometry, Pose2(), /*starts_run=*/true);
     covariance_ = Eigen::Matrix3d::Zero();
     result.status = ScanStatus::kNode;
     result.node_id = floor_graph_.nodes.back().id;
@@ -517,9 +517,7 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     common::logDebug(str("floor_slam: scan at ", scan.stamp, " not matched (", match.problem,
                          "); using odometry"));
   }
-  const std::size_t chain_start = s.chain_start;
-  appendNode(scan, odometry, pose);
-  if (!jumped) s.chain_start = chain_start;
+  appendNode(scan, odometry, pose, /*starts_run=*/jumped);
   const int to = floor_graph_.nodes.back().id;
   Eigen::Matrix3d step_cov = odom_info.inverse();
   if (!jumped) appendEdge(from, to, motion, odom_info, floor::EdgeKind::kOdometry);
@@ -543,7 +541,8 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
   return result;
 }
 
-void FloorSlam::appendNode(const sensor::LaserScan& scan, const Pose2& odometry, const Pose2& pose) {
+void FloorSlam::appendNode(const sensor::LaserScan& scan, const Pose2& odometry, const Pose2& pose,
+                           bool starts_run) {
   Impl& s = *impl_;
   floor::FloorNode node;
   node.id = floor_graph_.nodes.empty() ? 0 : floor_graph_.nodes.back().id + 1;
@@ -559,7 +558,7 @@ void FloorSlam::appendNode(const sensor::LaserScan& scan, const Pose2& odometry,
   s.ref_pose = pose;
   s.ref_odometry = odometry;
   s.jump_since_node = false;
-  s.chain_start = floor_graph_.nodes.size() - 1;
+  if (starts_run) s.chain_start = floor_graph_.nodes.size() - 1;
   if (++s.nodes_since_rebuild >= options_.local_map.rebuild_every_n_nodes || pose_graph_.numNodes() <= 1)
     s.local_dirty = true;
   s.floor_target_valid = false;
@@ -1056,7 +1055,7 @@ int FloorSlam::resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& s
   std::vector<int> ids(keep.size(), -1);
   for (std::size_t j = 0; j < keep.size(); ++j) {
     const Pose2& p = poses[j];
-    appendNode(scans[keep[j]].scan, scans[keep[j]].odometry, p);
+    appendNode(scans[keep[j]].scan, scans[keep[j]].odometry, p, /*starts_run=*/true);
     ids[j] = floor_graph_.nodes.back().id;
     if (j > 0) {
       const Pose2 motion = scans[keep[j - 1]].odometry.between(scans[keep[j]].odometry);
@@ -1131,7 +1130,7 @@ ScanResult FloorSlam::relocalizeWith(const sensor::LaserScan& scan, const Pose2&
   }
   const int nearest = floor_graph_.nearestNodeIndex(pose.translation());
   const floor::FloorNode anchor = floor_graph_.nodes[nearest];
-  appendNode(scan, odometry, pose);
+  appendNode(scan, odometry, pose, /*starts_run=*/true);
   const Eigen::Matrix3d info = safeInformation(rotateCovariance(cov, anchor.pose.theta()));
   appendEdge(anchor.id, floor_graph_.nodes.back().id, anchor.pose.between(pose), info, floor::EdgeKind::kLoopClosure);
   covariance_ = cov;

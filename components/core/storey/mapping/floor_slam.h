@@ -316,8 +316,10 @@ class FloorSlam {
 
  private:
   struct Impl;
+  // starts_run: no tracked step links it to the node before (first node, odometry jump,
+  // relocalisation); successor matches never cross such a node.
   void appendNode(const sensor::LaserScan& scan, const geometry::Pose2& odometry,
-                  const geometry::Pose2& pose);
+                  const geometry::Pose2& pose, bool starts_run);
   std::size_t appendEdge(int from, int to, const geometry::Pose2& measurement,
                          const Eigen::Matrix3d& information, floor::EdgeKind kind);
   ScanResult relocalizeWith(const sensor::LaserScan& scan, const geometry::Pose2& odometry,
