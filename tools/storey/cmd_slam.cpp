@@ -219,7 +219,8 @@ int run_slam(Args& args) {
          << "scans: " << scans.size() << "  nodes: " << st.nodes << "  skipped: " << st.skipped
          << "  rejected: " << st.rejected << "  matched: " << st.matched
          << "  match failures: " << st.match_failures << " (" << st.matches_against_odometry
-         << " against odometry)  successor matches: " << st.successor_matches
+         << " against odometry)  retry matches: " << st.retry_matches
+         << "  successor matches: " << st.successor_matches
          << "\nloop closures: " << st.loop_closures << " of " << st.loop_attempts << " attempts ("
          << st.loop_rejected_inconsistent << " rejected as inconsistent, " << st.loop_ambiguous
          << " ambiguous; " << st.loop_maps_built

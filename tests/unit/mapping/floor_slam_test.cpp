@@ -603,6 +603,13 @@ TEST(FloorSlamOptions, ShippedConfigurationLoads) {
   EXPECT_GT(o.loop_closure.single_unique_distance, 0.0);  // and so are the rules for a lost graph
   EXPECT_TRUE(o.loop_closure.follow_relocated);
   EXPECT_EQ(o.max_tracking_chi2, 0.0);  // off where it ships: it needs a calibrated odometry model
+  EXPECT_EQ(o.local_map.retry_nodes, 5);
+  EXPECT_EQ(readFloorSlamOptions(common::ConfigNode::loadString("local_map: {retry_nodes: 0}\n"))
+                .local_map.retry_nodes,
+            0);
+  EXPECT_THROW(
+      readFloorSlamOptions(common::ConfigNode::loadString("local_map: {retry_nodes: -1}\n")),
+      common::ConfigError);
   const FloorSlamOptions successors = readFloorSlamOptions(
       common::ConfigNode::loadString("successor_match_nodes: 7\nsuccessor_match_weight: 0.25\n"));
   EXPECT_EQ(successors.successor_match_nodes, 7);

@@ -101,6 +101,7 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
     m.max_insert_range = n.getDouble("max_insert_range", m.max_insert_range, 0.5, 1000.0);
     m.pyramid_levels = n.getInt("pyramid_levels", m.pyramid_levels, 1, 16);
     m.rebuild_every_n_nodes = n.getInt("rebuild_every_n_nodes", m.rebuild_every_n_nodes, 1, 1000);
+    m.retry_nodes = n.getInt("retry_nodes", m.retry_nodes, 0, 10000);
     m.point_cell_size = n.getDouble("point_cell_size", m.point_cell_size, 0.0, 1.0);
     m.point_normal_radius = n.getDouble("point_normal_radius", m.point_normal_radius, 0.01, 5.0);
     if (n.has("likelihood_field")) m.field = grid::readLikelihoodFieldOptions(n.child("likelihood_field"));
@@ -481,6 +482,18 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
                                options_.jump_angular_window)
              : s.matcher.match(s.local_target, points, prediction);
   const Eigen::Matrix3d odom_info = odometryInformation(motion, options_.odometry);
+  const LocalMapOptions& lm = options_.local_map;
+  if (!match.success && !jumped && lm.retry_nodes > 0 && lm.retry_nodes < lm.max_nodes &&
+      floor_graph_.nodes.size() > static_cast<std::size_t>(lm.retry_nodes)) {
+    const std::size_t n = floor_graph_.nodes.size();
+    const MatchResult retry = s.matcher.match(
+        buildTarget(floor_graph_, n - lm.retry_nodes, n, lm, lm.pyramid_levels, s.matcher), points,
+        prediction);
+    if (retry.success) {
+      ++stats_.retry_matches;
+      match = retry;
+    }
+  }
   if (match.success && !jumped && options_.max_tracking_chi2 > 0.0) {
     const Pose2 matched = last.pose.between(match.pose);
     const Eigen::Vector3d e(matched.x() - motion.x(), matched.y() - motion.y(),

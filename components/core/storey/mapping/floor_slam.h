@@ -44,6 +44,12 @@ struct LocalMapOptions {
   double max_insert_range = 20.0;  // m; farther returns are left out of local maps
   int pyramid_levels = 5;  // enough for the tracking window; wider searches start coarser
   int rebuild_every_n_nodes = 2;  // the local map is re-rendered this often
+  // A scan the local map does not match is matched again against the map of only the last
+  // retry_nodes nodes (0: off). Drift within the local map puts its far end's walls beside
+  // the near end's, and each copy's rays erase the other's cells: a robot that moves 1 m per
+  // scan down a corridor (infinite-corridor) then fails runs of matches that the last few
+  // scans alone would take (docs/floor_mapper.md, "A second try on the last nodes").
+  int retry_nodes = 5;
   // The scans' points, averaged per cell of this size, refine matches below the grid's
   // resolution (ScanMatcher::refineOnPoints); 0: refine on the likelihood field.
   double point_cell_size = 0.05;
@@ -265,6 +271,7 @@ struct FloorSlamStats {
   std::size_t scans = 0, nodes = 0, skipped = 0, rejected = 0;
   std::size_t matched = 0, match_failures = 0, odometry_jumps = 0;
   std::size_t matches_against_odometry = 0;  // matches refused by max_tracking_chi2
+  std::size_t retry_matches = 0;             // scans matched by the retry on the last nodes' map
   std::size_t successor_matches = 0;         // edges from matching a node against its successors
   std::size_t loop_attempts = 0, loop_closures = 0, loop_rejected_inconsistent = 0;
   std::size_t loop_ambiguous = 0;  // attempts whose scan fit as well elsewhere
