@@ -321,7 +321,8 @@ namespace {
 // (and point_cell_size is not 0), as points; a matcher that refines on the field would
 // never look at them.
 MatchTarget buildTarget(const floor::FloorGraph& graph, const std::vector<std::size_t>& indices,
-                        const LocalMapOptions& o, int pyramid_levels, const ScanMatcher& matcher) {
+                        const LocalMapOptions& o, int pyramid_levels, const ScanMatcher& matcher,
+                        grid::OccupancyGrid* grid_out = nullptr) {
   grid::OccupancyGridOptions go;
   go.resolution = o.resolution;
   go.max_insert_range = o.max_insert_range;
@@ -332,6 +333,7 @@ MatchTarget buildTarget(const floor::FloorGraph& graph, const std::vector<std::s
   for (std::size_t i : indices) scans.push_back({&graph.nodes[i].scan, graph.nodes[i].pose});
   map.insertScans(scans);
   MatchTarget target(map, o.field, pyramid_levels);
+  if (grid_out) *grid_out = std::move(map);
   if (matcher.options().point_refinement && o.point_cell_size > 0.0)
     target.setPoints(grid::PointMap(floor::floorPoints(graph, indices, o.max_insert_range), o.point_cell_size,
                                     o.point_normal_radius));
@@ -340,10 +342,30 @@ MatchTarget buildTarget(const floor::FloorGraph& graph, const std::vector<std::s
 
 // Nodes [first, last).
 MatchTarget buildTarget(const floor::FloorGraph& graph, std::size_t first, std::size_t last,
-                        const LocalMapOptions& o, int pyramid_levels, const ScanMatcher& matcher) {
+                        const LocalMapOptions& o, int pyramid_levels, const ScanMatcher& matcher,
+                        grid::OccupancyGrid* grid_out = nullptr) {
   std::vector<std::size_t> indices;
   for (std::size_t i = first; i < last && i < graph.nodes.size(); ++i) indices.push_back(i);
-  return buildTarget(graph, indices, o, pyramid_levels, matcher);
+  return buildTarget(graph, indices, o, pyramid_levels, matcher, grid_out);
+}
+
+// The robot-frame points that land, at `pose`, where `grid` has looked: on a cell it observed,
+// or just in front of one (seen free from the sensor's side), so a point a little beyond a
+// wall the map saw stays and a point on a wall it never saw goes.
+std::vector<Eigen::Vector2d> pointsWhereObserved(const std::vector<Eigen::Vector2d>& points,
+                                                 const Pose2& pose,
+                                                 const grid::OccupancyGrid& grid) {
+  const double back = 2.0 * grid.frame().resolution;
+  auto observed = [&](const Eigen::Vector2d& p) {
+    const Eigen::Vector2i c = grid.frame().cellOf(pose.transformPoint(p));
+    return grid.logOddsAt(c.x(), c.y()) != 0.0f;
+  };
+  std::vector<Eigen::Vector2d> kept;
+  for (const auto& p : points) {
+    const double range = p.norm();
+    if (observed(p) || (range > back && observed(p * (1.0 - back / range)))) kept.push_back(p);
+  }
+  return kept;
 }
 
 // The tracking map: the graph's last `max_nodes` nodes.
@@ -599,11 +621,17 @@ void FloorSlam::matchAgainstSuccessors() {
   const std::size_t n = floor_graph_.nodes.size();
   if (n < s.chain_start + w + 1) return;  // a jump or a relocalisation lies between
   const std::size_t k = n - 1 - w;
+  grid::OccupancyGrid grid;
   const MatchTarget target = buildTarget(floor_graph_, k + 1, n, options_.local_map,
-                                         options_.local_map.pyramid_levels, s.matcher);
+                                         options_.local_map.pyramid_levels, s.matcher, &grid);
   const floor::FloorNode& node = floor_graph_.nodes[k];
+  // The scan sees places behind its successors that none of them saw; its points there would
+  // pull the match onto the walls they did see (forward: 0.1 m per step on infinite-corridor).
   const MatchResult match = s.matcher.match(
-      target, filterPoints(node.scan.pointsInRobotFrame(), options_.matcher.point_filter_distance),
+      target,
+      pointsWhereObserved(
+          filterPoints(node.scan.pointsInRobotFrame(), options_.matcher.point_filter_distance),
+          node.pose, grid),
       node.pose);
   if (!match.success) return;
   const floor::FloorNode& next = floor_graph_.nodes[k + 1];
