@@ -23,22 +23,26 @@ struct WorldRun {
   FloorSlamStats stats;
   std::vector<Pose2> node_truth;  // the truth of each node (the k-th scan that became one)
   std::vector<LoopClosureAttempt> attempts;
+  std::vector<floor::FloorEdge> edges;
 };
 
-// Maps the world's scans along `truth` with the given odometry.
-WorldRun runWorld(const test::World& world, const std::vector<Pose2>& truth, const FloorSlamOptions& options,
-                  const std::vector<Pose2>& odometry) {
+// Maps the world's scans (`beams` over 180°) along `truth` with the given odometry.
+WorldRun runWorld(const test::World& world, const std::vector<Pose2>& truth,
+                  const FloorSlamOptions& options, const std::vector<Pose2>& odometry,
+                  int beams = 361) {
   WorldRun run;
   run.truth = truth;
   run.odometry = odometry;
   std::vector<sensor::LaserScan> scans;
-  for (std::size_t i = 0; i < truth.size(); ++i) scans.push_back(world.scan(truth[i], 0.1 * i));
+  for (std::size_t i = 0; i < truth.size(); ++i)
+    scans.push_back(world.scan(truth[i], 0.1 * i, beams));
   FloorSlam slam(options, "robot", 0, 0, 0.0);
   const OfflineRun offline = runOffline(slam, scans, run.odometry);
   // The front end starts at the origin; the truth at truth[0].
   for (const auto& p : offline.trajectory) run.estimate.push_back(truth.front() * p);
   run.stats = slam.stats();
   run.attempts = slam.loopAttempts();
+  run.edges = slam.floorGraph().edges;
   for (std::size_t i = 0; i < offline.status.size(); ++i)
     if (offline.status[i] == ScanStatus::kNode) run.node_truth.push_back(truth[i]);
   if (std::getenv("STOREY_DEBUG_LOOP")) {
@@ -98,19 +102,17 @@ TEST(FloorSlam, ASuccessorMatchIsNotPulledOntoWhatTheSuccessorsSaw) {
       world.addWall(niche + 0.8, side, x + 4, side);
     }
   }
-  const auto truth = test::pathThrough({{0, 0}, {60, 0}}, 1.0);
+  const auto truth = pathThrough({{0, 0}, {60, 0}}, 1.0);
   FloorSlamOptions options;
   options.successor_match_nodes = 5;
-  FloorSlam slam(options, "robot", 0, 0, 0.0);
-  std::vector<sensor::LaserScan> scans;
-  for (std::size_t i = 0; i < truth.size(); ++i)
-    scans.push_back(world.scan(truth[i], 0.1 * i, 181, 20.0));
-  runOffline(slam, scans, truth);  // exact odometry: what is left is the matches' own error
+  // Exact odometry: what is left is the matches' own error.
+  const WorldRun run = runWorld(world, truth, options, truth, /*beams=*/181);
+  const std::vector<Pose2>& node_truth = run.node_truth;
   double along_sum = 0.0, tracking_sum = 0.0;
   std::size_t back_edges = 0, tracking_edges = 0;
-  for (const auto& e : slam.floorGraph().edges) {
+  for (const auto& e : run.edges) {
     if (e.kind != floor::EdgeKind::kScanMatch) continue;
-    const double error = e.measurement.x() - truth[e.from].between(truth[e.to]).x();
+    const double error = e.measurement.x() - node_truth[e.from].between(node_truth[e.to]).x();
     if (e.to == e.from - 1) {  // positive: the measured step is shorter than the true one
       ++back_edges;
       along_sum += error;
@@ -137,20 +139,13 @@ TEST(FloorSlam, ANodeIsAlsoMatchedAgainstTheScansAfterIt) {
   const auto odometry = simulateOdometry(truth, OdometryNoise{}, 7);
   FloorSlamOptions with;
   with.successor_match_nodes = 5;
-  FloorSlam slam(with, "robot", 0, 0, 0.0);
-  std::vector<sensor::LaserScan> scans;
-  for (std::size_t i = 0; i < truth.size(); ++i) scans.push_back(world.scan(truth[i], 0.1 * i));
-  const OfflineRun offline = runOffline(slam, scans, odometry);
-  std::vector<Pose2> node_truth, estimate;
-  for (std::size_t i = 0; i < truth.size(); ++i) {
-    if (offline.status[i] == ScanStatus::kNode) node_truth.push_back(truth[i]);
-    estimate.push_back(truth.front() * offline.trajectory[i]);
-  }
+  const WorldRun run = runWorld(world, truth, with, odometry);
+  const std::vector<Pose2>& node_truth = run.node_truth;
   // Each edge's error against the true step, weighed by the information it claims (3 on
   // average for a covariance that is right; these are halved by successor_match_weight).
   std::size_t back_edges = 0;
   double nees_sum = 0.0, worst_nees = 0.0;
-  for (const auto& e : slam.floorGraph().edges) {
+  for (const auto& e : run.edges) {
     if (e.kind != floor::EdgeKind::kScanMatch || e.to != e.from - 1) continue;
     ++back_edges;
     const Pose2 error = node_truth[e.from].between(node_truth[e.to]).between(e.measurement);
@@ -160,8 +155,8 @@ TEST(FloorSlam, ANodeIsAlsoMatchedAgainstTheScansAfterIt) {
   }
   std::printf("successor edges %zu: mean NEES %.2f, worst %.2f\n", back_edges,
               nees_sum / back_edges, worst_nees);
-  const std::size_t nodes = slam.floorGraph().nodes.size();
-  EXPECT_EQ(back_edges, slam.stats().successor_matches);
+  const std::size_t nodes = run.stats.nodes;
+  EXPECT_EQ(back_edges, run.stats.successor_matches);
   EXPECT_LE(back_edges, nodes - 6);  // the last 5 nodes have no 5 successors yet
   EXPECT_GT(back_edges, (nodes - 6) * 9 / 10);
   EXPECT_LT(nees_sum / back_edges, 3.0);
@@ -170,7 +165,7 @@ TEST(FloorSlam, ANodeIsAlsoMatchedAgainstTheScansAfterIt) {
   FloorSlamOptions without;
   const RelationErrors tracked =
       relationErrors(runWorld(world, truth, without, odometry).estimate, truth);
-  const RelationErrors both = relationErrors(estimate, truth);
+  const RelationErrors both = relationErrors(run.estimate, truth);
   std::printf(
       "nearby rotation %.3f deg with successor matches, %.3f deg without; translation %.4f / %.4f "
       "m\n",

@@ -45,10 +45,10 @@ struct LocalMapOptions {
   int pyramid_levels = 5;  // enough for the tracking window; wider searches start coarser
   int rebuild_every_n_nodes = 2;  // the local map is re-rendered this often
   // A scan the local map does not match is matched again against the map of only the last
-  // retry_nodes nodes (0: off). Drift within the local map puts its far end's walls beside
-  // the near end's, and each copy's rays erase the other's cells: a robot that moves 1 m per
-  // scan down a corridor (infinite-corridor) then fails runs of matches that the last few
-  // scans alone would take (docs/floor_mapper.md, "A second try on the last nodes").
+  // retry_nodes nodes (0, or not below max_nodes: off). Drift within the local map puts its far
+  // end's walls beside the near end's, and each copy's rays erase the other's cells: a robot that
+  // moves 1 m per scan down a corridor (infinite-corridor) then fails runs of matches that the last
+  // few scans alone would take (docs/floor_mapper.md, "A second try on the last nodes").
   int retry_nodes = 5;
   // The scans' points, averaged per cell of this size, refine matches below the grid's
   // resolution (ScanMatcher::refineOnPoints); 0: refine on the likelihood field.
