@@ -257,7 +257,8 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
       continue;
     }
     const matching::MatchResult result = matching::matchFloors(graphs, options);
-    const matching::GrowthPassConfirmation confirmation(graphs, result, history, retraction);
+    const matching::GrowthPassConfirmation confirmation(graphs, result, history, retraction,
+                                                        options.floor_change);
     const auto retract = matching::constraintsToRetract(
         published, graphs, result, retraction, confirm && !final_pass ? &confirmation : nullptr);
     int retracted_wrong = 0;

@@ -1,7 +1,6 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>
-
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
@@ -12,6 +11,7 @@
 #include "storey/matching/constraint_judgement.h"
 #include "storey/matching/floor_matcher.h"
 #include "storey/matching/particle_filter.h"
+#include "storey/matching/retraction.h"
 #include "storey/matching/simulated_floors.h"
 #include "synthetic_floor.h"
 #include "test_support.h"
@@ -1064,8 +1064,7 @@ TEST(FloorMatcher, APlacementIsCheckedAgainstTheRobotsFloorChanges) {
   const auto links = floor::transitLinks(graphs);
   ASSERT_EQ(links.size(), 1u);
   FloorMatcherOptions o;
-  o.floor_change_radius = 15.0;
-  o.floor_change_heading = 0.35;
+  o.floor_change = {15.0, 0.35};
   const std::map<int, Pose2> placed{{0, Pose2()}};
   const Pose2 kept_together(9.0, 0.0, 0.0);
   EXPECT_EQ(floorChangeContradiction(graphs, links, 1, kept_together, placed, o), "");
@@ -1084,8 +1083,7 @@ TEST(FloorMatcher, APlacementIsCheckedAgainstTheRobotsFloorChanges) {
       "");
   // Not judged: the other graph not placed, or the check off.
   EXPECT_EQ(floorChangeContradiction(graphs, links, 1, Pose2(9.0, 0.0, M_PI / 2), {}, o), "");
-  o.floor_change_radius = 0.0;
-  o.floor_change_heading = 0.0;
+  o.floor_change = {};
   EXPECT_EQ(floorChangeContradiction(graphs, links, 1, Pose2(29.0, 0.0, M_PI / 2), placed, o), "");
 }
 
@@ -1177,8 +1175,8 @@ TEST(FloorMatcherOptions, ReadsValuesAndRejectsUnknownKeys) {
                common::ConfigError);
   const FloorMatcherOptions changes = readFloorMatcherOptions(
       common::ConfigNode::loadString("floor_change_radius: 12\nfloor_change_heading: 0.3\n"));
-  EXPECT_DOUBLE_EQ(changes.floor_change_radius, 12.0);
-  EXPECT_DOUBLE_EQ(changes.floor_change_heading, 0.3);
+  EXPECT_DOUBLE_EQ(changes.floor_change.radius, 12.0);
+  EXPECT_DOUBLE_EQ(changes.floor_change.heading, 0.3);
   EXPECT_THROW(readFloorMatcherOptions(common::ConfigNode::loadString("floor_change_heading: 4\n")),
                common::ConfigError);
 }
@@ -1186,7 +1184,11 @@ TEST(FloorMatcherOptions, ReadsValuesAndRejectsUnknownKeys) {
 TEST(FloorMatcherOptions, ShippedConfigLoads) {
   const auto node =
       common::ConfigNode::loadFile(storey::test::sourceDir() + "/config/floor_matcher.yaml");
-  EXPECT_NO_THROW(readFloorMatcherOptions(node.child("floor_matcher")));
+  const FloorMatcherOptions o = readFloorMatcherOptions(node.child("floor_matcher"));
+  // The component's growth passes hold back placements by these limits too (retraction.h).
+  EXPECT_DOUBLE_EQ(o.floor_change.radius, 15.0);
+  EXPECT_DOUBLE_EQ(o.floor_change.heading, 0.35);
+  EXPECT_NO_THROW(readRetractionOptions(node.child("retraction")));
 }
 
 }  // namespace

@@ -260,13 +260,13 @@ TEST(PlacementConfirmation, BothSidesAskTheAcceptedCandidatesOfTheConstraintsPai
   history.record(prefixes(b, 8), passAligning(b, b.truth1));
   RetractionOptions o;
   o.confirm_both_sides = true;
-  EXPECT_TRUE(GrowthPassConfirmation(b.graphs, r, history, o).confirms(c));
+  EXPECT_TRUE(GrowthPassConfirmation(b.graphs, r, history, o, {}).confirms(c));
   const auto eight = prefixes(b, 8);
-  EXPECT_FALSE(GrowthPassConfirmation(eight, r, history, o).confirms(c)) << "no growth";
+  EXPECT_FALSE(GrowthPassConfirmation(eight, r, history, o, {}).confirms(c)) << "no growth";
   const MatchResult one_side = passAligning(b, b.truth1);
-  EXPECT_FALSE(GrowthPassConfirmation(b.graphs, one_side, history, o).confirms(c));
+  EXPECT_FALSE(GrowthPassConfirmation(b.graphs, one_side, history, o, {}).confirms(c));
   o.confirm_both_sides = false;
-  EXPECT_TRUE(GrowthPassConfirmation(b.graphs, one_side, history, o).confirms(c));
+  EXPECT_TRUE(GrowthPassConfirmation(b.graphs, one_side, history, o, {}).confirms(c));
 }
 
 // `g` driven by `robot`, its nodes stamped one a second from `first`.
@@ -291,6 +291,9 @@ TEST(TransitLinks, AreWhereOneRobotsNodesChangeGraph) {
             std::make_tuple(1, 9, 0, 10));
 }
 
+// The floor-change limits config/floor_matcher.yaml gives the matcher, which growth passes share.
+const FloorChangeLimits kShippedFloorChange{15.0, 0.35};
+
 TEST(PlacementConfirmation, APlacementThatTearsAFloorChangeApartIsHeldBack) {
   Building b;
   b.graphs[0] = stamped(b.graphs[0], "r", 0.0);   // node 9 at (9, 0)...
@@ -303,8 +306,9 @@ TEST(PlacementConfirmation, APlacementThatTearsAFloorChangeApartIsHeldBack) {
     PlacementHistory history;
     history.record(prefixes(b, 8), pass);  // an earlier pass placed graph 1 the same way
     const InterFloorConstraint c = constraintFrom(b.graphs[0], 2, b.graphs[1], 2, t);
-    RetractionOptions o;  // radius 15 m
-    const GrowthPassConfirmation confirmation(b.graphs, pass, history, o);
+    RetractionOptions o;
+    FloorChangeLimits limits = kShippedFloorChange;  // radius 15 m
+    const GrowthPassConfirmation confirmation(b.graphs, pass, history, o, limits);
     if (!is_far) {
       EXPECT_TRUE(confirmation.confirms(c));
       EXPECT_TRUE(confirmation.atOddsWithTransits().empty());
@@ -313,10 +317,10 @@ TEST(PlacementConfirmation, APlacementThatTearsAFloorChangeApartIsHeldBack) {
     EXPECT_FALSE(confirmation.confirms(c)) << "21.5 m apart";
     ASSERT_EQ(confirmation.atOddsWithTransits().count(1), 1u);
     EXPECT_NE(confirmation.atOddsWithTransits().at(1).find("21.5 m apart"), std::string::npos);
-    o.confirm_transit_radius = 25.0;
-    EXPECT_TRUE(GrowthPassConfirmation(b.graphs, pass, history, o).confirms(c));
-    o.confirm_transit_radius = 0.0;  // off
-    EXPECT_TRUE(GrowthPassConfirmation(b.graphs, pass, history, o).confirms(c));
+    limits.radius = 25.0;
+    EXPECT_TRUE(GrowthPassConfirmation(b.graphs, pass, history, o, limits).confirms(c));
+    limits.radius = 0.0;  // off
+    EXPECT_TRUE(GrowthPassConfirmation(b.graphs, pass, history, o, limits).confirms(c));
   }
 }
 
@@ -339,8 +343,9 @@ TEST(PlacementConfirmation,
     PlacementHistory history;
     history.record(prefixes(b, 8), pass);
     const InterFloorConstraint c = constraintFrom(b.graphs[0], 2, b.graphs[1], 2, t);
-    RetractionOptions o;  // radius 15 m, heading 0.35 rad
-    const GrowthPassConfirmation confirmation(b.graphs, pass, history, o);
+    RetractionOptions o;
+    FloorChangeLimits limits = kShippedFloorChange;  // radius 15 m, heading 0.35 rad
+    const GrowthPassConfirmation confirmation(b.graphs, pass, history, o, limits);
     if (!is_flipped) {
       EXPECT_TRUE(confirmation.confirms(c));
       EXPECT_TRUE(confirmation.mayRetract(c));
@@ -357,15 +362,15 @@ TEST(PlacementConfirmation,
         confirmation.atOddsWithTransits().at(0).find("turned 180.0 deg from the robot's odometry"),
         std::string::npos)
         << confirmation.atOddsWithTransits().at(0);
-    o.confirm_transit_heading = 0.0;  // off: the radius alone lets the flip through
-    EXPECT_TRUE(GrowthPassConfirmation(b.graphs, pass, history, o).confirms(c));
+    limits.heading = 0.0;  // off: the radius alone lets the flip through
+    EXPECT_TRUE(GrowthPassConfirmation(b.graphs, pass, history, o, limits).confirms(c));
   }
 }
 
 TEST(ConstraintRetraction, OptionsAreReadStrictly) {
   const auto node = common::ConfigNode::loadString(
       "{enabled: false, translation: 0.8, rotation: 0.2, weak_sigmas: 2, confirm_growth: 0.5, "
-      "confirm_both_sides: true, confirm_transit_radius: 7, confirm_transit_heading: 0.2}",
+      "confirm_both_sides: true}",
       "r.yaml");
   const RetractionOptions o = readRetractionOptions(node);
   EXPECT_FALSE(o.enabled);
@@ -374,11 +379,18 @@ TEST(ConstraintRetraction, OptionsAreReadStrictly) {
   EXPECT_DOUBLE_EQ(o.weak_sigmas, 2.0);
   EXPECT_DOUBLE_EQ(o.confirm_growth, 0.5);
   EXPECT_TRUE(o.confirm_both_sides);
-  EXPECT_DOUBLE_EQ(o.confirm_transit_radius, 7.0);
-  EXPECT_DOUBLE_EQ(o.confirm_transit_heading, 0.2);
-  EXPECT_THROW(readRetractionOptions(
-                   common::ConfigNode::loadString("{confirm_transit_heading: 4}", "r.yaml")),
-               std::exception);
+  // The floor-change limits moved to the matcher's options (one setting for both checks):
+  // a file that still sets them here is told where they went, with its line.
+  try {
+    readRetractionOptions(common::ConfigNode::loadString(
+        "{translation: 0.3,\n confirm_transit_radius: 7}", "r.yaml"));
+    ADD_FAILURE() << "confirm_transit_radius accepted";
+  } catch (const common::ConfigError& e) {
+    EXPECT_EQ(e.file(), "r.yaml");
+    EXPECT_EQ(e.line(), 2);
+    EXPECT_EQ(e.key(), "confirm_transit_radius");
+    EXPECT_NE(std::string(e.what()).find("floor_change_radius"), std::string::npos) << e.what();
+  }
   EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{confirm_growth: -0.1}", "r.yaml")),
                std::exception);
   EXPECT_THROW(readRetractionOptions(common::ConfigNode::loadString("{weak_sigmas: -1}", "r.yaml")),

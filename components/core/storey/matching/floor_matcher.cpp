@@ -77,9 +77,9 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
       node.getDouble("same_floor_see_through", o.same_floor_see_through, 0.0, 1.0);
   o.same_floor_through_beams =
       node.getInt("same_floor_through_beams", o.same_floor_through_beams, 1, 10000);
-  o.floor_change_radius = node.getDouble("floor_change_radius", o.floor_change_radius, 0.0, 1e4);
-  o.floor_change_heading =
-      node.getDouble("floor_change_heading", o.floor_change_heading, 0.0, M_PI);
+  o.floor_change.radius = node.getDouble("floor_change_radius", o.floor_change.radius, 0.0, 1e4);
+  o.floor_change.heading =
+      node.getDouble("floor_change_heading", o.floor_change.heading, 0.0, M_PI);
   o.wall_beams = node.getInt("wall_beams", o.wall_beams, 1, 10000);
   o.wall_recheck_max = node.getInt("wall_recheck_max", o.wall_recheck_max, 0, 1000000);
   o.wall_log_p = node.getDouble("wall_log_p", o.wall_log_p, -100.0, 0.0);
@@ -1454,7 +1454,7 @@ bool rejectContradictedPlacements(const std::vector<floor::FloorGraph>& graphs,
 
 std::string floorChangeAtOdds(const floor::TransitLink& link, const floor::FloorNode& from,
                               const Pose2& from_frame, const floor::FloorNode& to,
-                              const Pose2& to_frame, double radius, double heading) {
+                              const Pose2& to_frame, const FloorChangeLimits& limits) {
   const Pose2 a = from_frame * from.pose, b = to_frame * to.pose;
   const double apart = (a.translation() - b.translation()).norm();
   const double turn_off = std::abs(
@@ -1463,9 +1463,9 @@ std::string floorChangeAtOdds(const floor::TransitLink& link, const floor::Floor
   why << std::fixed << std::setprecision(1) << "puts the floor change from graph "
       << link.from_graph << " (node " << link.from_node << ") to graph " << link.to_graph
       << " (node " << link.to_node << ") ";
-  if (radius > 0.0 && apart > radius)
+  if (limits.radius > 0.0 && apart > limits.radius)
     why << apart << " m apart";
-  else if (heading > 0.0 && turn_off > heading)
+  else if (limits.heading > 0.0 && turn_off > limits.heading)
     why << "turned " << turn_off * 180.0 / M_PI << " deg from the robot's odometry";
   else
     return "";
@@ -1476,7 +1476,7 @@ std::string floorChangeContradiction(const std::vector<floor::FloorGraph>& graph
                                      const std::vector<floor::TransitLink>& links, int graph_id,
                                      const Pose2& placed, const std::map<int, Pose2>& placed_graphs,
                                      const FloorMatcherOptions& o) {
-  if (o.floor_change_radius <= 0.0 && o.floor_change_heading <= 0.0) return "";
+  if (o.floor_change.off()) return "";
   auto node = [&](int graph, int id) -> const floor::FloorNode* {
     for (const auto& g : graphs)
       if (g.graph_id == graph) return g.findNode(id);
@@ -1492,8 +1492,7 @@ std::string floorChangeContradiction(const std::vector<floor::FloorGraph>& graph
     if (!from || !to) continue;
     const std::string why =
         floorChangeAtOdds(link, *from, link.from_graph == graph_id ? placed : at->second, *to,
-                          link.to_graph == graph_id ? placed : at->second, o.floor_change_radius,
-                          o.floor_change_heading);
+                          link.to_graph == graph_id ? placed : at->second, o.floor_change);
     if (!why.empty()) return "it " + why;
   }
   return "";
@@ -1570,7 +1569,7 @@ MatchResult matchFloors(const std::vector<floor::FloorGraph>& graphs,
   };
   // Graph i placed by an alignment into r's frame, r placed by `placed` (by index).
   auto floorChangeCheck = [&](int i, int r, const std::map<int, Pose2>& placed) -> AlignmentCheck {
-    if (o.floor_change_radius <= 0.0 && o.floor_change_heading <= 0.0) return {};
+    if (o.floor_change.off()) return {};
     const auto at = placed.find(r);
     const Pose2 r_frame = at == placed.end() ? Pose2() : at->second;
     const std::map<int, Pose2> placed_graphs =

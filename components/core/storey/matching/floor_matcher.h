@@ -56,6 +56,17 @@
 
 namespace storey::matching {
 
+// How far a robot's floor change (lift or stairs: its last node in one graph and its next
+// node in another) may take it, as a placement of the two graphs puts it: a lift leaves the
+// robot where it entered, a stairwell a few metres on, and its odometry carries the heading
+// through (a degree or two of wheel slip when it turns in the cabin).
+struct FloorChangeLimits {
+  double radius = 0.0;  // m between the two nodes (0: not checked)
+  double heading =
+      0.0;  // rad between the turn the placement implies and the odometry's (0: not checked)
+  bool off() const { return radius <= 0.0 && heading <= 0.0; }
+};
+
 struct FloorMatcherOptions {
   ParticleFilterOptions filter;
   grid::OccupancyGridOptions map;                 // rendering each floor graph's map
@@ -173,19 +184,14 @@ struct FloorMatcherOptions {
   // right F2 pair: 9-11 % of one graph's scans, none the other way). 1 turns it off.
   double same_floor_see_through = 0.1;
   int same_floor_through_beams = 3;
-  // A robot's floor change (lift or stairs: its last node in one graph and its next node in
-  // another) is evidence where the floors lie: a lift leaves the robot where it entered, a
-  // stairwell a few metres on, and its odometry carries the heading through (a degree or
-  // two of wheel slip when it turns in the cabin). A pair's accepted alignment that puts
-  // such a change, to a graph already placed, more than floor_change_radius (m) apart or
-  // turned more than floor_change_heading (rad) from the robot's odometry is rejected
-  // (kContradicted) and the graph tries the others (glass3 seed 12: floor 2 fitted to a
-  // look-alike of floor 1 turned 90 degrees). 0: off, the library's default (its unit tests'
-  // synthetic graphs share one robot and overlapping stamps); config/floor_matcher.yaml
-  // sets 15 m and 0.35 rad. Journals written before session 24 carry no raw odometry: set
-  // the heading to 0 for them.
-  double floor_change_radius = 0.0;
-  double floor_change_heading = 0.0;
+  // A pair's accepted alignment that puts a robot's floor change, to a graph already placed,
+  // outside these limits is rejected (kContradicted) and the graph tries the others (glass3
+  // seed 12: floor 2 fitted to a look-alike of floor 1 turned 90 degrees). A growth pass
+  // (GrowthPassConfirmation) holds back what it places outside them, too. Off in the
+  // library (its unit tests' synthetic graphs share one robot and overlapping stamps);
+  // config/floor_matcher.yaml sets 15 m and 0.35 rad. Journals written before session 24
+  // carry no raw odometry: set the heading to 0 for them.
+  FloorChangeLimits floor_change;  // YAML: floor_change_radius, floor_change_heading
   int threads = 2;
   std::uint64_t seed = 1;
 };
@@ -201,8 +207,7 @@ enum class CandidateStatus {
   kUnderconstrained,  // its scans do not pin one direction (max_weak_sigma)
   kContradicted,      // its set places two graphs of one floor so that one sees through the
                       // other's walls (same_floor_see_through), or it or its set places a
-                      // robot's floor change at odds with its odometry (floor_change_radius,
-                      // floor_change_heading)
+                      // robot's floor change at odds with its odometry (floor_change)
 };
 const char* candidateStatusName(CandidateStatus status);
 
@@ -452,19 +457,18 @@ std::string sameFloorContradiction(const PreparedFloor& reference, const Prepare
                                    const FloorMatcherOptions& options);
 
 // How a placement puts one robot's floor change `link`, its nodes `from` and `to` placed
-// by `from_frame` and `to_frame`: "" when the two lie within `radius` (m) of each other and
-// the turn between them is within `heading` (rad) of the robot's odometry's (0: not
-// checked), else "puts the floor change from graph A (node a) to graph B (node b) D m
-// apart" or "... turned N deg from the robot's odometry". The matcher's floor-change check
-// and a growth pass's confirmation (retraction.h) both judge by it.
+// by `from_frame` and `to_frame`: "" when it keeps within `limits`, else "puts the floor change
+// from graph A (node a) to graph B (node b) D m apart" or "... turned N deg from the robot's
+// odometry". The matcher's floor-change check and a growth pass's confirmation (retraction.h) both
+// judge by it.
 std::string floorChangeAtOdds(const floor::TransitLink& link, const floor::FloorNode& from,
                               const geometry::Pose2& from_frame, const floor::FloorNode& to,
-                              const geometry::Pose2& to_frame, double radius, double heading);
+                              const geometry::Pose2& to_frame, const FloorChangeLimits& limits);
 
 // Why placing graph `graph_id` at `placed` (its frame into the reference's) contradicts
 // one of `links` (floor::transitLinks of `graphs`) to or from a graph in `placed_graphs`
 // (graph id -> its frame in the reference's): "" when none does
-// (FloorMatcherOptions::floor_change_radius, floor_change_heading). matchFloors calls it
+// (FloorMatcherOptions::floor_change). matchFloors calls it
 // for every accepted pair; declared here for tests.
 std::string floorChangeContradiction(const std::vector<floor::FloorGraph>& graphs,
                                      const std::vector<floor::TransitLink>& links, int graph_id,

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <iomanip>
 #include <map>
 #include <queue>
@@ -22,9 +23,12 @@ RetractionOptions readRetractionOptions(const common::ConfigNode& node) {
   o.weak_sigmas = node.getDouble("weak_sigmas", o.weak_sigmas, 0.0, 100.0);
   o.confirm_growth = node.getDouble("confirm_growth", o.confirm_growth, 0.0, 100.0);
   o.confirm_both_sides = node.get<bool>("confirm_both_sides", o.confirm_both_sides);
-  o.confirm_transit_radius = node.getDouble("confirm_transit_radius", o.confirm_transit_radius, 0.0, 10000.0);
-  o.confirm_transit_heading =
-      node.getDouble("confirm_transit_heading", o.confirm_transit_heading, 0.0, M_PI);
+  // One setting for the matcher's and the growth pass's floor-change checks since session 28.
+  for (const char* moved : {"confirm_transit_radius", "confirm_transit_heading"})
+    if (node.has(moved))
+      node.fail(moved,
+                "no longer read: a growth pass checks floor changes against the matcher's "
+                "floor_change_radius and floor_change_heading (floor_matcher: section)");
   node.finish();
   return o;
 }
@@ -151,18 +155,20 @@ bool pairSeenFromBothSides(const InterFloorConstraint& c, const MatchResult& res
 }
 
 GrowthPassConfirmation::GrowthPassConfirmation(const std::vector<floor::FloorGraph>& graphs,
-                                               const MatchResult& result, const PlacementHistory& history,
-                                               const RetractionOptions& options)
+                                               const MatchResult& result,
+                                               const PlacementHistory& history,
+                                               const RetractionOptions& options,
+                                               const FloorChangeLimits& floor_change)
     : graphs_(graphs), result_(result), history_(history), options_(options) {
-  if (options.confirm_transit_radius <= 0.0 && options.confirm_transit_heading <= 0.0) return;
+  if (floor_change.off()) return;
   const GraphPlacement placement = placeGraphs(graphs, result);
   for (const floor::TransitLink& link : floor::transitLinks(graphs)) {
     if (!placement.joins(link.from_graph, link.to_graph)) continue;
     const floor::FloorNode* from = findGraph(graphs, link.from_graph)->findNode(link.from_node);
     const floor::FloorNode* to = findGraph(graphs, link.to_graph)->findNode(link.to_node);
-    const std::string at_odds = floorChangeAtOdds(
-        link, *from, placement.frame.at(link.from_graph), *to, placement.frame.at(link.to_graph),
-        options.confirm_transit_radius, options.confirm_transit_heading);
+    const std::string at_odds =
+        floorChangeAtOdds(link, *from, placement.frame.at(link.from_graph), *to,
+                          placement.frame.at(link.to_graph), floor_change);
     if (at_odds.empty()) continue;
     const std::string why = "the pass " + at_odds;
     at_odds_.emplace(link.from_graph, why);

@@ -45,17 +45,6 @@ struct RetractionOptions {
   // scans fit a local look-alike (a corridor's dead end at a lift) while its own scans,
   // in the other's whole map, do not agree.
   bool confirm_both_sides = false;
-  // > 0: ...and only when the pass's placement keeps each robot's floor changes together:
-  // the last node before a change (lift or stairs) and the first after it, in two graphs
-  // the pass joins, at most this far apart (m). A lift leaves a robot where it entered, a
-  // stairwell a few metres on; a young graph that fits a look-alike corridor end 50 m
-  // away does not. 0: off.
-  double confirm_transit_radius = 15.0;
-  // > 0: ...and with the turn between those two nodes that the pass implies within this
-  // much (rad) of the robot's odometry through the change. Odometry carries on through a
-  // ride (a wheel-slip degree or two when turning in the cabin); a floor placed turned
-  // about its lift, the end of a corridor at each side, does not. 0: off.
-  double confirm_transit_heading = 0.35;
 };
 RetractionOptions readRetractionOptions(const common::ConfigNode& node);
 
@@ -103,13 +92,16 @@ class PlacementHistory {
 bool pairSeenFromBothSides(const InterFloorConstraint& c, const MatchResult& result);
 
 // What a pass on growing graphs may publish: a constraint that `history` confirms,
-// (confirm_both_sides) whose pair the pass saw from both sides, and (confirm_transit_radius)
-// whose graphs the pass places with their transit links' ends within the radius and
-// (confirm_transit_heading) turned as the robot's odometry turned.
+// (confirm_both_sides) whose pair the pass saw from both sides, and whose graphs the pass
+// places keeping every robot's floor change between them within `floor_change` (the
+// matcher's limits, FloorMatcherOptions::floor_change: one setting for both checks). A
+// young graph that fits a look-alike corridor end 50 m away, or a floor turned about its
+// lift, does not.
 class GrowthPassConfirmation {
  public:
   GrowthPassConfirmation(const std::vector<floor::FloorGraph>& graphs, const MatchResult& result,
-                         const PlacementHistory& history, const RetractionOptions& options);
+                         const PlacementHistory& history, const RetractionOptions& options,
+                         const FloorChangeLimits& floor_change);
   bool confirms(const InterFloorConstraint& c) const;
   // Whether the pass may withdraw published constraint `c`: not when it places c's
   // graphs at odds with a robot's floor change (a pass that turns a floor about its lift

@@ -245,8 +245,8 @@ void FloorMatcherComponent::matchOnce(std::unique_lock<std::mutex>& lock) {
   std::vector<std::string> retraction_notes;
   lock.lock();
   ++stats_.matchings;
-  const matching::GrowthPassConfirmation confirmation(graphs, result, placement_history_,
-                                                      options_.retraction);
+  const matching::GrowthPassConfirmation confirmation(
+      graphs, result, placement_history_, options_.retraction, options_.matcher.floor_change);
   const bool growing = options_.confirm_while_growing && !settled;
   if (matched) {
     adoptServerHeld();
