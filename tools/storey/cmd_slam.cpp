@@ -1,5 +1,6 @@
-// storey slam LOG: the per-floor front end alone on a laser log, writing the graph, the map
-// and the trajectory, and (when the log carries reference poses) the relation error.
+// storey slam LOG: the per-floor front end alone on a laser log or a bag, writing the graph,
+// the map and the trajectory, and (when there are reference poses) the relation error.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -9,14 +10,19 @@
 #include <sstream>
 
 #include "args.h"
+#include "storey/bag/bag_error.h"
 #include "storey/common/config.h"
 #include "storey/common/log.h"
+#include "storey/detection/floor_detector.h"
+#include "storey/eval/trajectory.h"
 #include "storey/floor/floor_graph.h"
 #include "storey/graph/graph_io.h"
 #include "storey/grid/image.h"
 #include "storey/io/carmen.h"
 #include "storey/mapping/evaluation.h"
 #include "storey/mapping/floor_slam.h"
+#include "storey/mapping/input_sequencer.h"
+#include "storey/runtime/sensor_bag.h"
 
 namespace storey::cli {
 
@@ -85,28 +91,150 @@ void writeLoopAttempts(const std::string& path, const std::vector<mapping::LoopC
   }
 }
 
+// One robot's scans in a bag, each with its odometry interpolated at its stamp (as the
+// floor_mapper component pairs them: mapping::InputSequencer), and the floor changes the
+// floor detector finds in its pressure, which the front end alone does not separate.
+struct BagInput {
+  std::string robot;
+  std::vector<sensor::LaserScan> scans;
+  std::vector<Pose2> odometry;
+  std::size_t scans_without_odometry = 0;
+  std::size_t out_of_order = 0;       // samples behind their topic's last stamp, dropped
+  std::string truncated;              // why reading stopped early ("" when it did not)
+  std::vector<double> floor_changes;  // stamps where the robot reached another floor
+};
+
+BagInput readBagInput(const std::string& path, const std::string& robot_option) {
+  runtime::SensorBagReader reader(path);
+  const std::vector<std::string> robots = reader.robots();
+  BagInput input;
+  if (!robot_option.empty()) {
+    input.robot = robot_option;
+  } else if (robots.size() == 1) {
+    input.robot = robots.front();
+  } else {
+    std::string names;
+    for (const auto& r : robots) names += (names.empty() ? "" : ", ") + r;
+    throw UsageError(path + " holds " +
+                     (robots.empty() ? std::string("no robot's sensors") : "robots " + names) +
+                     ": name one with --robot");
+  }
+  if (std::find(robots.begin(), robots.end(), input.robot) == robots.end())
+    throw UsageError("robot '" + input.robot + "' is not in " + path);
+
+  mapping::InputSequencerOptions sequencing;   // the component's defaults
+  sequencing.wait_for_floor_detector = false;  // no floor sessions here: one graph
+  mapping::InputSequencer sequencer(
+      sequencing,
+      [&](const sensor::LaserScan& scan, const Pose2& odometry) {
+        input.scans.push_back(scan);
+        input.odometry.push_back(odometry);
+      },
+      [](const detection::FloorEvent&) {}, "storey slam");
+  detection::FloorDetector detector{detection::FloorDetectorOptions{}};
+  runtime::SensorRecord record;
+  try {
+    while (reader.next(record)) {
+      if (record.robot != input.robot) continue;
+      std::visit(
+          [&](const auto& sample) {
+            using T = std::decay_t<decltype(sample)>;
+            if constexpr (std::is_same_v<T, sensor::LaserScan>) {
+              detector.addScan(sample);
+              sequencer.addScan(sample);
+            } else if constexpr (std::is_same_v<T, sensor::OdometrySample>) {
+              detector.addOdometry(sample);
+              sequencer.addOdometry(sample);
+            } else if constexpr (std::is_same_v<T, sensor::PressureSample>) {
+              detector.addPressure(sample);
+            } else {
+              detector.addImu(sample);
+            }
+          },
+          record.data);
+      for (const auto& e : detector.takeEvents())
+        if (e.type == detection::FloorEventType::kTransitEnded && e.floor_changed)
+          input.floor_changes.push_back(e.stamp);
+    }
+  } catch (const bag::BagError& e) {
+    input.truncated = e.what();  // what was read before stays: map it
+  }
+  sequencer.flush();
+  input.scans_without_odometry = sequencer.stats().scans_without_odometry;
+  input.out_of_order = reader.stats().out_of_order;
+  return input;
+}
+
+// `robot`'s ground-truth pose at each scan's stamp: the row of that stamp (the simulator
+// writes one per scan), else interpolated between rows at most 1 s apart. A scan the
+// truth does not cover is an error naming the file.
+std::vector<Pose2> truthAtScans(std::vector<eval::PoseRow> rows, const std::string& robot,
+                                const std::vector<sensor::LaserScan>& scans,
+                                const std::string& file) {
+  rows.erase(std::remove_if(rows.begin(), rows.end(),
+                            [&](const eval::PoseRow& r) { return r.robot != robot; }),
+             rows.end());
+  std::stable_sort(rows.begin(), rows.end(), [](const eval::PoseRow& a, const eval::PoseRow& b) {
+    return a.stamp < b.stamp;
+  });
+  std::vector<Pose2> poses;
+  for (const auto& scan : scans) {
+    const auto after =
+        std::lower_bound(rows.begin(), rows.end(), scan.stamp,
+                         [](const eval::PoseRow& r, double t) { return r.stamp < t; });
+    constexpr double kSameStamp = 1e-6;
+    if (after != rows.end() && after->stamp - scan.stamp <= kSameStamp) {
+      poses.push_back(after->pose);
+    } else if (after != rows.begin() && (after - 1)->stamp >= scan.stamp - kSameStamp) {
+      poses.push_back((after - 1)->pose);
+    } else if (after != rows.end() && after != rows.begin() &&
+               after->stamp - (after - 1)->stamp <= 1.0) {
+      const auto& a = *(after - 1);
+      poses.push_back(geometry::interpolate(a.pose, after->pose,
+                                            (scan.stamp - a.stamp) / (after->stamp - a.stamp)));
+    } else {
+      std::ostringstream why;
+      why << file << ": no pose of robot '" << robot << "' at or around t=" << std::fixed
+          << std::setprecision(3) << scan.stamp << " s (a scan's stamp)";
+      throw std::runtime_error(why.str());
+    }
+  }
+  return poses;
+}
+
 }  // namespace
 
 int run_slam(Args& args) {
   args.usage("LOG",
              "Runs the per-floor SLAM front end (scan matching, loop closure, pose graph) on a\n"
-             "CARMEN log or GMapping .gfs log and writes OUTPUT/graph.g2o, OUTPUT/map.{pgm,yaml,png}\n"
-             "and OUTPUT/trajectory.csv. With --odometry simulated (the default), odometry is\n"
-             "derived from the log's (corrected) poses with seeded noise and the result is compared\n"
-             "with those poses by the relation metric (Kümmerle et al. 2009). With --odometry\n"
-             "recorded, the log's odometry is used; --reference names a log of the same scans\n"
-             "whose poses serve as reference.")
+             "CARMEN log, a GMapping .gfs log or a bag (rosbag2: a folder or .db3, e.g. what\n"
+             "`storey record` or `storey simulate` wrote) and writes OUTPUT/graph.g2o,\n"
+             "OUTPUT/map.{pgm,yaml,png} and OUTPUT/trajectory.csv. All scans go into one floor\n"
+             "graph: for a robot that changes floors, `storey map` maps each floor.\n"
+             "Logs: with --odometry simulated (the default), odometry is derived from the log's\n"
+             "(corrected) poses with seeded noise and the result is compared with those poses by\n"
+             "the relation metric (Kümmerle et al. 2009). With --odometry recorded, the log's\n"
+             "odometry is used; --reference names a log of the same scans whose poses serve as\n"
+             "reference.\n"
+             "Bags: one robot's scans with its recorded odometry (interpolated at each scan's\n"
+             "stamp); --truth compares with a ground-truth trajectory.csv. A `storey simulate`\n"
+             "output folder may be given as LOG: its bag/, and its ground_truth/ as the truth.")
       .option("output", "DIR", "output folder", "slam_out")
       .option("config", "FILE",
               "front-end options: the 'slam' section of this YAML file (e.g. "
               "config/floor_mapper.yaml); default: built-in defaults")
-      .option("odometry", "simulated|recorded", "odometry source", "simulated")
+      .option("odometry", "simulated|recorded", "odometry source (a bag's is recorded)",
+              "simulated")
       .option("odometry-noise", "T,R,F",
               "simulated odometry noise: translation sigma per metre (fraction), heading sigma "
               "in degrees per metre, heading sigma per radian turned (fraction)",
               "0.05,2,0.02")
       .option("seed", "N", "seed of the simulated odometry noise", "1")
       .option("reference", "LOG", "log of the same scans whose poses are the reference")
+      .option("robot", "NAME",
+              "bag: the robot whose scans are mapped (needed when the bag holds several)")
+      .option("truth", "CSV",
+              "bag: ground truth (trajectory.csv of `storey simulate`, or its folder)")
       .option("max-scans", "N", "use only the first N scans (0: all)", "0")
       .flag("no-loop-closure", "disable loop closure")
       .flag("no-reference-check",
@@ -136,52 +264,125 @@ int run_slam(Args& args) {
   }
   if (args.flagSet("no-loop-closure")) options.loop_closure.enabled = false;
 
-  io::CarmenReaderOptions reader_options;
-  reader_options.strict = false;
-  std::vector<io::CarmenLaser> lasers = io::readCarmenLasers(log_path, reader_options);
-  if (max_scans > 0 && lasers.size() > static_cast<std::size_t>(max_scans)) lasers.resize(max_scans);
-  if (lasers.empty()) {
-    std::cerr << "storey slam: " << log_path << " holds no laser readings with poses\n";
-    return 1;
+  // A bag is a folder (metadata.yaml and .db3 files) or one .db3 file; a `storey simulate`
+  // output folder holds one in bag/, with the ground truth beside it.
+  std::string bag_path, truth_path;
+  if (args.has("truth")) truth_path = args.get("truth");
+  if (std::filesystem::is_directory(std::filesystem::path(log_path) / "bag")) {
+    bag_path = (std::filesystem::path(log_path) / "bag").string();
+    const auto truth = std::filesystem::path(log_path) / "ground_truth";
+    if (truth_path.empty() && std::filesystem::exists(truth / "trajectory.csv"))
+      truth_path = truth.string();
+  } else if (std::filesystem::is_directory(log_path) ||
+             std::filesystem::path(log_path).extension() == ".db3") {
+    bag_path = log_path;
   }
-  std::vector<sensor::LaserScan> scans;
-  std::vector<Pose2> log_poses;
-  for (const auto& l : lasers) {
-    scans.push_back(l.scan);
-    log_poses.push_back(l.robotPose());
-  }
-  // Some shared logs have a few repeated or backward stamps (made monotone here), others
-  // unusable ones (replaced by the scan index, and the log's duration is unknown).
-  std::size_t backwards = 0;
-  for (std::size_t i = 1; i < scans.size(); ++i)
-    if (!(scans[i].stamp > scans[i - 1].stamp)) ++backwards;
-  const bool stamps_ok = backwards * 20 < scans.size();
-  double duration = 0.0;
-  if (stamps_ok) {
-    for (std::size_t i = 1; i < scans.size(); ++i) scans[i].stamp = std::max(scans[i].stamp, scans[i - 1].stamp);
-    duration = scans.back().stamp - scans.front().stamp;
-    if (backwards > 0)
-      std::cerr << "storey slam: " << backwards << " stamps repeat or go backwards; made monotone\n";
-  } else {
-    std::cerr << "storey slam: the log's stamps are not increasing; using the scan index as time\n";
-    for (std::size_t i = 0; i < scans.size(); ++i) scans[i].stamp = static_cast<double>(i);
-  }
+  const bool from_bag = !bag_path.empty();
+  if (from_bag && args.has("reference"))
+    throw UsageError("--reference is for logs; a bag's is --truth");
+  if (!from_bag && !truth_path.empty())
+    throw UsageError("--truth is for bags; a log's is --reference");
+  if (!from_bag && args.has("robot")) throw UsageError("--robot is for bags");
 
+  std::vector<sensor::LaserScan> scans;
   std::vector<Pose2> odometry, reference;
-  if (odometry_source == "simulated") {
-    reference = log_poses;
-    odometry = mapping::simulateOdometry(reference, noise, static_cast<std::uint64_t>(seed));
-  } else {
-    odometry = log_poses;
-  }
-  if (args.has("reference")) {
-    std::vector<io::CarmenLaser> ref = io::readCarmenLasers(args.get("reference"), reader_options);
-    if (ref.size() < scans.size()) {
-      std::cerr << "storey slam: the reference log has " << ref.size() << " scans, the log " << scans.size() << "\n";
+  double duration = 0.0;
+  std::string odometry_note;
+  if (from_bag) {
+    if (args.has("odometry") && odometry_source != "recorded")
+      throw UsageError(
+          "--odometry simulated needs a log's corrected poses; a bag's odometry is recorded");
+    BagInput input = readBagInput(bag_path, args.has("robot") ? args.get("robot") : "");
+    if (!input.truncated.empty())
+      std::cerr << "storey slam: " << input.truncated << "; mapping the " << input.scans.size()
+                << " scans read before it\n";
+    if (input.out_of_order > 0)
+      std::cerr << "storey slam: " << input.out_of_order
+                << " samples stamped before their topic's last were dropped\n";
+    if (input.scans_without_odometry > 0)
+      std::cerr << "storey slam: " << input.scans_without_odometry
+                << " scans had no odometry within "
+                << mapping::InputSequencerOptions{}.max_odometry_gap << " s and were dropped\n";
+    if (!input.floor_changes.empty())
+      std::cerr << "storey slam: the barometer says " << input.robot << " changed floor "
+                << input.floor_changes.size() << " time(s), first at t=" << std::fixed
+                << std::setprecision(1) << input.floor_changes.front()
+                << " s; every scan goes into one floor graph here (storey map keeps floors apart)\n"
+                << std::defaultfloat;
+    if (max_scans > 0 && input.scans.size() > static_cast<std::size_t>(max_scans)) {
+      input.scans.resize(max_scans);
+      input.odometry.resize(max_scans);
+    }
+    scans = std::move(input.scans);
+    odometry = std::move(input.odometry);
+    if (scans.empty()) {
+      std::cerr << "storey slam: " << bag_path << " holds no scans of " << input.robot
+                << " with odometry\n";
       return 1;
     }
-    reference.clear();
-    for (std::size_t i = 0; i < scans.size(); ++i) reference.push_back(ref[i].robotPose());
+    duration = scans.back().stamp - scans.front().stamp;
+    odometry_note = "recorded in the bag (robot " + input.robot + ")";
+    if (!truth_path.empty()) {
+      const std::string csv = std::filesystem::is_directory(truth_path)
+                                  ? (std::filesystem::path(truth_path) / "trajectory.csv").string()
+                                  : truth_path;
+      reference = truthAtScans(eval::readTrajectoryCsv(csv), input.robot, scans, csv);
+    }
+  } else {
+    io::CarmenReaderOptions reader_options;
+    reader_options.strict = false;
+    std::vector<io::CarmenLaser> lasers = io::readCarmenLasers(log_path, reader_options);
+    if (max_scans > 0 && lasers.size() > static_cast<std::size_t>(max_scans))
+      lasers.resize(max_scans);
+    if (lasers.empty()) {
+      std::cerr << "storey slam: " << log_path << " holds no laser readings with poses\n";
+      return 1;
+    }
+    std::vector<Pose2> log_poses;
+    for (const auto& l : lasers) {
+      scans.push_back(l.scan);
+      log_poses.push_back(l.robotPose());
+    }
+    // Some shared logs have a few repeated or backward stamps (made monotone here), others
+    // unusable ones (replaced by the scan index, and the log's duration is unknown).
+    std::size_t backwards = 0;
+    for (std::size_t i = 1; i < scans.size(); ++i)
+      if (!(scans[i].stamp > scans[i - 1].stamp)) ++backwards;
+    const bool stamps_ok = backwards * 20 < scans.size();
+    if (stamps_ok) {
+      for (std::size_t i = 1; i < scans.size(); ++i)
+        scans[i].stamp = std::max(scans[i].stamp, scans[i - 1].stamp);
+      duration = scans.back().stamp - scans.front().stamp;
+      if (backwards > 0)
+        std::cerr << "storey slam: " << backwards
+                  << " stamps repeat or go backwards; made monotone\n";
+    } else {
+      std::cerr
+          << "storey slam: the log's stamps are not increasing; using the scan index as time\n";
+      for (std::size_t i = 0; i < scans.size(); ++i) scans[i].stamp = static_cast<double>(i);
+    }
+
+    if (odometry_source == "simulated") {
+      reference = log_poses;
+      odometry = mapping::simulateOdometry(reference, noise, static_cast<std::uint64_t>(seed));
+      odometry_note = "simulated from the log's poses, noise " + args.get("odometry-noise") +
+                      " (translation fraction, deg per m, heading fraction), seed " +
+                      std::to_string(seed);
+    } else {
+      odometry = log_poses;
+      odometry_note = "as recorded";
+    }
+    if (args.has("reference")) {
+      std::vector<io::CarmenLaser> ref =
+          io::readCarmenLasers(args.get("reference"), reader_options);
+      if (ref.size() < scans.size()) {
+        std::cerr << "storey slam: the reference log has " << ref.size() << " scans, the log "
+                  << scans.size() << "\n";
+        return 1;
+      }
+      reference.clear();
+      for (std::size_t i = 0; i < scans.size(); ++i) reference.push_back(ref[i].robotPose());
+    }
   }
 
   mapping::FloorSlam slam(options, "robot", 0, 0, 0.0);
@@ -215,7 +416,7 @@ int run_slam(Args& args) {
 
   const auto& st = slam.stats();
   std::ostringstream report;
-  report << "log: " << log_path << "\n"
+  report << (from_bag ? "bag: " + bag_path : "log: " + log_path) << "\n"
          << "scans: " << scans.size() << "  nodes: " << st.nodes << "  skipped: " << st.skipped
          << "  rejected: " << st.rejected << "  matched: " << st.matched
          << "  match failures: " << st.match_failures << " (" << st.matches_against_odometry
@@ -229,11 +430,7 @@ int run_slam(Args& args) {
   if (duration > 0.0) report << "  log duration: " << duration << " s  real-time factor: " << duration / run.seconds;
   else report << "  log duration: unknown (bad stamps)  scans/s: " << scans.size() / run.seconds;
   report << "\n";
-  if (odometry_source == "simulated")
-    report << "odometry: simulated from the log's poses, noise " << args.get("odometry-noise")
-           << " (translation fraction, deg per m, heading fraction), seed " << seed << "\n";
-  else
-    report << "odometry: as recorded\n";
+  report << "odometry: " << odometry_note << "\n";
   if (!reference.empty()) {
     // The estimate's and the odometry's relation errors, over the pairs without a left-out pose.
     auto printRelations = [&](const std::vector<bool>& left_out) {
