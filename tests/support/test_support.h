@@ -18,6 +18,14 @@ std::string sharedDataPath(const std::string& relative);
 // A fresh, empty temporary directory (removed at process exit is not guaranteed).
 std::string makeTempDir(const std::string& prefix = "storey_test");
 
+// A shell command's exit status (-1 when it did not exit normally) and its stdout and
+// stderr, joined: for tests that run the storey executable.
+struct CommandResult {
+  int status = -1;
+  std::string output;
+};
+CommandResult runCommand(const std::string& command);
+
 // Central-difference Jacobian of f at x; f maps R^n to R^m.
 Eigen::MatrixXd numericJacobian(const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& f,
                                 const Eigen::VectorXd& x, double step = 1e-6);

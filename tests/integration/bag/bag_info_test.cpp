@@ -1,7 +1,5 @@
 // `storey bag info` on a bag written here, and on files that are not bags.
-#include <sys/wait.h>
 
-#include <cstdio>
 #include <fstream>
 
 #include "storey/runtime/sensor_bag.h"
@@ -10,15 +8,9 @@
 namespace storey::runtime {
 namespace {
 
-// Runs a shell command; returns (exit status, stdout + stderr).
 std::pair<int, std::string> run(const std::string& command) {
-  std::string output;
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  if (!pipe) return {-1, ""};
-  char buffer[4096];
-  while (std::size_t n = fread(buffer, 1, sizeof(buffer), pipe)) output.append(buffer, n);
-  const int status = pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
+  auto [status, output] = storey::test::runCommand(command);
+  return {status, std::move(output)};
 }
 
 TEST(BagInfo, PrintsTopicsTypesCountsAndDuration) {

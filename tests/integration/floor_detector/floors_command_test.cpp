@@ -9,14 +9,11 @@
 
 namespace {
 
-// Runs a shell command; returns its exit status and appends its stdout to `output`.
+// Runs a shell command; returns its exit status and appends its output to `output`.
 int runCommand(const std::string& command, std::string& output) {
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return -1;
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof buffer, pipe)) output += buffer;
-  const int status = pclose(pipe);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  const storey::test::CommandResult result = storey::test::runCommand(command);
+  output += result.output;
+  return result.status;
 }
 
 TEST(FloorsCommand, FindsTheSimulatedRidesInABag) {
@@ -42,7 +39,7 @@ TEST(FloorsCommand, FindsTheSimulatedRidesInABag) {
 
 TEST(FloorsCommand, MissingBagIsAnError) {
   std::string out;
-  EXPECT_NE(runCommand(std::string(STOREY_COMMAND) + " floors /nonexistent/bag 2>&1", out), 0);
+  EXPECT_NE(runCommand(std::string(STOREY_COMMAND) + " floors /nonexistent/bag", out), 0);
   EXPECT_FALSE(out.empty());
 }
 

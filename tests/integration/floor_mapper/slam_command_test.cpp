@@ -11,14 +11,11 @@
 
 namespace {
 
-// Runs a shell command (stderr joined to stdout); returns its exit status and its output.
+// Runs a shell command; returns its exit status and appends its output to `output`.
 int runCommand(const std::string& command, std::string& output) {
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  if (!pipe) return -1;
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof buffer, pipe)) output += buffer;
-  const int status = pclose(pipe);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  const storey::test::CommandResult result = storey::test::runCommand(command);
+  output += result.output;
+  return result.status;
 }
 
 // The translation mean of report line "  <who> <range> pairs: N  translation X ± ...".

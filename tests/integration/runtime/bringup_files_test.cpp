@@ -1,7 +1,6 @@
 // Every shipped bringup file reads cleanly against storey's component catalog, and each
 // of its processes comes up (create, configure with strict parameters, activate) and down.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -97,14 +96,9 @@ namespace {
 TEST(ShippedBringupFiles, StoreyLaunchRunsAndStops) {
   const std::string bringup = storey::test::sourceDir() + "/bringup/floor_detector.yaml";
   const std::string command = "ROS_DOMAIN_ID=131 " + std::string(STOREY_EXECUTABLE) + " launch " +
-                              bringup + " --duration 1.5 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  ASSERT_NE(pipe, nullptr);
-  std::string output;
-  char buffer[256];
-  while (fgets(buffer, sizeof(buffer), pipe)) output += buffer;
-  const int status = pclose(pipe);
-  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << output;
+                              bringup + " --duration 1.5";
+  const auto [status, output] = storey::test::runCommand(command);
+  EXPECT_EQ(status, 0) << output;
   EXPECT_NE(output.find("started process 'robot1_floor_detector'"), std::string::npos) << output;
   EXPECT_NE(output.find("on domain 131"), std::string::npos) << output;
 }

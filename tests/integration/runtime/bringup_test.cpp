@@ -3,8 +3,6 @@
 
 #include <gtest/gtest.h>
 
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
@@ -119,14 +117,9 @@ TEST_F(BringupTest, StoreyLaunchReportsABadFile) {
   if (!std::filesystem::exists(STOREY_EXECUTABLE)) {
     GTEST_SKIP() << STOREY_EXECUTABLE << " is not built (sanitizer builds leave it out)";
   }
-  const std::string command = std::string(STOREY_EXECUTABLE) + " launch " + path + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  ASSERT_NE(pipe, nullptr);
-  std::string output;
-  std::array<char, 256> buffer;
-  while (fgets(buffer.data(), buffer.size(), pipe)) output += buffer.data();
-  const int status = pclose(pipe);
-  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << output;
+  const auto [status, output] =
+      storey::test::runCommand(std::string(STOREY_EXECUTABLE) + " launch " + path);
+  EXPECT_EQ(status, 1) << output;
   EXPECT_NE(output.find(path + ":4"), std::string::npos) << output;
   EXPECT_NE(output.find("unknown component kind 'no_such_kind'"), std::string::npos) << output;
 }
