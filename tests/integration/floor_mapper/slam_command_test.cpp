@@ -2,11 +2,14 @@
 // recorded odometry, and compare with the simulator's ground truth.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <regex>
 #include <string>
 
+#include "storey/runtime/sensor_bag.h"
 #include "test_support.h"
 
 namespace {
@@ -124,6 +127,49 @@ TEST_F(SlamCommand, RefusesWhatABagCannotGive) {
       0);
   EXPECT_NE(out.find(partial + ": no pose of robot 'robot1' at or around t="), std::string::npos)
       << out;
+}
+
+// A bag of two robots: storey slam needs to be told which; scans of the chosen robot that
+// its odometry does not cover are dropped, counted, and the rest is mapped.
+TEST_F(SlamCommand, TakesOneRobotOfSeveralAndDropsScansWithoutOdometry) {
+  const std::string dir = storey::test::makeTempDir("slam_cmd");
+  const std::string bag = dir + "/two_robots";
+  {
+    storey::runtime::SensorBagWriter writer(bag);
+    for (int i = 0; i < 40; ++i) {
+      const double t = 0.25 * i;
+      for (const std::string robot : {"a", "b"}) {
+        storey::sensor::LaserScan scan;  // a square room 4 m across, the robot at its centre
+        scan.stamp = t;
+        scan.angle_min = -M_PI;
+        scan.angle_increment = 2.0 * M_PI / 360.0;
+        scan.range_min = 0.1;
+        scan.range_max = 10.0;
+        for (int k = 0; k < 360; ++k) {
+          const double a = scan.angle(k);
+          scan.ranges.push_back(
+              static_cast<float>(2.0 / std::max(std::abs(std::cos(a)), std::abs(std::sin(a)))));
+        }
+        writer.write(robot, scan);
+        if (t > 5.0) continue;  // odometry stops after 5 s; scans go on to 9.75 s
+        storey::sensor::OdometrySample odom;
+        odom.stamp = t;
+        writer.write(robot, odom);
+      }
+    }
+  }
+  std::string out;
+  EXPECT_NE(runCommand(storey + " slam " + bag, out), 0);
+  EXPECT_NE(out.find(bag + " holds robots a, b: name one with --robot"), std::string::npos) << out;
+  out.clear();
+  ASSERT_EQ(
+      runCommand(storey + " slam " + bag + " --robot b --output " + dir + "/slam --quiet", out), 0)
+      << out;
+  // Scans up to 5.5 s are within 0.5 s of the last odometry (5.0 s): 23 mapped, 17 dropped.
+  EXPECT_NE(out.find("17 scans had no odometry within 0.5 s and were dropped"), std::string::npos)
+      << out;
+  EXPECT_NE(out.find("scans: 23 "), std::string::npos) << out;
+  EXPECT_NE(out.find("(robot b)"), std::string::npos) << out;
 }
 
 }  // namespace
