@@ -202,6 +202,116 @@ std::vector<Pose2> truthAtScans(std::vector<eval::PoseRow> rows, const std::stri
   return poses;
 }
 
+// What the front end runs on: scans with their odometry, and reference poses when known.
+struct SlamInput {
+  std::string source;  // "log: PATH" or "bag: PATH"
+  std::vector<sensor::LaserScan> scans;
+  std::vector<Pose2> odometry;
+  std::vector<Pose2> reference;  // per scan, or empty
+  double duration = 0.0;         // s; 0 when the stamps do not tell
+  std::string odometry_note;
+};
+
+// A CARMEN or .gfs log: its poses are the reference, and (simulate_odometry) the odometry
+// is derived from them with seeded noise; otherwise the log's own, with the poses of
+// `reference_log` (if given) as the reference.
+SlamInput logInput(const std::string& path, bool simulate_odometry,
+                   const mapping::OdometryNoise& noise, const std::string& noise_text,
+                   std::uint64_t seed, const std::string& reference_log, long max_scans) {
+  SlamInput input;
+  input.source = "log: " + path;
+  io::CarmenReaderOptions reader_options;
+  reader_options.strict = false;
+  std::vector<io::CarmenLaser> lasers = io::readCarmenLasers(path, reader_options);
+  if (max_scans > 0 && lasers.size() > static_cast<std::size_t>(max_scans))
+    lasers.resize(max_scans);
+  if (lasers.empty()) throw std::runtime_error(path + " holds no laser readings with poses");
+  auto& scans = input.scans;
+  std::vector<Pose2> log_poses;
+  for (const auto& l : lasers) {
+    scans.push_back(l.scan);
+    log_poses.push_back(l.robotPose());
+  }
+  // Some shared logs have a few repeated or backward stamps (made monotone here), others
+  // unusable ones (replaced by the scan index, and the log's duration is unknown).
+  std::size_t backwards = 0;
+  for (std::size_t i = 1; i < scans.size(); ++i)
+    if (!(scans[i].stamp > scans[i - 1].stamp)) ++backwards;
+  if (backwards * 20 < scans.size()) {
+    for (std::size_t i = 1; i < scans.size(); ++i)
+      scans[i].stamp = std::max(scans[i].stamp, scans[i - 1].stamp);
+    input.duration = scans.back().stamp - scans.front().stamp;
+    if (backwards > 0)
+      std::cerr << "storey slam: " << backwards
+                << " stamps repeat or go backwards; made monotone\n";
+  } else {
+    std::cerr << "storey slam: the log's stamps are not increasing; using the scan index as time\n";
+    for (std::size_t i = 0; i < scans.size(); ++i) scans[i].stamp = static_cast<double>(i);
+  }
+  if (simulate_odometry) {
+    input.reference = log_poses;
+    input.odometry = mapping::simulateOdometry(log_poses, noise, seed);
+    input.odometry_note = "simulated from the log's poses, noise " + noise_text +
+                          " (translation fraction, deg per m, heading fraction), seed " +
+                          std::to_string(seed);
+  } else {
+    input.odometry = log_poses;
+    input.odometry_note = "as recorded";
+  }
+  if (!reference_log.empty()) {
+    const std::vector<io::CarmenLaser> ref = io::readCarmenLasers(reference_log, reader_options);
+    if (ref.size() < scans.size())
+      throw std::runtime_error("the reference log " + reference_log + " has " +
+                               std::to_string(ref.size()) + " scans, the log " +
+                               std::to_string(scans.size()));
+    input.reference.clear();
+    for (std::size_t i = 0; i < scans.size(); ++i) input.reference.push_back(ref[i].robotPose());
+  }
+  return input;
+}
+
+// A bag: one robot's scans with its recorded odometry; the ground truth at `truth_path`
+// (a trajectory.csv or its folder; "" for none) as the reference. What went wrong on the
+// way is said on stderr, and what was read is mapped.
+SlamInput bagInput(const std::string& bag_path, const std::string& robot,
+                   const std::string& truth_path, long max_scans) {
+  BagInput bag = readBagInput(bag_path, robot);
+  if (!bag.truncated.empty())
+    std::cerr << "storey slam: " << bag.truncated << "; mapping the " << bag.scans.size()
+              << " scans read before it\n";
+  if (bag.out_of_order > 0)
+    std::cerr << "storey slam: " << bag.out_of_order
+              << " samples stamped before their topic's last were dropped\n";
+  if (bag.scans_without_odometry > 0)
+    std::cerr << "storey slam: " << bag.scans_without_odometry << " scans had no odometry within "
+              << mapping::InputSequencerOptions{}.max_odometry_gap << " s and were dropped\n";
+  if (!bag.floor_changes.empty())
+    std::cerr << "storey slam: the barometer says " << bag.robot << " changed floor "
+              << bag.floor_changes.size() << " time(s), first at t=" << std::fixed
+              << std::setprecision(1) << bag.floor_changes.front()
+              << " s; every scan goes into one floor graph here (storey map keeps floors apart)\n"
+              << std::defaultfloat;
+  if (max_scans > 0 && bag.scans.size() > static_cast<std::size_t>(max_scans)) {
+    bag.scans.resize(max_scans);
+    bag.odometry.resize(max_scans);
+  }
+  if (bag.scans.empty())
+    throw std::runtime_error(bag_path + " holds no scans of " + bag.robot + " with odometry");
+  SlamInput input;
+  input.source = "bag: " + bag_path;
+  input.scans = std::move(bag.scans);
+  input.odometry = std::move(bag.odometry);
+  input.duration = input.scans.back().stamp - input.scans.front().stamp;
+  input.odometry_note = "recorded in the bag (robot " + bag.robot + ")";
+  if (!truth_path.empty()) {
+    const std::string csv = std::filesystem::is_directory(truth_path)
+                                ? (std::filesystem::path(truth_path) / "trajectory.csv").string()
+                                : truth_path;
+    input.reference = truthAtScans(eval::readTrajectoryCsv(csv), bag.robot, input.scans, csv);
+  }
+  return input;
+}
+
 }  // namespace
 
 int run_slam(Args& args) {
@@ -283,107 +393,19 @@ int run_slam(Args& args) {
   if (!from_bag && !truth_path.empty())
     throw UsageError("--truth is for bags; a log's is --reference");
   if (!from_bag && args.has("robot")) throw UsageError("--robot is for bags");
-
-  std::vector<sensor::LaserScan> scans;
-  std::vector<Pose2> odometry, reference;
-  double duration = 0.0;
-  std::string odometry_note;
-  if (from_bag) {
-    if (args.has("odometry") && odometry_source != "recorded")
-      throw UsageError(
-          "--odometry simulated needs a log's corrected poses; a bag's odometry is recorded");
-    BagInput input = readBagInput(bag_path, args.has("robot") ? args.get("robot") : "");
-    if (!input.truncated.empty())
-      std::cerr << "storey slam: " << input.truncated << "; mapping the " << input.scans.size()
-                << " scans read before it\n";
-    if (input.out_of_order > 0)
-      std::cerr << "storey slam: " << input.out_of_order
-                << " samples stamped before their topic's last were dropped\n";
-    if (input.scans_without_odometry > 0)
-      std::cerr << "storey slam: " << input.scans_without_odometry
-                << " scans had no odometry within "
-                << mapping::InputSequencerOptions{}.max_odometry_gap << " s and were dropped\n";
-    if (!input.floor_changes.empty())
-      std::cerr << "storey slam: the barometer says " << input.robot << " changed floor "
-                << input.floor_changes.size() << " time(s), first at t=" << std::fixed
-                << std::setprecision(1) << input.floor_changes.front()
-                << " s; every scan goes into one floor graph here (storey map keeps floors apart)\n"
-                << std::defaultfloat;
-    if (max_scans > 0 && input.scans.size() > static_cast<std::size_t>(max_scans)) {
-      input.scans.resize(max_scans);
-      input.odometry.resize(max_scans);
-    }
-    scans = std::move(input.scans);
-    odometry = std::move(input.odometry);
-    if (scans.empty()) {
-      std::cerr << "storey slam: " << bag_path << " holds no scans of " << input.robot
-                << " with odometry\n";
-      return 1;
-    }
-    duration = scans.back().stamp - scans.front().stamp;
-    odometry_note = "recorded in the bag (robot " + input.robot + ")";
-    if (!truth_path.empty()) {
-      const std::string csv = std::filesystem::is_directory(truth_path)
-                                  ? (std::filesystem::path(truth_path) / "trajectory.csv").string()
-                                  : truth_path;
-      reference = truthAtScans(eval::readTrajectoryCsv(csv), input.robot, scans, csv);
-    }
-  } else {
-    io::CarmenReaderOptions reader_options;
-    reader_options.strict = false;
-    std::vector<io::CarmenLaser> lasers = io::readCarmenLasers(log_path, reader_options);
-    if (max_scans > 0 && lasers.size() > static_cast<std::size_t>(max_scans))
-      lasers.resize(max_scans);
-    if (lasers.empty()) {
-      std::cerr << "storey slam: " << log_path << " holds no laser readings with poses\n";
-      return 1;
-    }
-    std::vector<Pose2> log_poses;
-    for (const auto& l : lasers) {
-      scans.push_back(l.scan);
-      log_poses.push_back(l.robotPose());
-    }
-    // Some shared logs have a few repeated or backward stamps (made monotone here), others
-    // unusable ones (replaced by the scan index, and the log's duration is unknown).
-    std::size_t backwards = 0;
-    for (std::size_t i = 1; i < scans.size(); ++i)
-      if (!(scans[i].stamp > scans[i - 1].stamp)) ++backwards;
-    const bool stamps_ok = backwards * 20 < scans.size();
-    if (stamps_ok) {
-      for (std::size_t i = 1; i < scans.size(); ++i)
-        scans[i].stamp = std::max(scans[i].stamp, scans[i - 1].stamp);
-      duration = scans.back().stamp - scans.front().stamp;
-      if (backwards > 0)
-        std::cerr << "storey slam: " << backwards
-                  << " stamps repeat or go backwards; made monotone\n";
-    } else {
-      std::cerr
-          << "storey slam: the log's stamps are not increasing; using the scan index as time\n";
-      for (std::size_t i = 0; i < scans.size(); ++i) scans[i].stamp = static_cast<double>(i);
-    }
-
-    if (odometry_source == "simulated") {
-      reference = log_poses;
-      odometry = mapping::simulateOdometry(reference, noise, static_cast<std::uint64_t>(seed));
-      odometry_note = "simulated from the log's poses, noise " + args.get("odometry-noise") +
-                      " (translation fraction, deg per m, heading fraction), seed " +
-                      std::to_string(seed);
-    } else {
-      odometry = log_poses;
-      odometry_note = "as recorded";
-    }
-    if (args.has("reference")) {
-      std::vector<io::CarmenLaser> ref =
-          io::readCarmenLasers(args.get("reference"), reader_options);
-      if (ref.size() < scans.size()) {
-        std::cerr << "storey slam: the reference log has " << ref.size() << " scans, the log "
-                  << scans.size() << "\n";
-        return 1;
-      }
-      reference.clear();
-      for (std::size_t i = 0; i < scans.size(); ++i) reference.push_back(ref[i].robotPose());
-    }
-  }
+  if (from_bag && args.has("odometry") && odometry_source != "recorded")
+    throw UsageError(
+        "--odometry simulated needs a log's corrected poses; a bag's odometry is recorded");
+  const SlamInput input =
+      from_bag
+          ? bagInput(bag_path, args.has("robot") ? args.get("robot") : "", truth_path, max_scans)
+          : logInput(log_path, odometry_source == "simulated", noise, args.get("odometry-noise"),
+                     static_cast<std::uint64_t>(seed),
+                     args.has("reference") ? args.get("reference") : "", max_scans);
+  const std::vector<sensor::LaserScan>& scans = input.scans;
+  const std::vector<Pose2>& odometry = input.odometry;
+  const std::vector<Pose2>& reference = input.reference;
+  const double duration = input.duration;
 
   mapping::FloorSlam slam(options, "robot", 0, 0, 0.0);
   const mapping::OfflineRun run = mapping::runOffline(slam, scans, odometry);
@@ -416,7 +438,7 @@ int run_slam(Args& args) {
 
   const auto& st = slam.stats();
   std::ostringstream report;
-  report << (from_bag ? "bag: " + bag_path : "log: " + log_path) << "\n"
+  report << input.source << "\n"
          << "scans: " << scans.size() << "  nodes: " << st.nodes << "  skipped: " << st.skipped
          << "  rejected: " << st.rejected << "  matched: " << st.matched
          << "  match failures: " << st.match_failures << " (" << st.matches_against_odometry
@@ -430,7 +452,7 @@ int run_slam(Args& args) {
   if (duration > 0.0) report << "  log duration: " << duration << " s  real-time factor: " << duration / run.seconds;
   else report << "  log duration: unknown (bad stamps)  scans/s: " << scans.size() / run.seconds;
   report << "\n";
-  report << "odometry: " << odometry_note << "\n";
+  report << "odometry: " << input.odometry_note << "\n";
   if (!reference.empty()) {
     // The estimate's and the odometry's relation errors, over the pairs without a left-out pose.
     auto printRelations = [&](const std::vector<bool>& left_out) {
