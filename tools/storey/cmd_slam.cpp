@@ -26,7 +26,7 @@
 
 namespace storey::cli {
 
-extern const char* const summary_slam = "run the floor SLAM front end on a laser log";
+extern const char* const summary_slam = "run the floor SLAM front end on a laser log or a bag";
 
 namespace {
 
