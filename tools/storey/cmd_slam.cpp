@@ -270,11 +270,13 @@ SlamInput logInput(const std::string& path, bool simulate_odometry,
   return input;
 }
 
-// A bag: one robot's scans with its recorded odometry; the ground truth at `truth_path`
-// (a trajectory.csv or its folder; "" for none) as the reference. What went wrong on the
+// A bag: one robot's scans with its recorded odometry; as the reference, the ground truth at
+// `truth_path` (a trajectory.csv or its folder) or the poses of `reference_log` (the CARMEN
+// log `storey convert` made the bag from) at the scans' stamps; "" for none. What went wrong on the
 // way is said on stderr, and what was read is mapped.
 SlamInput bagInput(const std::string& bag_path, const std::string& robot,
-                   const std::string& truth_path, long max_scans) {
+                   const std::string& truth_path, const std::string& reference_log,
+                   long max_scans) {
   BagInput bag = readBagInput(bag_path, robot);
   if (!bag.truncated.empty())
     std::cerr << "storey slam: " << bag.truncated << "; mapping the " << bag.scans.size()
@@ -308,6 +310,18 @@ SlamInput bagInput(const std::string& bag_path, const std::string& robot,
                                 ? (std::filesystem::path(truth_path) / "trajectory.csv").string()
                                 : truth_path;
     input.reference = truthAtScans(eval::readTrajectoryCsv(csv), bag.robot, input.scans, csv);
+  } else if (!reference_log.empty()) {
+    io::CarmenReaderOptions reader_options;
+    reader_options.strict = false;
+    std::vector<eval::PoseRow> rows;
+    for (const auto& l : io::readCarmenLasers(reference_log, reader_options)) {
+      eval::PoseRow row;
+      row.stamp = l.scan.stamp;
+      row.robot = bag.robot;
+      row.pose = l.robotPose();
+      rows.push_back(row);
+    }
+    input.reference = truthAtScans(std::move(rows), bag.robot, input.scans, reference_log);
   }
   return input;
 }
@@ -327,8 +341,9 @@ int run_slam(Args& args) {
              "odometry is used; --reference names a log of the same scans whose poses serve as\n"
              "reference.\n"
              "Bags: one robot's scans with its recorded odometry (interpolated at each scan's\n"
-             "stamp); --truth compares with a ground-truth trajectory.csv. A `storey simulate`\n"
-             "output folder may be given as LOG: its bag/, and its ground_truth/ as the truth.")
+             "stamp); --truth compares with a ground-truth trajectory.csv, --reference with the\n"
+             "poses of the log the bag was converted from (by stamp). A `storey simulate` output\n"
+             "folder may be given as LOG: its bag/, and its ground_truth/ as the truth.")
       .option("output", "DIR", "output folder", "slam_out")
       .option("config", "FILE",
               "front-end options: the 'slam' section of this YAML file (e.g. "
@@ -340,7 +355,9 @@ int run_slam(Args& args) {
               "in degrees per metre, heading sigma per radian turned (fraction)",
               "0.05,2,0.02")
       .option("seed", "N", "seed of the simulated odometry noise", "1")
-      .option("reference", "LOG", "log of the same scans whose poses are the reference")
+      .option("reference", "LOG",
+              "log of the same scans whose poses are the reference (for a bag: matched by stamp, "
+              "e.g. the log `storey convert` made it from)")
       .option("robot", "NAME",
               "bag: the robot whose scans are mapped (needed when the bag holds several)")
       .option("truth", "CSV",
@@ -388,8 +405,8 @@ int run_slam(Args& args) {
     bag_path = log_path;
   }
   const bool from_bag = !bag_path.empty();
-  if (from_bag && args.has("reference"))
-    throw UsageError("--reference is for logs; a bag's is --truth");
+  if (from_bag && args.has("reference") && !truth_path.empty())
+    throw UsageError("give a bag's reference once: --truth or --reference");
   if (!from_bag && !truth_path.empty())
     throw UsageError("--truth is for bags; a log's is --reference");
   if (!from_bag && args.has("robot")) throw UsageError("--robot is for bags");
@@ -397,11 +414,11 @@ int run_slam(Args& args) {
     throw UsageError(
         "--odometry simulated needs a log's corrected poses; a bag's odometry is recorded");
   const SlamInput input =
-      from_bag
-          ? bagInput(bag_path, args.has("robot") ? args.get("robot") : "", truth_path, max_scans)
-          : logInput(log_path, odometry_source == "simulated", noise, args.get("odometry-noise"),
-                     static_cast<std::uint64_t>(seed),
-                     args.has("reference") ? args.get("reference") : "", max_scans);
+      from_bag ? bagInput(bag_path, args.has("robot") ? args.get("robot") : "", truth_path,
+                          args.has("reference") ? args.get("reference") : "", max_scans)
+               : logInput(log_path, odometry_source == "simulated", noise,
+                          args.get("odometry-noise"), static_cast<std::uint64_t>(seed),
+                          args.has("reference") ? args.get("reference") : "", max_scans);
   const std::vector<sensor::LaserScan>& scans = input.scans;
   const std::vector<Pose2>& odometry = input.odometry;
   const std::vector<Pose2>& reference = input.reference;
