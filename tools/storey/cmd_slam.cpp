@@ -202,6 +202,13 @@ std::vector<Pose2> truthAtScans(std::vector<eval::PoseRow> rows, const std::stri
   return poses;
 }
 
+// A log's laser readings, read leniently: shared logs carry odd lines that are skipped.
+std::vector<io::CarmenLaser> readLogLasers(const std::string& path) {
+  io::CarmenReaderOptions reader_options;
+  reader_options.strict = false;
+  return io::readCarmenLasers(path, reader_options);
+}
+
 // What the front end runs on: scans with their odometry, and reference poses when known.
 struct SlamInput {
   std::string source;  // "log: PATH" or "bag: PATH"
@@ -220,9 +227,7 @@ SlamInput logInput(const std::string& path, bool simulate_odometry,
                    std::uint64_t seed, const std::string& reference_log, long max_scans) {
   SlamInput input;
   input.source = "log: " + path;
-  io::CarmenReaderOptions reader_options;
-  reader_options.strict = false;
-  std::vector<io::CarmenLaser> lasers = io::readCarmenLasers(path, reader_options);
+  std::vector<io::CarmenLaser> lasers = readLogLasers(path);
   if (max_scans > 0 && lasers.size() > static_cast<std::size_t>(max_scans))
     lasers.resize(max_scans);
   if (lasers.empty()) throw std::runtime_error(path + " holds no laser readings with poses");
@@ -259,7 +264,7 @@ SlamInput logInput(const std::string& path, bool simulate_odometry,
     input.odometry_note = "as recorded";
   }
   if (!reference_log.empty()) {
-    const std::vector<io::CarmenLaser> ref = io::readCarmenLasers(reference_log, reader_options);
+    const std::vector<io::CarmenLaser> ref = readLogLasers(reference_log);
     if (ref.size() < scans.size())
       throw std::runtime_error("the reference log " + reference_log + " has " +
                                std::to_string(ref.size()) + " scans, the log " +
@@ -311,10 +316,8 @@ SlamInput bagInput(const std::string& bag_path, const std::string& robot,
                                 : truth_path;
     input.reference = truthAtScans(eval::readTrajectoryCsv(csv), bag.robot, input.scans, csv);
   } else if (!reference_log.empty()) {
-    io::CarmenReaderOptions reader_options;
-    reader_options.strict = false;
     std::vector<eval::PoseRow> rows;
-    for (const auto& l : io::readCarmenLasers(reference_log, reader_options)) {
+    for (const auto& l : readLogLasers(reference_log)) {
       eval::PoseRow row;
       row.stamp = l.scan.stamp;
       row.robot = bag.robot;

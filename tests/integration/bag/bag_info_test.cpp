@@ -8,11 +8,6 @@
 namespace storey::runtime {
 namespace {
 
-std::pair<int, std::string> run(const std::string& command) {
-  auto [status, output] = storey::test::runCommand(command);
-  return {status, std::move(output)};
-}
-
 TEST(BagInfo, PrintsTopicsTypesCountsAndDuration) {
   const std::string folder = test::makeTempDir("bag_info") + "/walk";
   {
@@ -24,7 +19,7 @@ TEST(BagInfo, PrintsTopicsTypesCountsAndDuration) {
       writer.write("r1", odom);
     }
   }
-  const auto [status, out] = run(std::string(STOREY_COMMAND) + " bag info " + folder);
+  const auto [status, out] = test::runCommand(std::string(STOREY_COMMAND) + " bag info " + folder);
   ASSERT_EQ(status, 0) << out;
   EXPECT_NE(out.find("walk_0.db3"), std::string::npos) << out;
   EXPECT_NE(out.find("Duration:    5.000 s"), std::string::npos) << out;
@@ -40,15 +35,17 @@ TEST(BagInfo, PrintsTopicsTypesCountsAndDuration) {
 TEST(BagInfo, NonBagsFailNamingTheFile) {
   const std::string dir = test::makeTempDir("bag_info");
   std::ofstream(dir + "/junk.db3") << "this is not sqlite";
-  auto [status, out] = run(std::string(STOREY_COMMAND) + " bag info " + dir + "/junk.db3");
-  EXPECT_EQ(status, 1);
-  EXPECT_NE(out.find(dir + "/junk.db3: not a readable sqlite3 database"), std::string::npos)
-      << out;
-  std::tie(status, out) = run(std::string(STOREY_COMMAND) + " bag info " + dir + "/missing");
-  EXPECT_EQ(status, 1);
-  EXPECT_NE(out.find(dir + "/missing: no such bag folder or file"), std::string::npos) << out;
-  std::tie(status, out) = run(std::string(STOREY_COMMAND) + " bag list " + dir);
-  EXPECT_EQ(status, 2) << out;
+  test::CommandResult r =
+      test::runCommand(std::string(STOREY_COMMAND) + " bag info " + dir + "/junk.db3");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find(dir + "/junk.db3: not a readable sqlite3 database"), std::string::npos)
+      << r.output;
+  r = test::runCommand(std::string(STOREY_COMMAND) + " bag info " + dir + "/missing");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find(dir + "/missing: no such bag folder or file"), std::string::npos)
+      << r.output;
+  r = test::runCommand(std::string(STOREY_COMMAND) + " bag list " + dir);
+  EXPECT_EQ(r.status, 2) << r.output;
 }
 
 }  // namespace

@@ -15,13 +15,6 @@
 
 namespace {
 
-// Runs a shell command; returns its exit status and appends its output to `output`.
-int runCommand(const std::string& command, std::string& output) {
-  const storey::test::CommandResult result = storey::test::runCommand(command);
-  output += result.output;
-  return result.status;
-}
-
 // The translation mean of report line "  <who> <range> pairs: N  translation X ± ...".
 double translation(const std::string& report, const std::string& who, const std::string& range) {
   const std::regex line("  " + who + " +" + range + " +pairs: [0-9]+  translation ([0-9.]+)");
@@ -45,14 +38,11 @@ class SlamCommand : public ::testing::Test {
   // small2 simulated for `seconds` (0: its whole mission) into a new folder.
   std::string simulate(double seconds) {
     const std::string dir = storey::test::makeTempDir("slam_cmd");
-    std::string out;
-    EXPECT_EQ(
-        runCommand(storey + " simulate " + storey::test::sourceDir() +
-                       "/config/buildings/small2.yaml --seed 1 --no-pictures --max-duration " +
-                       std::to_string(seconds) + " --output " + dir + "/sim",
-                   out),
-        0)
-        << out;
+    storey::test::CommandResult r = storey::test::runCommand(
+        storey + " simulate " + storey::test::sourceDir() +
+        "/config/buildings/small2.yaml --seed 1 --no-pictures --max-duration " +
+        std::to_string(seconds) + " --output " + dir + "/sim");
+    EXPECT_EQ(r.status, 0) << r.output;
     return dir;
   }
 };
@@ -60,22 +50,20 @@ class SlamCommand : public ::testing::Test {
 // The robot's first minute stays on floor 0 (its ride starts at 66 s): one floor graph.
 TEST_F(SlamCommand, MapsABagsFloorWithItsOdometryAgainstTheTruth) {
   const std::string dir = simulate(60.0);
-  std::string out;
-  ASSERT_EQ(runCommand(storey + " slam " + dir + "/sim --config " + config + " --output " + dir +
-                           "/slam --quiet",
-                       out),
-            0)
-      << out;
-  std::printf("%s", out.c_str());
-  EXPECT_NE(out.find("bag: " + dir + "/sim/bag"), std::string::npos) << out;
-  EXPECT_NE(out.find("odometry: recorded in the bag (robot robot1)"), std::string::npos) << out;
-  EXPECT_EQ(out.find("changed floor"), std::string::npos) << out;
+  storey::test::CommandResult r = storey::test::runCommand(
+      storey + " slam " + dir + "/sim --config " + config + " --output " + dir + "/slam --quiet");
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::printf("%s", r.output.c_str());
+  EXPECT_NE(r.output.find("bag: " + dir + "/sim/bag"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("odometry: recorded in the bag (robot robot1)"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(r.output.find("changed floor"), std::string::npos) << r.output;
   // Measured: nearby 0.004 m, far 0.043 m against the odometry's 0.29 m.
-  const double nearby = translation(out, "slam", "nearby");
-  const double far = translation(out, "slam", "far");
-  const double odometry_far = translation(out, "odometry", "far");
-  ASSERT_GE(nearby, 0.0) << out;
-  ASSERT_GE(far, 0.0) << out;
+  const double nearby = translation(r.output, "slam", "nearby");
+  const double far = translation(r.output, "slam", "far");
+  const double odometry_far = translation(r.output, "odometry", "far");
+  ASSERT_GE(nearby, 0.0) << r.output;
+  ASSERT_GE(far, 0.0) << r.output;
   EXPECT_LT(nearby, 0.01);
   EXPECT_LT(far, 0.1);
   EXPECT_LT(far, odometry_far / 3.0) << "the map should hold the odometry's drift";
@@ -88,28 +76,28 @@ TEST_F(SlamCommand, MapsABagsFloorWithItsOdometryAgainstTheTruth) {
 // are reported, since the front end alone puts every scan into one graph.
 TEST_F(SlamCommand, SaysWhenTheRobotChangesFloor) {
   const std::string dir = simulate(0.0);
-  std::string out;
-  ASSERT_EQ(runCommand(storey + " slam " + dir + "/sim/bag --output " + dir + "/slam --quiet", out),
-            0)
-      << out;
-  EXPECT_NE(out.find("the barometer says robot1 changed floor 2 time(s), first at t=7"),
+  storey::test::CommandResult r = storey::test::runCommand(
+      storey + " slam " + dir + "/sim/bag --output " + dir + "/slam --quiet");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("the barometer says robot1 changed floor 2 time(s), first at t=7"),
             std::string::npos)
-      << out;
-  EXPECT_LT(translation(out, "slam", "nearby"), 0.0) << "no truth given: no relation error";
+      << r.output;
+  EXPECT_LT(translation(r.output, "slam", "nearby"), 0.0) << "no truth given: no relation error";
 }
 
 TEST_F(SlamCommand, RefusesWhatABagCannotGive) {
   const std::string dir = simulate(10.0);
   const std::string bag = dir + "/sim/bag";
-  std::string out;
-  EXPECT_NE(runCommand(storey + " slam " + bag + " --robot nobody", out), 0);
-  EXPECT_NE(out.find("robot 'nobody' is not in " + bag), std::string::npos) << out;
-  out.clear();
-  EXPECT_NE(runCommand(storey + " slam " + bag + " --odometry simulated", out), 0);
-  EXPECT_NE(out.find("a bag's odometry is recorded"), std::string::npos) << out;
-  out.clear();
-  EXPECT_NE(runCommand(storey + " slam " + bag + " --truth " + dir + "/missing.csv", out), 0);
-  EXPECT_NE(out.find(dir + "/missing.csv"), std::string::npos) << out;
+  storey::test::CommandResult r =
+      storey::test::runCommand(storey + " slam " + bag + " --robot nobody");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("robot 'nobody' is not in " + bag), std::string::npos) << r.output;
+  r = storey::test::runCommand(storey + " slam " + bag + " --odometry simulated");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("a bag's odometry is recorded"), std::string::npos) << r.output;
+  r = storey::test::runCommand(storey + " slam " + bag + " --truth " + dir + "/missing.csv");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find(dir + "/missing.csv"), std::string::npos) << r.output;
   // A truth that does not cover the scans names its file and the first scan it misses.
   const std::string partial = dir + "/partial.csv";
   {
@@ -118,13 +106,12 @@ TEST_F(SlamCommand, RefusesWhatABagCannotGive) {
     std::string line;
     for (int i = 0; i < 10 && std::getline(in, line); ++i) part << line << '\n';
   }
-  out.clear();
-  EXPECT_NE(
-      runCommand(storey + " slam " + bag + " --truth " + partial + " --output " + dir + "/slam",
-                 out),
-      0);
-  EXPECT_NE(out.find(partial + ": no pose of robot 'robot1' at or around t="), std::string::npos)
-      << out;
+  r = storey::test::runCommand(storey + " slam " + bag + " --truth " + partial + " --output " +
+                               dir + "/slam");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find(partial + ": no pose of robot 'robot1' at or around t="),
+            std::string::npos)
+      << r.output;
 }
 
 // A bag of two robots: storey slam needs to be told which; scans of the chosen robot that
@@ -156,18 +143,19 @@ TEST_F(SlamCommand, TakesOneRobotOfSeveralAndDropsScansWithoutOdometry) {
       }
     }
   }
-  std::string out;
-  EXPECT_NE(runCommand(storey + " slam " + bag, out), 0);
-  EXPECT_NE(out.find(bag + " holds robots a, b: name one with --robot"), std::string::npos) << out;
-  out.clear();
-  ASSERT_EQ(
-      runCommand(storey + " slam " + bag + " --robot b --output " + dir + "/slam --quiet", out), 0)
-      << out;
+  storey::test::CommandResult r = storey::test::runCommand(storey + " slam " + bag);
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find(bag + " holds robots a, b: name one with --robot"), std::string::npos)
+      << r.output;
+  r = storey::test::runCommand(storey + " slam " + bag + " --robot b --output " + dir +
+                               "/slam --quiet");
+  ASSERT_EQ(r.status, 0) << r.output;
   // Scans up to 5.5 s are within 0.5 s of the last odometry (5.0 s): 23 mapped, 17 dropped.
-  EXPECT_NE(out.find("17 scans had no odometry within 0.5 s and were dropped"), std::string::npos)
-      << out;
-  EXPECT_NE(out.find("scans: 23 "), std::string::npos) << out;
-  EXPECT_NE(out.find("(robot b)"), std::string::npos) << out;
+  EXPECT_NE(r.output.find("17 scans had no odometry within 0.5 s and were dropped"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("scans: 23 "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("(robot b)"), std::string::npos) << r.output;
 }
 
 // A CARMEN log converted into a bag (`storey convert`) keeps its scans' stamps, so the log's
@@ -179,12 +167,12 @@ TEST_F(SlamCommand, ABagConvertedFromALogIsComparedWithTheLogsPoses) {
   {
     // A 6 m square room with a pillar; the robot drives a circle of radius 1.5 m about its
     // centre, a 180-beam laser forward.
-    std::ofstream out(log);
-    out << std::fixed << std::setprecision(4);
+    std::ofstream file(log);
+    file << std::fixed << std::setprecision(4);
     for (int k = 0; k < 60; ++k) {
       const double phi = 2.0 * M_PI * k / 60.0;
       const double x = 1.5 * std::cos(phi), y = 1.5 * std::sin(phi), theta = phi + M_PI / 2.0;
-      out << "FLASER 180";
+      file << "FLASER 180";
       for (int b = 0; b < 180; ++b) {
         const double a = theta - M_PI / 2.0 + b * M_PI / 180.0;
         const double dx = std::cos(a), dy = std::sin(a);
@@ -195,42 +183,39 @@ TEST_F(SlamCommand, ABagConvertedFromALogIsComparedWithTheLogsPoses) {
         const double px = x - 0.5, py = y - 0.2, along = -(px * dx + py * dy);
         const double miss = px * px + py * py - along * along;
         if (along > 0.0 && miss < 0.09) range = std::min(range, along - std::sqrt(0.09 - miss));
-        out << ' ' << range;
+        file << ' ' << range;
       }
       const double stamp = 10.0 + 0.2 * k;
-      out << ' ' << x << ' ' << y << ' ' << theta << ' ' << x << ' ' << y << ' ' << theta << ' '
-          << stamp << " host " << stamp << '\n';
+      file << ' ' << x << ' ' << y << ' ' << theta << ' ' << x << ' ' << y << ' ' << theta << ' '
+           << stamp << " host " << stamp << '\n';
     }
   }
-  std::string out;
-  ASSERT_EQ(runCommand(storey + " convert " + log + " " + dir + "/bag", out), 0) << out;
-  ASSERT_EQ(runCommand(storey + " slam " + dir + "/bag --reference " + log + " --output " + dir +
-                           "/slam --quiet",
-                       out),
-            0)
-      << out;
+  storey::test::CommandResult r =
+      storey::test::runCommand(storey + " convert " + log + " " + dir + "/bag");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = storey::test::runCommand(storey + " slam " + dir + "/bag --reference " + log + " --output " +
+                               dir + "/slam --quiet");
+  ASSERT_EQ(r.status, 0) << r.output;
   // The bag's odometry is the log's poses: exact, and the map keeps to it.
-  EXPECT_NE(out.find("odometry nearby pairs: 59  translation 0.0000"), std::string::npos) << out;
-  const double nearby = translation(out, "slam", "nearby");
-  ASSERT_GE(nearby, 0.0) << out;
-  EXPECT_LT(nearby, 0.01) << out;
+  EXPECT_NE(r.output.find("odometry nearby pairs: 59  translation 0.0000"), std::string::npos)
+      << r.output;
+  const double nearby = translation(r.output, "slam", "nearby");
+  ASSERT_GE(nearby, 0.0) << r.output;
+  EXPECT_LT(nearby, 0.01) << r.output;
 
-  out.clear();
-  ASSERT_EQ(runCommand(storey + " convert " + log + " " + dir + "/shifted --stamp-offset 100", out),
-            0)
-      << out;
-  out.clear();
-  EXPECT_NE(runCommand(storey + " slam " + dir + "/shifted --reference " + log + " --output " +
-                           dir + "/slam2",
-                       out),
-            0);
-  EXPECT_NE(out.find(log + ": no pose of robot 'robot' at or around t=110.000 s"),
+  r = storey::test::runCommand(storey + " convert " + log + " " + dir +
+                               "/shifted --stamp-offset 100");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = storey::test::runCommand(storey + " slam " + dir + "/shifted --reference " + log +
+                               " --output " + dir + "/slam2");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find(log + ": no pose of robot 'robot' at or around t=110.000 s"),
             std::string::npos)
-      << out;
-  out.clear();
-  EXPECT_NE(
-      runCommand(storey + " slam " + dir + "/bag --reference " + log + " --truth " + log, out), 0);
-  EXPECT_NE(out.find("--truth or --reference"), std::string::npos) << out;
+      << r.output;
+  r = storey::test::runCommand(storey + " slam " + dir + "/bag --reference " + log + " --truth " +
+                               log);
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("--truth or --reference"), std::string::npos) << r.output;
 }
 
 }  // namespace
