@@ -1,6 +1,7 @@
 // storey slam LOG: the per-floor front end alone on a laser log or a bag, writing the graph,
 // the map and the trajectory, and (when there are reference poses) the relation error.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -20,6 +21,7 @@
 #include "storey/grid/image.h"
 #include "storey/io/carmen.h"
 #include "storey/mapping/evaluation.h"
+#include "storey/mapping/floor_sessions.h"
 #include "storey/mapping/floor_slam.h"
 #include "storey/mapping/input_sequencer.h"
 #include "storey/runtime/sensor_bag.h"
@@ -92,8 +94,8 @@ void writeLoopAttempts(const std::string& path, const std::vector<mapping::LoopC
 }
 
 // One robot's scans in a bag, each with its odometry interpolated at its stamp (as the
-// floor_mapper component pairs them: mapping::InputSequencer), and the floor changes the
-// floor detector finds in its pressure, which the front end alone does not separate.
+// floor_mapper component pairs them: mapping::InputSequencer), and the rides the floor
+// detector finds in its pressure and IMU.
 struct BagInput {
   std::string robot;
   std::vector<sensor::LaserScan> scans;
@@ -101,7 +103,7 @@ struct BagInput {
   std::size_t scans_without_odometry = 0;
   std::size_t out_of_order = 0;       // samples behind their topic's last stamp, dropped
   std::string truncated;              // why reading stopped early ("" when it did not)
-  std::vector<double> floor_changes;  // stamps where the robot reached another floor
+  std::vector<detection::FloorEvent> floor_events;  // transits started and ended, in order
 };
 
 BagInput readBagInput(const std::string& path, const std::string& robot_option) {
@@ -153,8 +155,7 @@ BagInput readBagInput(const std::string& path, const std::string& robot_option) 
           },
           record.data);
       for (const auto& e : detector.takeEvents())
-        if (e.type == detection::FloorEventType::kTransitEnded && e.floor_changed)
-          input.floor_changes.push_back(e.stamp);
+        if (e.type != detection::FloorEventType::kProgress) input.floor_events.push_back(e);
     }
   } catch (const bag::BagError& e) {
     input.truncated = e.what();  // what was read before stays: map it
@@ -217,6 +218,7 @@ struct SlamInput {
   std::vector<Pose2> reference;  // per scan, or empty
   double duration = 0.0;         // s; 0 when the stamps do not tell
   std::string odometry_note;
+  std::vector<detection::FloorEvent> floor_events;  // a bag's rides, by the floor detector
 };
 
 // A CARMEN or .gfs log: its poses are the reference, and (simulate_odometry) the odometry
@@ -292,12 +294,6 @@ SlamInput bagInput(const std::string& bag_path, const std::string& robot,
   if (bag.scans_without_odometry > 0)
     std::cerr << "storey slam: " << bag.scans_without_odometry << " scans had no odometry within "
               << mapping::InputSequencerOptions{}.max_odometry_gap << " s and were dropped\n";
-  if (!bag.floor_changes.empty())
-    std::cerr << "storey slam: the barometer says " << bag.robot << " changed floor "
-              << bag.floor_changes.size() << " time(s), first at t=" << std::fixed
-              << std::setprecision(1) << bag.floor_changes.front()
-              << " s; every scan goes into one floor graph here (storey map keeps floors apart)\n"
-              << std::defaultfloat;
   if (max_scans > 0 && bag.scans.size() > static_cast<std::size_t>(max_scans)) {
     bag.scans.resize(max_scans);
     bag.odometry.resize(max_scans);
@@ -310,6 +306,7 @@ SlamInput bagInput(const std::string& bag_path, const std::string& robot,
   input.odometry = std::move(bag.odometry);
   input.duration = input.scans.back().stamp - input.scans.front().stamp;
   input.odometry_note = "recorded in the bag (robot " + bag.robot + ")";
+  input.floor_events = std::move(bag.floor_events);
   if (!truth_path.empty()) {
     const std::string csv = std::filesystem::is_directory(truth_path)
                                 ? (std::filesystem::path(truth_path) / "trajectory.csv").string()
@@ -329,6 +326,124 @@ SlamInput bagInput(const std::string& bag_path, const std::string& robot,
   return input;
 }
 
+// graph.g2o, map.{pgm,yaml,png} of one floor graph in `dir`.
+void writeGraphAndMap(const graph::PoseGraph& pose_graph, const floor::FloorGraph& floor_graph,
+                      const std::string& dir) {
+  std::filesystem::create_directories(dir);
+  graph::writeG2o(pose_graph, dir + "/graph.g2o");
+  grid::OccupancyGridOptions grid_options;
+  grid_options.resolution = 0.05;
+  const grid::OccupancyGrid map = floor::renderFloorMap(floor_graph, grid_options);
+  grid::writeMapServerFiles(map, dir + "/map");
+  grid::writePng(dir + "/map.png", grid::renderGrey(map));
+}
+
+bool changesFloor(const std::vector<detection::FloorEvent>& events) {
+  return std::any_of(events.begin(), events.end(), [](const detection::FloorEvent& e) {
+    return e.type == detection::FloorEventType::kTransitEnded && e.floor_changed;
+  });
+}
+
+// A bag whose robot rode to other floors: its scans and rides go through the floor
+// mapper's own FloorSessions, so each floor gets its graph (a floor visited again is
+// resumed after global relocalisation, or, failing that, gets a new graph). A ride applies
+// after every scan stamped up to when the detector decided it, as the component's
+// InputSequencer orders them. Each graph is written in its own frame (aligning floors is
+// the floor matcher's job: storey map) to OUTPUT/floor_<F>_graph_<G>/, its trajectory one
+// row per node; with a reference, each graph's relation error over its nodes.
+int mapFloors(const mapping::FloorSlamOptions& options, const SlamInput& input,
+              const std::string& out_dir) {
+  const std::vector<sensor::LaserScan>& scans = input.scans;
+  mapping::FloorSessions sessions(options, "robot");
+  std::size_t next_event = 0;
+  std::size_t rides = 0;
+  auto applyEvent = [&](const detection::FloorEvent& e) {
+    if (e.type == detection::FloorEventType::kTransitStarted) {
+      sessions.beginTransit();
+    } else {
+      sessions.endTransit(e.floor_id, e.floor_height, e.stamp);
+      ++rides;
+    }
+  };
+  const auto start = std::chrono::steady_clock::now();
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    while (next_event < input.floor_events.size() &&
+           input.floor_events[next_event].decided_at < scans[i].stamp)
+      applyEvent(input.floor_events[next_event++]);
+    sessions.addScan(scans[i], input.odometry[i]);
+  }
+  sessions.flush();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  std::vector<const mapping::FloorSlam*> graphs;
+  for (const auto& slam : sessions.retired()) graphs.push_back(slam.get());
+  for (const auto& [floor_id, slam] : sessions.floors()) graphs.push_back(slam.get());
+  std::sort(graphs.begin(), graphs.end(),
+            [](const mapping::FloorSlam* a, const mapping::FloorSlam* b) {
+              return a->floorGraph().graph_id < b->floorGraph().graph_id;
+            });
+  // A node's scan is one of the input's, found by its stamp (one robot: stamps increase).
+  std::map<double, std::size_t> scan_index;
+  for (std::size_t i = 0; i < scans.size(); ++i) scan_index.emplace(scans[i].stamp, i);
+
+  std::ostringstream report;
+  report << input.source << "\n"
+         << "scans: " << scans.size() << "  rides: " << rides
+         << " (floor detector)  floor graphs: ";
+  std::size_t written = 0;
+  for (const auto* g : graphs) written += g->floorGraph().nodes.empty() ? 0 : 1;
+  report << written << "  global relocalisations: " << sessions.stats().global_relocalizations
+         << "  fallbacks to a new graph: " << sessions.stats().fallbacks << "\n";
+  report << std::fixed << std::setprecision(2) << "processing: " << seconds
+         << " s  log duration: " << input.duration
+         << " s  real-time factor: " << input.duration / seconds << "\n";
+  report << "odometry: " << input.odometry_note << "\n";
+  std::string folders;
+  for (const auto* slam : graphs) {
+    const floor::FloorGraph& fg = slam->floorGraph();
+    if (fg.nodes.empty()) continue;
+    const std::string name =
+        "floor_" + std::to_string(fg.floor_id) + "_graph_" + std::to_string(fg.graph_id);
+    folders += (folders.empty() ? "" : ",") + name;
+    writeGraphAndMap(slam->poseGraph(), fg, out_dir + "/" + name);
+    std::vector<Pose2> estimate, reference, odometry;
+    {
+      std::ofstream csv(out_dir + "/" + name + "/trajectory.csv");
+      csv << "stamp,x,y,theta,status\n" << std::setprecision(10);
+      for (const auto& node : fg.nodes) {
+        csv << node.scan.stamp << ',' << node.pose.x() << ',' << node.pose.y() << ','
+            << node.pose.theta() << ",node\n";
+        const auto found = scan_index.find(node.scan.stamp);
+        if (found == scan_index.end()) continue;
+        estimate.push_back(node.pose);
+        odometry.push_back(input.odometry[found->second]);
+        if (!input.reference.empty()) reference.push_back(input.reference[found->second]);
+      }
+    }
+    const auto& st = slam->stats();
+    report << name << ": nodes: " << fg.nodes.size() << "  matched: " << st.matched
+           << "  match failures: " << st.match_failures << "  loop closures: " << st.loop_closures
+           << " of " << st.loop_attempts << " attempts\n";
+    if (!input.reference.empty() && estimate.size() >= 2) {
+      const mapping::RelationErrors errors = mapping::relationErrors(estimate, reference);
+      const mapping::RelationErrors odo = mapping::relationErrors(odometry, reference);
+      report
+          << "relation error (Kümmerle et al. 2009) over its nodes against the reference poses:\n";
+      printStats(report, "slam     nearby", errors.nearby);
+      if (errors.far.count > 0) printStats(report, "slam     far   ", errors.far);
+      printStats(report, "odometry nearby", odo.nearby);
+      if (odo.far.count > 0) printStats(report, "odometry far   ", odo.far);
+    }
+  }
+  std::cout << report.str();
+  std::filesystem::create_directories(out_dir);
+  std::ofstream(out_dir + "/report.txt") << report.str();
+  std::cout << "wrote " << out_dir << "/report.txt and " << out_dir << "/{" << folders
+            << "}/{graph.g2o,map.pgm,map.yaml,map.png,trajectory.csv}\n";
+  return 0;
+}
+
 }  // namespace
 
 int run_slam(Args& args) {
@@ -336,8 +451,10 @@ int run_slam(Args& args) {
              "Runs the per-floor SLAM front end (scan matching, loop closure, pose graph) on a\n"
              "CARMEN log, a GMapping .gfs log or a bag (rosbag2: a folder or .db3, e.g. what\n"
              "`storey record` or `storey simulate` wrote) and writes OUTPUT/graph.g2o,\n"
-             "OUTPUT/map.{pgm,yaml,png} and OUTPUT/trajectory.csv. All scans go into one floor\n"
-             "graph: for a robot that changes floors, `storey map` maps each floor.\n"
+             "OUTPUT/map.{pgm,yaml,png} and OUTPUT/trajectory.csv. When the floor detector finds\n"
+             "in a bag that the robot rode to another floor, each floor gets its own graph, as\n"
+             "in the floor_mapper component, written to OUTPUT/floor_<F>_graph_<G>/ (each in\n"
+             "its own frame; `storey map` aligns them).\n"
              "Logs: with --odometry simulated (the default), odometry is derived from the log's\n"
              "(corrected) poses with seeded noise and the result is compared with those poses by\n"
              "the relation metric (Kümmerle et al. 2009). With --odometry recorded, the log's\n"
@@ -426,24 +543,19 @@ int run_slam(Args& args) {
   const std::vector<Pose2>& odometry = input.odometry;
   const std::vector<Pose2>& reference = input.reference;
   const double duration = input.duration;
+  if (changesFloor(input.floor_events)) return mapFloors(options, input, out_dir);
 
   mapping::FloorSlam slam(options, "robot", 0, 0, 0.0);
   const mapping::OfflineRun run = mapping::runOffline(slam, scans, odometry);
 
-  std::filesystem::create_directories(out_dir);
   // Express the result in the log's frame (the front end starts at the origin).
   const Pose2 to_log = odometry.front();
   graph::PoseGraph out_graph = slam.poseGraph();
   for (std::size_t i = 0; i < out_graph.numNodes(); ++i)
     out_graph.setPoseAt(i, to_log * out_graph.nodes()[i].pose);
-  graph::writeG2o(out_graph, out_dir + "/graph.g2o");
   floor::FloorGraph fg = slam.floorGraph();
   for (auto& n : fg.nodes) n.pose = to_log * n.pose;
-  grid::OccupancyGridOptions grid_options;
-  grid_options.resolution = 0.05;
-  const grid::OccupancyGrid map = floor::renderFloorMap(fg, grid_options);
-  grid::writeMapServerFiles(map, out_dir + "/map");
-  grid::writePng(out_dir + "/map.png", grid::renderGrey(map));
+  writeGraphAndMap(out_graph, fg, out_dir);
   std::vector<Pose2> trajectory;
   {
     std::ofstream csv(out_dir + "/trajectory.csv");
