@@ -129,6 +129,29 @@ TEST(FloorSlam, ASuccessorMatchIsNotPulledOntoWhatTheSuccessorsSaw) {
   EXPECT_LT(std::abs(along_sum / back_edges), 0.04);
 }
 
+// The successor edges (from node k+1 back to k): their count, and each one's error against
+// the true step weighed by the information it claims (3 on average for a covariance that
+// is right; these are halved by successor_match_weight): the mean and the worst.
+struct SuccessorEdgeNees {
+  std::size_t count = 0;
+  double mean = 0.0, worst = 0.0;
+};
+SuccessorEdgeNees successorEdgeNees(const std::vector<floor::FloorEdge>& edges,
+                                    const std::vector<Pose2>& node_truth) {
+  SuccessorEdgeNees r;
+  double sum = 0.0;
+  for (const auto& e : edges) {
+    if (e.kind != floor::EdgeKind::kScanMatch || e.to != e.from - 1) continue;
+    ++r.count;
+    const Pose2 error = node_truth[e.from].between(node_truth[e.to]).between(e.measurement);
+    const Eigen::Vector3d v(error.x(), error.y(), error.theta());
+    sum += v.dot(e.information * v);
+    r.worst = std::max(r.worst, v.dot(e.information * v));
+  }
+  if (r.count > 0) r.mean = sum / r.count;
+  return r;
+}
+
 TEST(FloorSlam, ANodeIsAlsoMatchedAgainstTheScansAfterIt) {
   // Each node's scan, matched against the map of the 5 nodes after it, gives an edge from
   // the next node back to it that agrees with the true step; with those edges the steps'
@@ -140,27 +163,15 @@ TEST(FloorSlam, ANodeIsAlsoMatchedAgainstTheScansAfterIt) {
   FloorSlamOptions with;
   with.successor_match_nodes = 5;
   const WorldRun run = runWorld(world, truth, with, odometry);
-  const std::vector<Pose2>& node_truth = run.node_truth;
-  // Each edge's error against the true step, weighed by the information it claims (3 on
-  // average for a covariance that is right; these are halved by successor_match_weight).
-  std::size_t back_edges = 0;
-  double nees_sum = 0.0, worst_nees = 0.0;
-  for (const auto& e : run.edges) {
-    if (e.kind != floor::EdgeKind::kScanMatch || e.to != e.from - 1) continue;
-    ++back_edges;
-    const Pose2 error = node_truth[e.from].between(node_truth[e.to]).between(e.measurement);
-    const Eigen::Vector3d v(error.x(), error.y(), error.theta());
-    nees_sum += v.dot(e.information * v);
-    worst_nees = std::max(worst_nees, v.dot(e.information * v));
-  }
-  std::printf("successor edges %zu: mean NEES %.2f, worst %.2f\n", back_edges,
-              nees_sum / back_edges, worst_nees);
+  const SuccessorEdgeNees nees = successorEdgeNees(run.edges, run.node_truth);
+  std::printf("successor edges %zu: mean NEES %.2f, worst %.2f\n", nees.count, nees.mean,
+              nees.worst);
   const std::size_t nodes = run.stats.nodes;
-  EXPECT_EQ(back_edges, run.stats.successor_matches);
-  EXPECT_LE(back_edges, nodes - 6);  // the last 5 nodes have no 5 successors yet
-  EXPECT_GT(back_edges, (nodes - 6) * 9 / 10);
-  EXPECT_LT(nees_sum / back_edges, 3.0);
-  EXPECT_LT(worst_nees, 20.0);
+  EXPECT_EQ(nees.count, run.stats.successor_matches);
+  EXPECT_LE(nees.count, nodes - 6);  // the last 5 nodes have no 5 successors yet
+  EXPECT_GT(nees.count, (nodes - 6) * 9 / 10);
+  EXPECT_LT(nees.mean, 3.0);
+  EXPECT_LT(nees.worst, 20.0);
 
   FloorSlamOptions without;
   const RelationErrors tracked =
@@ -172,6 +183,73 @@ TEST(FloorSlam, ANodeIsAlsoMatchedAgainstTheScansAfterIt) {
       both.nearby.rotation_mean * 180 / M_PI, tracked.nearby.rotation_mean * 180 / M_PI,
       both.nearby.translation_mean, tracked.nearby.translation_mean);
   EXPECT_LT(both.nearby.rotation_mean, tracked.nearby.rotation_mean);
+}
+
+TEST(FloorSlam, SuccessorMatchesAtFinishLeaveTheLoopClosuresToTheTrackingGraph) {
+  // With successor_match_at_finish the nodes are matched against their successors only when
+  // the graph is finished: until then the graph is the tracking graph of a run without them
+  // (the same closures, the same poses), and finish() adds one edge per node that has 5
+  // successors, each within the covariance it claims, and lowers the nearby rotation error.
+  const test::World world = test::officeWorld();
+  const auto truth = pathThrough(
+      {{1, 1}, {4.5, 1}, {4.5, 4.5}, {8, 4}, {11, 1}, {11, 4.5}, {6, 7}, {1, 7}, {1, 1}});
+  const auto odometry = simulateOdometry(truth, OdometryNoise{}, 7);
+  FloorSlamOptions at_finish;
+  at_finish.successor_match_nodes = 5;
+  at_finish.successor_match_at_finish = true;
+  FloorSlam with(at_finish, "robot", 0, 0, 0.0), without(FloorSlamOptions{}, "robot", 0, 0, 0.0);
+  std::vector<sensor::LaserScan> scans;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    scans.push_back(world.scan(truth[i], 0.1 * i));
+    with.addScan(scans.back(), odometry[i]);
+    without.addScan(scans.back(), odometry[i]);
+  }
+  EXPECT_EQ(with.stats().successor_matches, 0u);
+  ASSERT_EQ(with.floorGraph().edges.size(), without.floorGraph().edges.size());
+  ASSERT_EQ(with.stats().loop_closures, without.stats().loop_closures);
+  ASSERT_GT(with.stats().loop_closures, 0u);
+  for (std::size_t i = 0; i < with.floorGraph().nodes.size(); ++i)
+    ASSERT_LT(with.floorGraph()
+                  .nodes[i]
+                  .pose.between(without.floorGraph().nodes[i].pose)
+                  .translation()
+                  .norm(),
+              1e-9);
+
+  with.finish();
+  without.finish();
+  const std::size_t nodes = with.floorGraph().nodes.size();
+  EXPECT_GT(with.stats().successor_matches, (nodes - 6) * 9 / 10);
+  EXPECT_LE(with.stats().successor_matches, nodes - 5);  // the last 5 nodes have no 5 successors
+  EXPECT_EQ(with.floorGraph().edges.size(),
+            without.floorGraph().edges.size() + with.stats().successor_matches);
+  // A second finish (the robot left the floor again without new nodes) adds nothing.
+  with.finish();
+  EXPECT_EQ(with.floorGraph().edges.size(),
+            without.floorGraph().edges.size() + with.stats().successor_matches);
+
+  std::vector<Pose2> node_truth;
+  for (const auto& node : with.floorGraph().nodes) {
+    const auto at = std::find_if(scans.begin(), scans.end(),
+                                 [&](const sensor::LaserScan& s) { return s.stamp == node.stamp; });
+    node_truth.push_back(truth[at - scans.begin()]);
+  }
+  const SuccessorEdgeNees nees = successorEdgeNees(with.floorGraph().edges, node_truth);
+  ASSERT_EQ(nees.count, with.stats().successor_matches);
+  EXPECT_LT(nees.mean, 3.0);
+  EXPECT_LT(nees.worst, 20.0);
+  auto nodePoses = [](const FloorSlam& slam) {
+    std::vector<Pose2> poses;
+    for (const auto& node : slam.floorGraph().nodes) poses.push_back(node.pose);
+    return poses;
+  };
+  const RelationErrors smoothed = relationErrors(nodePoses(with), node_truth);
+  const RelationErrors tracked = relationErrors(nodePoses(without), node_truth);
+  std::printf(
+      "%zu successor edges at finish, mean NEES %.2f; nearby rotation %.3f deg, without %.3f deg\n",
+      nees.count, nees.mean, smoothed.nearby.rotation_mean * 180 / M_PI,
+      tracked.nearby.rotation_mean * 180 / M_PI);
+  EXPECT_LT(smoothed.nearby.rotation_mean, tracked.nearby.rotation_mean);
 }
 
 TEST(FloorSlam, AlongABareCorridorOdometryDecides) {

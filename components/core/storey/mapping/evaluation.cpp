@@ -58,7 +58,7 @@ OfflineRun runOffline(FloorSlam& slam, const std::vector<sensor::LaserScan>& sca
     if (r.status == ScanStatus::kNode) anchors.emplace_back(r.node_id, Pose2());
     else anchors.emplace_back(last.id, last.pose.between(r.pose));
   }
-  slam.optimize();
+  slam.finish();
   run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const auto& graph = slam.floorGraph();
   for (const auto& [id, offset] : anchors) {

@@ -32,7 +32,7 @@ struct OfflineRun {
   double seconds = 0.0;                     // processing time (wall clock)
 };
 
-// Feeds every scan with its odometry to `slam`, optimises at the end, and returns each
+// Feeds every scan with its odometry to `slam`, finishes it (FloorSlam::finish), and returns each
 // scan's pose: a node's pose, or the pose of the node it followed composed with the
 // odometry motion since (re-expressed after the final optimisation).
 OfflineRun runOffline(FloorSlam& slam, const std::vector<sensor::LaserScan>& scans,

@@ -138,7 +138,7 @@ void FloorSessions::switchFloorAfterTransit(int floor_id, double floor_height) {
     if (!current().floorGraph().nodes.empty()) current().resumeAt(exit_pose_[floor_id]);
     return;
   }
-  current().optimize();
+  current().finish();
   current_floor_ = floor_id;
   auto it = floors_.find(floor_id);
   if (it == floors_.end()) {
@@ -164,7 +164,7 @@ void FloorSessions::switchFloorAfterTransit(int floor_id, double floor_height) {
 void FloorSessions::flush() {
   if (relocalizer_ && relocalizer_->decideNow()) resumeRelocalized();
   if (relocalizer_) openNewGraphOfCurrentFloor("the input ended before localising");
-  if (floors_.count(current_floor_)) current().optimize();
+  if (floors_.count(current_floor_)) current().finish();
 }
 
 }  // namespace storey::mapping

@@ -48,7 +48,7 @@ class FloorSessions {
   void endTransit(int floor_id, double floor_height, double end_stamp);
   // End of input: a relocalisation still undecided gets one last check of the filter's
   // estimate, else falls back to a new graph (so no scan is lost); the current floor is
-  // optimised.
+  // finished (FloorSlam::finish: optimised, and successor matches made if they wait for it).
   void flush();
 
   bool inTransit() const { return in_transit_; }

@@ -178,6 +178,8 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
   o.successor_match_nodes = node.getInt("successor_match_nodes", o.successor_match_nodes, 0, 1000);
   o.successor_match_weight =
       node.getDouble("successor_match_weight", o.successor_match_weight, 1e-6, 1.0);
+  o.successor_match_at_finish =
+      node.get<bool>("successor_match_at_finish", o.successor_match_at_finish);
   o.map_arrival_scans = node.get<bool>("map_arrival_scans", o.map_arrival_scans);
   node.finish();
   return o;
@@ -273,6 +275,8 @@ struct FloorSlam::Impl {
   Pose2 ref_pose, ref_odometry;  // prediction = ref_pose * ref_odometry^-1 * odometry
   bool jump_since_node = false;
   std::size_t chain_start = 0;  // first node of the current run of tracked nodes
+  std::vector<std::size_t> run_starts;  // every such first node, in order
+  std::size_t successors_matched = 0;   // nodes before this one were tried (at finish)
   int nodes_since_attempt = 0;
   // Relocalisation state.
   Pose2 reloc_guess;
@@ -561,7 +565,9 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     step_cov = jumped ? rel_cov : Eigen::Matrix3d((rel_cov.inverse() + odom_info).inverse());
   }
   covariance_ = geometry::composeCovariance(last_pose, covariance_, last_pose.between(pose), step_cov);
-  if (options_.successor_match_nodes > 0) matchAgainstSuccessors();
+  if (options_.successor_match_nodes > 0 && !options_.successor_match_at_finish &&
+      floor_graph_.nodes.size() > static_cast<std::size_t>(options_.successor_match_nodes))
+    matchAgainstSuccessors(floor_graph_.nodes.size() - 1 - options_.successor_match_nodes);
   result.status = ScanStatus::kNode;
   result.node_id = to;
   result.pose = pose;
@@ -593,7 +599,10 @@ void FloorSlam::appendNode(const sensor::LaserScan& scan, const Pose2& odometry,
   s.ref_pose = pose;
   s.ref_odometry = odometry;
   s.jump_since_node = false;
-  if (starts_run) s.chain_start = floor_graph_.nodes.size() - 1;
+  if (starts_run) {
+    s.chain_start = floor_graph_.nodes.size() - 1;
+    s.run_starts.push_back(s.chain_start);
+  }
   if (++s.nodes_since_rebuild >= options_.local_map.rebuild_every_n_nodes || pose_graph_.numNodes() <= 1)
     s.local_dirty = true;
   s.floor_target_valid = false;
@@ -615,14 +624,31 @@ std::size_t FloorSlam::appendEdge(int from, int to, const Pose2& z, const Eigen:
   return pose_graph_.numEdges() - 1;
 }
 
-void FloorSlam::matchAgainstSuccessors() {
+void FloorSlam::finish() {
   Impl& s = *impl_;
   const auto w = static_cast<std::size_t>(options_.successor_match_nodes);
   const std::size_t n = floor_graph_.nodes.size();
-  if (n < s.chain_start + w + 1) return;  // a jump or a relocalisation lies between
-  const std::size_t k = n - 1 - w;
+  if (w > 0 && options_.successor_match_at_finish && n > w && s.successors_matched + w < n) {
+    optimize();  // the successors' maps at the best poses the graph knows
+    for (std::size_t k = s.successors_matched; k + w < n; ++k) matchAgainstSuccessors(k);
+    // The last w nodes have too few successors now; after a return to this floor their
+    // successors would start a new run, so they are never matched.
+    s.successors_matched = n;
+  }
+  optimize();
+}
+
+bool FloorSlam::matchAgainstSuccessors(std::size_t k) {
+  Impl& s = *impl_;
+  const auto w = static_cast<std::size_t>(options_.successor_match_nodes);
+  const std::size_t end = k + 1 + w;
+  if (end > floor_graph_.nodes.size()) return false;
+  // A jump or a relocalisation between the node and its last successor: not one run.
+  if (std::any_of(s.run_starts.begin(), s.run_starts.end(),
+                  [&](std::size_t start) { return start > k && start < end; }))
+    return false;
   grid::OccupancyGrid grid;
-  const MatchTarget target = buildTarget(floor_graph_, k + 1, n, options_.local_map,
+  const MatchTarget target = buildTarget(floor_graph_, k + 1, end, options_.local_map,
                                          options_.local_map.pyramid_levels, s.matcher, &grid);
   const floor::FloorNode& node = floor_graph_.nodes[k];
   // The scan sees places behind its successors that none of them saw; its points there would
@@ -633,7 +659,7 @@ void FloorSlam::matchAgainstSuccessors() {
           filterPoints(node.scan.pointsInRobotFrame(), options_.matcher.point_filter_distance),
           node.pose, grid),
       node.pose);
-  if (!match.success) return;
+  if (!match.success) return false;
   const floor::FloorNode& next = floor_graph_.nodes[k + 1];
   const Eigen::Matrix3d information =
       options_.successor_match_weight *
@@ -641,6 +667,7 @@ void FloorSlam::matchAgainstSuccessors() {
   appendEdge(next.id, node.id, next.pose.between(match.pose), information,
              floor::EdgeKind::kScanMatch);
   ++stats_.successor_matches;
+  return true;
 }
 
 bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {

@@ -203,6 +203,11 @@ struct FloorSlamOptions {
   // 0: off (docs/floor_mapper.md, "Scans after a node").
   int successor_match_nodes = 0;
   double successor_match_weight = 0.5;
+  // Match the nodes against their successors when the graph is finished (finish(): end of
+  // input, leaving the floor), at its final poses, instead of as the nodes come. Then every
+  // loop closure is decided on the tracking graph alone: matched as they come, these edges
+  // bent infinite-corridor's long unclosed stretch until its closure window missed the loop.
+  bool successor_match_at_finish = false;
 };
 // Reads the front end's options (all keys optional; unknown keys are errors). Sections:
 // scan_matcher, node_creation, local_map (with likelihood_field), odometry_noise,
@@ -318,8 +323,12 @@ class FloorSlam {
   // Uncertainty of the last node (floor frame).
   const Eigen::Matrix3d& currentCovariance() const { return covariance_; }
   GraphUpdate takeUpdate();
-  // Runs the optimiser over the whole graph now (e.g. when closing the floor).
+  // Runs the optimiser over the whole graph now.
   void optimize();
+  // The graph's input ends for now (end of a log, the robot leaves the floor): with
+  // successor_match_at_finish, the nodes not yet matched against their successors are,
+  // at the optimised poses; then the graph is optimised.
+  void finish();
 
  private:
   struct Impl;
@@ -332,7 +341,9 @@ class FloorSlam {
   ScanResult relocalizeWith(const sensor::LaserScan& scan, const geometry::Pose2& odometry,
                             const std::vector<Eigen::Vector2d>& points);
   bool tryLoopClosure(const std::vector<Eigen::Vector2d>& points);
-  void matchAgainstSuccessors();
+  // Node index k against the map of the successor_match_nodes nodes after it, as an edge
+  // from node k+1 back to k; false when they are not one run of tracked nodes or no match.
+  bool matchAgainstSuccessors(std::size_t k);
   // Adds the held hypotheses `members` (indices) as loop-closure edges and optimises
   // (at full weight first when `bend_first`); keeps them when every one's χ² is within
   // max_chi2, else undoes them all. Returns whether they were kept.
