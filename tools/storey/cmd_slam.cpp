@@ -106,7 +106,8 @@ struct BagInput {
   std::vector<detection::FloorEvent> floor_events;  // transits started and ended, in order
 };
 
-BagInput readBagInput(const std::string& path, const std::string& robot_option) {
+BagInput readBagInput(const std::string& path, const std::string& robot_option,
+                      const detection::FloorDetectorOptions& detector_options) {
   runtime::SensorBagReader reader(path);
   const std::vector<std::string> robots = reader.robots();
   BagInput input;
@@ -133,7 +134,7 @@ BagInput readBagInput(const std::string& path, const std::string& robot_option) 
         input.odometry.push_back(odometry);
       },
       [](const detection::FloorEvent&) {}, "storey slam");
-  detection::FloorDetector detector{detection::FloorDetectorOptions{}};
+  detection::FloorDetector detector{detector_options};
   runtime::SensorRecord record;
   try {
     while (reader.next(record)) {
@@ -282,9 +283,9 @@ SlamInput logInput(const std::string& path, bool simulate_odometry,
 // log `storey convert` made the bag from) at the scans' stamps; "" for none. What went wrong on the
 // way is said on stderr, and what was read is mapped.
 SlamInput bagInput(const std::string& bag_path, const std::string& robot,
-                   const std::string& truth_path, const std::string& reference_log,
-                   long max_scans) {
-  BagInput bag = readBagInput(bag_path, robot);
+                   const std::string& truth_path, const std::string& reference_log, long max_scans,
+                   const detection::FloorDetectorOptions& detector_options) {
+  BagInput bag = readBagInput(bag_path, robot, detector_options);
   if (!bag.truncated.empty())
     std::cerr << "storey slam: " << bag.truncated << "; mapping the " << bag.scans.size()
               << " scans read before it\n";
@@ -468,6 +469,10 @@ int run_slam(Args& args) {
       .option("config", "FILE",
               "front-end options: the 'slam' section of this YAML file (e.g. "
               "config/floor_mapper.yaml); default: built-in defaults")
+      .option("detector-config", "FILE",
+              "bag: floor detector options, the 'detector' section of this YAML file (e.g. "
+              "config/floor_detector.yaml: the building's storey height, floor heights); "
+              "default: built-in defaults")
       .option("odometry", "simulated|recorded", "odometry source (a bag's is recorded)",
               "simulated")
       .option("odometry-noise", "T,R,F",
@@ -530,12 +535,18 @@ int run_slam(Args& args) {
   if (!from_bag && !truth_path.empty())
     throw UsageError("--truth is for bags; a log's is --reference");
   if (!from_bag && args.has("robot")) throw UsageError("--robot is for bags");
+  if (!from_bag && args.has("detector-config"))
+    throw UsageError("--detector-config is for bags: a log has no pressure to detect rides in");
+  detection::FloorDetectorOptions detector_options;
+  if (args.has("detector-config"))
+    detector_options = detection::loadFloorDetectorOptions(args.get("detector-config"));
   if (from_bag && args.has("odometry") && odometry_source != "recorded")
     throw UsageError(
         "--odometry simulated needs a log's corrected poses; a bag's odometry is recorded");
   const SlamInput input =
       from_bag ? bagInput(bag_path, args.has("robot") ? args.get("robot") : "", truth_path,
-                          args.has("reference") ? args.get("reference") : "", max_scans)
+                          args.has("reference") ? args.get("reference") : "", max_scans,
+                          detector_options)
                : logInput(log_path, odometry_source == "simulated", noise,
                           args.get("odometry-noise"), static_cast<std::uint64_t>(seed),
                           args.has("reference") ? args.get("reference") : "", max_scans);

@@ -105,6 +105,46 @@ TEST_F(SlamCommand, MapsEachFloorOfABagIntoItsOwnGraph) {
   EXPECT_LT(far, 0.1);
   EXPECT_LT(far, translation(floor0, "odometry", "far") / 3.0);
   EXPECT_FALSE(std::ifstream(dir + "/slam/graph.g2o").good()) << "no graph of both floors";
+
+  // The floor detector's options come from --detector-config: a robot that needs 10 m/s of
+  // climb to start a ride never rides here, and its scans make one graph.
+  const std::string shipped = storey::test::sourceDir() + "/config/floor_detector.yaml";
+  const std::string slow = dir + "/no_rides.yaml";
+  {
+    std::ifstream in(shipped);
+    std::ofstream out(slow);
+    std::size_t replaced = 0;
+    for (std::string line; std::getline(in, line);) {
+      if (line.find("start_velocity:") != std::string::npos) {
+        line = "    start_velocity: 10.0";
+        ++replaced;
+      }
+      out << line << '\n';
+    }
+    ASSERT_EQ(replaced, 1u) << shipped;
+  }
+  r = storey::test::runCommand(storey + " slam " + dir + "/sim --config " + config +
+                               " --detector-config " + slow + " --max-scans 300 --output " + dir +
+                               "/slam_no_rides --quiet");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("rides:"), std::string::npos) << r.output;
+  EXPECT_TRUE(std::ifstream(dir + "/slam_no_rides/graph.g2o").good()) << "one graph";
+  // A detector file with a misspelt key is refused, naming the file, the line and the key.
+  const std::string typo = dir + "/typo.yaml";
+  {
+    std::ifstream in(shipped);
+    std::ofstream out(typo);
+    for (std::string line; std::getline(in, line);) {
+      if (line.find("start_velocity:") != std::string::npos) line = "    start_velocty: 0.05";
+      out << line << '\n';
+    }
+  }
+  r = storey::test::runCommand(storey + " slam " + dir + "/sim --detector-config " + typo +
+                               " --output " + dir + "/slam_typo --quiet");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find(typo + ":18: detector.transit.start_velocity: missing required key"),
+            std::string::npos)
+      << r.output;
 }
 
 TEST_F(SlamCommand, RefusesWhatABagCannotGive) {
