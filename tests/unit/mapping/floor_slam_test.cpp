@@ -719,6 +719,11 @@ TEST(FloorSlamOptions, ShippedConfigurationLoads) {
   EXPECT_TRUE(o.loop_closure.enabled);
   EXPECT_GT(o.loop_closure.cluster_verify_window, 0.0);  // the region check is on where it ships
   EXPECT_GT(o.loop_closure.single_unique_distance, 0.0);  // and so are the rules for a lost graph
+  // The uniqueness check starts below the cap, which is wide enough for long loops.
+  EXPECT_GT(o.loop_closure.single_unique_window, 0.0);
+  EXPECT_LT(o.loop_closure.single_unique_window, o.loop_closure.max_linear_window);
+  EXPECT_EQ(o.successor_match_nodes, 5);
+  EXPECT_TRUE(o.successor_match_at_finish);  // the successors' edges come after the closures
   EXPECT_TRUE(o.loop_closure.follow_relocated);
   EXPECT_EQ(o.max_tracking_chi2, 0.0);  // off where it ships: it needs a calibrated odometry model
   EXPECT_EQ(o.local_map.retry_nodes, 5);

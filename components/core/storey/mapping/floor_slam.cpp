@@ -152,6 +152,8 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
     l.follow_relocated = n.get<bool>("follow_relocated", l.follow_relocated);
     l.single_unique_distance = n.getDouble("single_unique_distance", l.single_unique_distance, 0.0, 1000.0);
     l.single_unique_ratio = n.getDouble("single_unique_ratio", l.single_unique_ratio, 0.0, 1.0);
+    l.single_unique_window =
+        n.getDouble("single_unique_window", l.single_unique_window, 0.0, 100.0);
     l.matcher = readMatcherOrDefault(n, "scan_matcher", l.matcher);
     n.finish();
   }
@@ -788,7 +790,10 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   // A graph too uncertain for the window agrees with whatever lies near its prediction, and
   // a prediction metres off along a corridor has a look-alike there: alone, a closure must
   // then be the only place in the window its scan fits; otherwise it waits for company.
-  if (small && o.cluster_size > 1 && o.single_unique_distance > 0.0 && linear >= o.max_linear_window) {
+  const double unique_window = o.single_unique_window > 0.0
+                                   ? std::min(o.single_unique_window, o.max_linear_window)
+                                   : o.max_linear_window;
+  if (small && o.cluster_size > 1 && o.single_unique_distance > 0.0 && linear >= unique_window) {
     const MatchResult rival =
         s.loop_matcher.bestElsewhere(target, points, prediction, linear, angular, match.pose.translation(),
                                      o.single_unique_distance, o.single_unique_ratio * match.correlative_score);

@@ -134,6 +134,10 @@ struct LoopClosureOptions {
   // for a cluster. 0: off.
   double single_unique_distance = 0.0;  // m
   double single_unique_ratio = 0.9;
+  // The uniqueness check runs from this window on, when below max_linear_window (0: only
+  // at the cap): a wider cap lets long loops close, but a window of 10-20 m still holds
+  // a corridor's look-alike near a prediction that far off.
+  double single_unique_window = 0.0;  // m
   // A closure's pose from the likelihood field is then refined on the candidate map's
   // points (point-to-line, as tracking) and the refined pose is kept when it moved at most
   // this far; its covariance stays the field's. In a 2 m elevator cabin the field's
