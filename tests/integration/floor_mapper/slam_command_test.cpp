@@ -30,6 +30,23 @@ std::size_t lineCount(const std::string& path) {
   return n;
 }
 
+// Copies `from` to `to` with every line containing `key` replaced by `replacement`; returns
+// how many were.
+std::size_t copyReplacingLines(const std::string& from, const std::string& to,
+                               const std::string& key, const std::string& replacement) {
+  std::ifstream in(from);
+  std::ofstream out(to);
+  std::size_t replaced = 0;
+  for (std::string line; std::getline(in, line);) {
+    if (line.find(key) != std::string::npos) {
+      line = replacement;
+      ++replaced;
+    }
+    out << line << '\n';
+  }
+  return replaced;
+}
+
 class SlamCommand : public ::testing::Test {
  protected:
   const std::string storey = STOREY_COMMAND;
@@ -110,19 +127,7 @@ TEST_F(SlamCommand, MapsEachFloorOfABagIntoItsOwnGraph) {
   // climb to start a ride never rides here, and its scans make one graph.
   const std::string shipped = storey::test::sourceDir() + "/config/floor_detector.yaml";
   const std::string slow = dir + "/no_rides.yaml";
-  {
-    std::ifstream in(shipped);
-    std::ofstream out(slow);
-    std::size_t replaced = 0;
-    for (std::string line; std::getline(in, line);) {
-      if (line.find("start_velocity:") != std::string::npos) {
-        line = "    start_velocity: 10.0";
-        ++replaced;
-      }
-      out << line << '\n';
-    }
-    ASSERT_EQ(replaced, 1u) << shipped;
-  }
+  ASSERT_EQ(copyReplacingLines(shipped, slow, "start_velocity:", "    start_velocity: 10.0"), 1u);
   r = storey::test::runCommand(storey + " slam " + dir + "/sim --config " + config +
                                " --detector-config " + slow + " --max-scans 300 --output " + dir +
                                "/slam_no_rides --quiet");
@@ -131,14 +136,7 @@ TEST_F(SlamCommand, MapsEachFloorOfABagIntoItsOwnGraph) {
   EXPECT_TRUE(std::ifstream(dir + "/slam_no_rides/graph.g2o").good()) << "one graph";
   // A detector file with a misspelt key is refused, naming the file, the line and the key.
   const std::string typo = dir + "/typo.yaml";
-  {
-    std::ifstream in(shipped);
-    std::ofstream out(typo);
-    for (std::string line; std::getline(in, line);) {
-      if (line.find("start_velocity:") != std::string::npos) line = "    start_velocty: 0.05";
-      out << line << '\n';
-    }
-  }
+  ASSERT_EQ(copyReplacingLines(shipped, typo, "start_velocity:", "    start_velocty: 0.05"), 1u);
   r = storey::test::runCommand(storey + " slam " + dir + "/sim --detector-config " + typo +
                                " --output " + dir + "/slam_typo --quiet");
   EXPECT_NE(r.status, 0);
