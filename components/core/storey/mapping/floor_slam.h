@@ -127,11 +127,11 @@ struct LoopClosureOptions {
   // robot (its place, then the chain of steps since), not the graph's, which is farther off
   // than the window reaches when the check had to move it.
   bool follow_relocated = false;
-  // While the window is at its cap (max_linear_window), a closure goes in alone (a small
-  // correction) only when no pose more than single_unique_distance from its match scores
-  // single_unique_ratio of it in the window, unless its own covariance spans that pose
-  // (sigma_factor σ along the line to it: a bare corridor's axis); otherwise it is held
-  // for a cluster. 0: off.
+  // While the window is at its cap (max_linear_window), or from single_unique_window on
+  // (below), a closure goes in alone (a small correction) only when no pose more than
+  // single_unique_distance from its match scores single_unique_ratio of it in the window,
+  // unless its own covariance spans that pose (sigma_factor σ along the line to it: a bare
+  // corridor's axis); otherwise it is held for a cluster. 0: off.
   double single_unique_distance = 0.0;  // m
   double single_unique_ratio = 0.9;
   // The uniqueness check runs from this window on, when below max_linear_window (0: only
