@@ -12,45 +12,17 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <random>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "false_loop_closures.h"
 #include "storey/graph/graph_io.h"
 #include "storey/graph/optimizer.h"
 
-namespace {
-
-using storey::geometry::Pose2;
 using namespace storey::graph;
-
-std::set<std::size_t> addFalseLoopClosures(PoseGraph* graph, double fraction, unsigned seed) {
-  std::vector<std::size_t> loops;
-  for (std::size_t e = 0; e < graph->numEdges(); ++e) {
-    if (graph->edges()[e].kind == EdgeKind::kLoopClosure) loops.push_back(e);
-  }
-  std::mt19937_64 rng(seed);
-  std::uniform_int_distribution<std::size_t> node(0, graph->numNodes() - 1);
-  std::uniform_int_distribution<std::size_t> pick(0, loops.size() - 1);
-  std::uniform_real_distribution<double> pos(-5, 5), ang(-M_PI, M_PI);
-  std::set<std::size_t> added;
-  const std::size_t count = static_cast<std::size_t>(fraction * loops.size() + 0.5);
-  while (added.size() < count) {
-    const std::size_t a = node(rng), b = node(rng);
-    if (a == b) continue;
-    Edge e;
-    e.from = graph->nodes()[a].id;
-    e.to = graph->nodes()[b].id;
-    e.measurement = Pose2(pos(rng), pos(rng), ang(rng));
-    e.information = graph->edges()[loops[pick(rng)]].information;
-    e.kind = EdgeKind::kLoopClosure;
-    added.insert(graph->addEdge(e));
-  }
-  return added;
-}
-
-}  // namespace
+using storey::geometry::Pose2;
+using storey::test::addFalseLoopClosures;
 
 int main(int argc, char** argv) {
   std::string data = std::string(STOREY_SHARED_DATA_DIR) + "/posegraph";

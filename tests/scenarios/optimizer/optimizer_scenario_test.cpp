@@ -3,9 +3,9 @@
 // from chained odometry; and with false loop closures added it must keep the true poses.
 #include <gtest/gtest.h>
 
-#include <random>
 #include <set>
 
+#include "false_loop_closures.h"
 #include "storey/graph/graph_io.h"
 #include "storey/graph/optimizer.h"
 #include "test_support.h"
@@ -14,6 +14,7 @@ namespace storey::graph {
 namespace {
 
 using geometry::Pose2;
+using test::addFalseLoopClosures;
 
 struct Reference {
   const char* file;
@@ -73,33 +74,6 @@ INSTANTIATE_TEST_SUITE_P(
       name = name.substr(0, name.find('.'));
       return name + (info.param.odometry ? "_odometry" : "_file") + initName(info.param.init);
     });
-
-// Seeded random false loop closures (a fraction of the true loop-closure count) between
-// random pose pairs, with the information of a typical true loop closure.
-std::set<std::size_t> addFalseLoopClosures(PoseGraph* graph, double fraction, unsigned seed) {
-  std::vector<std::size_t> loops;
-  for (std::size_t e = 0; e < graph->numEdges(); ++e) {
-    if (graph->edges()[e].kind == EdgeKind::kLoopClosure) loops.push_back(e);
-  }
-  std::mt19937_64 rng(seed);
-  std::uniform_int_distribution<std::size_t> node(0, graph->numNodes() - 1);
-  std::uniform_int_distribution<std::size_t> pick(0, loops.size() - 1);
-  std::uniform_real_distribution<double> pos(-5, 5), ang(-M_PI, M_PI);
-  std::set<std::size_t> added;
-  const std::size_t count = static_cast<std::size_t>(fraction * loops.size() + 0.5);
-  while (added.size() < count) {
-    const std::size_t a = node(rng), b = node(rng);
-    if (a == b) continue;
-    Edge e;
-    e.from = graph->nodes()[a].id;
-    e.to = graph->nodes()[b].id;
-    e.measurement = Pose2(pos(rng), pos(rng), ang(rng));
-    e.information = graph->edges()[loops[pick(rng)]].information;
-    e.kind = EdgeKind::kLoopClosure;
-    added.insert(graph->addEdge(e));
-  }
-  return added;
-}
 
 TEST(RobustOptimizer, IntelWithFalseLoopClosuresKeepsTheTruePoses) {
   STOREY_REQUIRE_DATA(path, "posegraph/intel.g2o");
