@@ -9,6 +9,10 @@
 #include "commands.inc"
 #include "storey/common/config.h"
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 namespace {
 
 void printCommands() {
@@ -21,9 +25,24 @@ void printCommands() {
   std::cout << "\n`storey <command> --help` describes a command.\n";
 }
 
+// Every match target (tracking map, loop-closure candidate map, successor map) allocates and
+// frees grids of megabytes. With glibc's defaults the freed memory goes back to the kernel
+// (grids above the mmap threshold are unmapped, and the heap's top is trimmed) and the next
+// target faults it in again page by page: a tenth of a front-end run on intel went into
+// page faults. Served from the heap and kept there, it is reused; the process keeps what it
+// has needed at its peak (infinite-corridor: 460 MB instead of 410 MB).
+void keepFreedMemory() {
+#if defined(__GLIBC__)
+  mallopt(M_MMAP_MAX,
+          0);  // no allocation gets its own mapping (32 MB is glibc's largest threshold)
+  mallopt(M_TRIM_THRESHOLD, 512 << 20);
+#endif
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  keepFreedMemory();
   if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h") ||
       !std::strcmp(argv[1], "help")) {
     printCommands();
