@@ -107,6 +107,7 @@ struct BagInput {
 };
 
 BagInput readBagInput(const std::string& path, const std::string& robot_option,
+                      mapping::InputSequencerOptions sequencing,
                       const detection::FloorDetectorOptions& detector_options) {
   runtime::SensorBagReader reader(path);
   const std::vector<std::string> robots = reader.robots();
@@ -125,8 +126,8 @@ BagInput readBagInput(const std::string& path, const std::string& robot_option,
   if (std::find(robots.begin(), robots.end(), input.robot) == robots.end())
     throw UsageError("robot '" + input.robot + "' is not in " + path);
 
-  mapping::InputSequencerOptions sequencing;   // the component's defaults
-  sequencing.wait_for_floor_detector = false;  // no floor sessions here: one graph
+  // The detector runs here, in stamp order, before the scans are mapped: nothing to wait for.
+  sequencing.wait_for_floor_detector = false;
   mapping::InputSequencer sequencer(
       sequencing,
       [&](const sensor::LaserScan& scan, const Pose2& odometry) {
@@ -284,8 +285,9 @@ SlamInput logInput(const std::string& path, bool simulate_odometry,
 // way is said on stderr, and what was read is mapped.
 SlamInput bagInput(const std::string& bag_path, const std::string& robot,
                    const std::string& truth_path, const std::string& reference_log, long max_scans,
+                   const mapping::InputSequencerOptions& sequencing,
                    const detection::FloorDetectorOptions& detector_options) {
-  BagInput bag = readBagInput(bag_path, robot, detector_options);
+  BagInput bag = readBagInput(bag_path, robot, sequencing, detector_options);
   if (!bag.truncated.empty())
     std::cerr << "storey slam: " << bag.truncated << "; mapping the " << bag.scans.size()
               << " scans read before it\n";
@@ -294,7 +296,7 @@ SlamInput bagInput(const std::string& bag_path, const std::string& robot,
               << " samples stamped before their topic's last were dropped\n";
   if (bag.scans_without_odometry > 0)
     std::cerr << "storey slam: " << bag.scans_without_odometry << " scans had no odometry within "
-              << mapping::InputSequencerOptions{}.max_odometry_gap << " s and were dropped\n";
+              << sequencing.max_odometry_gap << " s and were dropped\n";
   if (max_scans > 0 && bag.scans.size() > static_cast<std::size_t>(max_scans)) {
     bag.scans.resize(max_scans);
     bag.odometry.resize(max_scans);
@@ -468,7 +470,8 @@ int run_slam(Args& args) {
       .option("output", "DIR", "output folder", "slam_out")
       .option("config", "FILE",
               "front-end options: the 'slam' section of this YAML file (e.g. "
-              "config/floor_mapper.yaml); default: built-in defaults")
+              "config/floor_mapper.yaml) and, for a bag, its max_odometry_gap; default: "
+              "built-in defaults")
       .option("detector-config", "FILE",
               "bag: floor detector options, the 'detector' section of this YAML file (e.g. "
               "config/floor_detector.yaml: the building's storey height, floor heights); "
@@ -510,9 +513,11 @@ int run_slam(Args& args) {
   if (args.flagSet("quiet")) common::setLogLevel(common::LogLevel::kWarn);
 
   mapping::FloorSlamOptions options;
+  mapping::InputSequencerOptions sequencing;  // a bag's: how far a scan's odometry may be
   if (args.has("config")) {
     const common::ConfigNode root = common::ConfigNode::loadFile(args.get("config"));
     options = mapping::readFloorSlamOptions(root.child("slam"));
+    sequencing = mapping::readInputSequencerOptions(root);
   }
   if (args.flagSet("no-loop-closure")) options.loop_closure.enabled = false;
 
@@ -545,7 +550,7 @@ int run_slam(Args& args) {
         "--odometry simulated needs a log's corrected poses; a bag's odometry is recorded");
   const SlamInput input =
       from_bag ? bagInput(bag_path, args.has("robot") ? args.get("robot") : "", truth_path,
-                          args.has("reference") ? args.get("reference") : "", max_scans,
+                          args.has("reference") ? args.get("reference") : "", max_scans, sequencing,
                           detector_options)
                : logInput(log_path, odometry_source == "simulated", noise,
                           args.get("odometry-noise"), static_cast<std::uint64_t>(seed),

@@ -216,6 +216,17 @@ TEST_F(SlamCommand, TakesOneRobotOfSeveralAndDropsScansWithoutOdometry) {
       << r.output;
   EXPECT_NE(r.output.find("scans: 23 "), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("(robot b)"), std::string::npos) << r.output;
+  // The floor mapper's file's max_odometry_gap (2 s here) holds for storey slam too: scans
+  // up to 7 s are mapped, 29, and 11 dropped.
+  const std::string patient = dir + "/patient.yaml";
+  ASSERT_EQ(copyReplacingLines(config, patient, "max_odometry_gap:", "max_odometry_gap: 2.0"), 1u);
+  r = storey::test::runCommand(storey + " slam " + bag + " --robot b --config " + patient +
+                               " --output " + dir + "/slam_patient --quiet");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("11 scans had no odometry within 2 s and were dropped"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("scans: 29 "), std::string::npos) << r.output;
 }
 
 // A CARMEN log converted into a bag (`storey convert`) keeps its scans' stamps, so the log's

@@ -209,5 +209,29 @@ TEST(InputSequencer, PausedItOnlyQueuesAndAfterAResumeItSkipsWhatWasMapped) {
   EXPECT_EQ(sequencer.stats().already_mapped, 22u);  // scans 0.0 ... 2.0, and the event
 }
 
+// The keys sit at the top of the floor mapper's file, beside its others: read there, out of
+// range refused naming file, line and key; keys it does not know are left to the file's reader.
+TEST(InputSequencerOptions, ReadFromTheFloorMappersKeys) {
+  const common::ConfigNode root = common::ConfigNode::loadString(
+      "robot: r\nmax_odometry_gap: 2.5\nwait_for_floor_detector: false\nmax_floor_detector_lag: "
+      "4\n",
+      "mapper.yaml");
+  const InputSequencerOptions o = readInputSequencerOptions(root);
+  EXPECT_DOUBLE_EQ(o.max_odometry_gap, 2.5);
+  EXPECT_FALSE(o.wait_for_floor_detector);
+  EXPECT_DOUBLE_EQ(o.max_floor_detector_lag, 4.0);
+  EXPECT_DOUBLE_EQ(
+      readInputSequencerOptions(common::ConfigNode::loadString("robot: r\n")).max_odometry_gap,
+      InputSequencerOptions{}.max_odometry_gap);
+  try {
+    readInputSequencerOptions(
+        common::ConfigNode::loadString("robot: r\nmax_odometry_gap: 0\n", "mapper.yaml"));
+    FAIL() << "a gap of 0 s was accepted";
+  } catch (const common::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("mapper.yaml:2"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("max_odometry_gap"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace storey::mapping

@@ -10,6 +10,15 @@ namespace storey::mapping {
 
 using common::str;
 
+InputSequencerOptions readInputSequencerOptions(const common::ConfigNode& node) {
+  InputSequencerOptions o;
+  o.max_odometry_gap = node.getDouble("max_odometry_gap", o.max_odometry_gap, 1e-3, 60.0);
+  o.wait_for_floor_detector = node.get<bool>("wait_for_floor_detector", o.wait_for_floor_detector);
+  o.max_floor_detector_lag =
+      node.getDouble("max_floor_detector_lag", o.max_floor_detector_lag, 0.0, 3600.0);
+  return o;
+}
+
 InputSequencer::InputSequencer(InputSequencerOptions options, ScanHandler on_scan, EventHandler on_event,
                                std::string name)
     : options_(options), on_scan_(std::move(on_scan)), on_event_(std::move(on_event)), name_(std::move(name)) {}

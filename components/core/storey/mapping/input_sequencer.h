@@ -16,6 +16,7 @@
 #include <functional>
 #include <string>
 
+#include "storey/common/config.h"
 #include "storey/detection/floor_detector.h"
 #include "storey/geometry/pose2.h"
 #include "storey/sensor/laser_scan.h"
@@ -28,6 +29,11 @@ struct InputSequencerOptions {
   double max_floor_detector_lag = 30.0;  // s of scans held at most for the detector
   std::size_t max_scans_waiting_for_odometry = 600;
 };
+
+// The floor_mapper's input keys (max_odometry_gap, wait_for_floor_detector,
+// max_floor_detector_lag) at the top level of its file, beside its other keys: `node` is not
+// finished here, its reader does that.
+InputSequencerOptions readInputSequencerOptions(const common::ConfigNode& node);
 
 struct InputSequencerStats {
   std::size_t scans = 0;                   // passed on with their odometry

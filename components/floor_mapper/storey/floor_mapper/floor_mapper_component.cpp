@@ -27,10 +27,7 @@ FloorMapperComponentOptions readFloorMapperComponentOptions(const common::Config
   o.initial_floor = node.getInt("initial_floor", o.initial_floor, -1000, 1000);
   o.initial_height = node.getDouble("initial_height", o.initial_height, -1e4, 1e4);
   o.first_floor_graph_id = node.getInt("first_floor_graph_id", o.first_floor_graph_id, -1, 2000000000L);
-  o.input.max_odometry_gap = node.getDouble("max_odometry_gap", o.input.max_odometry_gap, 1e-3, 60.0);
-  o.input.wait_for_floor_detector = node.get<bool>("wait_for_floor_detector", o.input.wait_for_floor_detector);
-  o.input.max_floor_detector_lag =
-      node.getDouble("max_floor_detector_lag", o.input.max_floor_detector_lag, 0.0, 3600.0);
+  o.input = mapping::readInputSequencerOptions(node);
   o.input_log = node.get<std::string>("input_log", o.input_log);
   o.slam = mapping::readFloorSlamOptions(node.child("slam"));
   node.finish();
