@@ -152,6 +152,21 @@ void BM_DistanceTransform2000(benchmark::State& state) {
 }
 BENCHMARK(BM_DistanceTransform2000)->Unit(benchmark::kMillisecond);
 
+// Walls of 4 m rooms, exact (argument 0) and bounded at 20 cells (the likelihood field's
+// 1 m cap at 5 cm: what LikelihoodField asks for), in one run for the ratio.
+void BM_DistanceTransformRooms2000(benchmark::State& state) {
+  const grid::GridFrame f = frameOf(kDtSide, kDtSide);
+  const auto mask = roomsMask(f);
+  const int bound = state.range(0) > 0 ? static_cast<int>(state.range(0)) : -1;
+  for (auto _ : state) {
+    auto d = grid::squaredDistanceTransform(f, mask, bound);
+    benchmark::DoNotOptimize(d.data.data());
+  }
+  state.counters["cells/s"] = benchmark::Counter(
+      static_cast<double>(f.cellCount()) * state.iterations(), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_DistanceTransformRooms2000)->Arg(0)->Arg(20)->Unit(benchmark::kMillisecond);
+
 void BM_LikelihoodFieldBuild2000(benchmark::State& state) {
   const grid::GridFrame f = frameOf(kDtSide, kDtSide);
   const auto mask = roomsMask(f);

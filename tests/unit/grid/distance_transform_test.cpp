@@ -78,6 +78,46 @@ TEST(DistanceTransformShapes, WideGridUsesExactSixtyFourBitArithmetic) {
   EXPECT_NEAR(d2.at(29999, 0), far, far * 1e-7);
 }
 
+// Bounded at b cells, the transform is exact wherever the exact one is at most b² and above
+// b² wherever the exact one is: what a field capped at b needs, computed from fewer columns.
+TEST(DistanceTransformShapes, BoundedIsExactUpToItsBoundAndAboveItBeyond) {
+  std::mt19937_64 rng(5);
+  long beyond = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    std::uniform_int_distribution<int> side(1, 80);
+    const GridFrame f = frame(side(rng), side(rng));
+    std::bernoulli_distribution pick(std::pow(10.0, -3.5 + 3.0 * (trial % 20) / 20.0));
+    std::vector<std::uint8_t> src(f.cellCount(), 0);
+    for (auto& s : src) s = pick(rng);
+    if (trial % 3 != 0) src[std::uniform_int_distribution<std::size_t>(0, src.size() - 1)(rng)] = 1;
+    const int bound = std::uniform_int_distribution<int>(0, 25)(rng);
+    const Grid2<float> exact = squaredDistanceTransform(f, src);
+    const Grid2<float> bounded = squaredDistanceTransform(f, src, bound);
+    const float b2 = static_cast<float>(bound) * bound;
+    for (int y = 0; y < f.height; ++y)
+      for (int x = 0; x < f.width; ++x) {
+        if (exact.at(x, y) <= b2) {
+          ASSERT_EQ(bounded.at(x, y), exact.at(x, y))
+              << f.width << "x" << f.height << " bound " << bound << " at " << x << "," << y;
+        } else {
+          ASSERT_GT(bounded.at(x, y), b2)
+              << f.width << "x" << f.height << " bound " << bound << " at " << x << "," << y;
+          ++beyond;
+        }
+      }
+  }
+  EXPECT_GT(beyond, 1000);  // the bound mattered in many cells
+  // 64-bit path: the same on a grid 30000 cells wide.
+  const GridFrame wide = frame(30000, 3);
+  std::vector<std::uint8_t> src(wide.cellCount(), 0);
+  src[wide.index(100, 0)] = 1;
+  src[wide.index(20000, 2)] = 1;
+  const Grid2<float> d2 = squaredDistanceTransform(wide, src, 10);
+  EXPECT_EQ(d2.at(100, 2), 4.0f);
+  EXPECT_EQ(d2.at(20006, 0), 40.0f);
+  EXPECT_GT(d2.at(5000, 1), 100.0f);
+}
+
 TEST(DistanceTransformShapes, NoSourceOrEmptyGrid) {
   const GridFrame f = frame(9, 4);
   const std::vector<std::uint8_t> none(f.cellCount(), 0);

@@ -11,7 +11,8 @@ namespace {
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
 // Phase 2 of the transform over every row: g holds each cell's distance to the nearest
-// source in its column.
+// source in its column. Only the columns listed for a row enter its lower envelope (all of
+// them for the exact transform; those with a source close enough for a bounded one).
 // One row's envelope state; two rows advance in lockstep so that their independent
 // dependency chains overlap in the processor.
 template <typename Int>
@@ -19,10 +20,10 @@ struct Envelope {
   Int* s;
   Int* t;
   const Int* g2;
-  int q;
-  void start() {
+  int q = -1;
+  void start(Int first) {
     q = 0;
-    s[0] = 0;
+    s[0] = first;
     t[0] = 0;
   }
   inline void add(Int u, int w, const double* half_inverse) {
@@ -58,38 +59,58 @@ struct Envelope {
 
 template <typename Int>
 void lowerEnvelopeRows(const GridFrame& frame, const std::vector<std::int32_t>& g,
-                       Grid2<float>* out) {
+                       std::int32_t max_column_distance, Grid2<float>* out) {
   const int w = frame.width, h = frame.height;
   std::vector<Int> buffer(6 * static_cast<std::size_t>(w));
+  std::vector<Int> columns(2 * static_cast<std::size_t>(w));
   std::vector<double> half_inverse(w);
   for (int d = 1; d < w; ++d) half_inverse[d] = 0.5 / d;
   Envelope<Int> e[2];
+  int count[2] = {0, 0};
   for (int k = 0; k < 2; ++k) {
     e[k].s = &buffer[(3 * k) * w];
     e[k].t = &buffer[(3 * k + 1) * w];
     e[k].g2 = &buffer[(3 * k + 2) * w];
   }
+  // Row y into slot k: its squared column distances and the columns that take part.
   auto load = [&](int k, int y) {
     const std::int32_t* gr = &g[frame.index(0, y)];
     Int* g2 = &buffer[(3 * k + 2) * w];
-    for (int x = 0; x < w; ++x) g2[x] = static_cast<Int>(gr[x]) * gr[x];
-    e[k].start();
+    Int* listed = &columns[k * static_cast<std::size_t>(w)];
+    int n = 0;
+    for (int x = 0; x < w; ++x) {
+      g2[x] = static_cast<Int>(gr[x]) * gr[x];
+      listed[n] = x;
+      n += gr[x] <= max_column_distance;
+    }
+    count[k] = n;
+    if (n > 0) e[k].start(listed[0]);
+  };
+  auto finish = [&](int k, int y) {
+    float* row = &out->data[frame.index(0, y)];
+    if (count[k] > 0) e[k].emit(w, row);  // otherwise no source near enough: stays infinite
   };
   int y = 0;
   for (; y + 1 < h; y += 2) {
     load(0, y);
     load(1, y + 1);
-    for (int uc = 1; uc < w; ++uc) {
-      e[0].add(uc, w, half_inverse.data());
-      e[1].add(uc, w, half_inverse.data());
+    const Int* c0 = &columns[0];
+    const Int* c1 = &columns[w];
+    const int both = std::min(count[0], count[1]);
+    int i = 1;
+    for (; i < both; ++i) {
+      e[0].add(c0[i], w, half_inverse.data());
+      e[1].add(c1[i], w, half_inverse.data());
     }
-    e[0].emit(w, &out->data[frame.index(0, y)]);
-    e[1].emit(w, &out->data[frame.index(0, y + 1)]);
+    for (int j = i; j < count[0]; ++j) e[0].add(c0[j], w, half_inverse.data());
+    for (int j = i; j < count[1]; ++j) e[1].add(c1[j], w, half_inverse.data());
+    finish(0, y);
+    finish(1, y + 1);
   }
   if (y < h) {
     load(0, y);
-    for (int uc = 1; uc < w; ++uc) e[0].add(uc, w, half_inverse.data());
-    e[0].emit(w, &out->data[frame.index(0, y)]);
+    for (int j = 1; j < count[0]; ++j) e[0].add(columns[j], w, half_inverse.data());
+    finish(0, y);
   }
 }
 
@@ -99,7 +120,9 @@ void lowerEnvelopeRows(const GridFrame& frame, const std::vector<std::int32_t>& 
 // but cheaper on a binary input. Phase 1, per column, is the distance to the nearest source
 // in that column, computed with two sweeps over whole rows (contiguous, vectorisable).
 // Phase 2, per row, is the lower envelope of the parabolas (x - i)^2 + g(i)^2, in integers.
-Grid2<float> squaredDistanceTransform(const GridFrame& frame, const std::vector<std::uint8_t>& is_source) {
+Grid2<float> squaredDistanceTransform(const GridFrame& frame,
+                                      const std::vector<std::uint8_t>& is_source,
+                                      int max_distance) {
   const int w = frame.width, h = frame.height;
   Grid2<float> out(frame, kInf);
   if (w <= 0 || h <= 0) return out;
@@ -109,8 +132,11 @@ Grid2<float> squaredDistanceTransform(const GridFrame& frame, const std::vector<
       is_source.begin() + static_cast<std::ptrdiff_t>(frame.cellCount()))
     return out;  // no source anywhere: every distance is infinite
   // A column without a source gets g = w + h: its parabolas, at least (w + h)^2, never beat
-  // a real source (at most (w-1)^2 + (h-1)^2 away), and some column has one.
+  // a real source (at most (w-1)^2 + (h-1)^2 away), and some column has one. Bounded, a
+  // column whose nearest source is farther than max_distance from the row leaves the row's
+  // envelope: through it every distance is above max_distance anyway.
   const std::int32_t none = w + h;
+  const std::int32_t max_column_distance = max_distance >= 0 ? std::min(max_distance, none) : none;
   std::vector<std::int32_t> g(frame.cellCount());
   for (int x = 0; x < w; ++x) g[x] = is_source[x] ? 0 : none;
   for (int y = 1; y < h; ++y) {
@@ -128,9 +154,9 @@ Grid2<float> squaredDistanceTransform(const GridFrame& frame, const std::vector<
   // cells across); beyond that, 64-bit.
   const std::int64_t largest = 3 * static_cast<std::int64_t>(none) * none;
   if (largest < std::numeric_limits<std::int32_t>::max())
-    lowerEnvelopeRows<std::int32_t>(frame, g, &out);
+    lowerEnvelopeRows<std::int32_t>(frame, g, max_column_distance, &out);
   else
-    lowerEnvelopeRows<std::int64_t>(frame, g, &out);
+    lowerEnvelopeRows<std::int64_t>(frame, g, max_column_distance, &out);
   return out;
 }
 

@@ -79,8 +79,14 @@ void LikelihoodField::build(const std::vector<std::uint8_t>& obstacles, LogLikel
   for (std::size_t k = 0; k < table.size(); ++k) table[k] = entry(static_cast<float>(k));
   const Entry beyond = entry(std::numeric_limits<float>::infinity());
 
-  // The squared distances are overwritten by the distances in place (one grid less).
-  distance_ = squaredDistanceTransform(frame, obstacles);
+  // The squared distances are overwritten by the distances in place (one grid less). Every
+  // squared distance from table_size on maps to `beyond`, so the transform need only be
+  // exact up to there: bounded at ceil(sqrt(table_size)) cells, it skips the columns with
+  // no obstacle that close to the row, and what it returns above that bound is above
+  // table_size too.
+  const int exact_up_to =
+      tabulate ? static_cast<int>(std::ceil(std::sqrt(static_cast<double>(table_size)))) : -1;
+  distance_ = squaredDistanceTransform(frame, obstacles, exact_up_to);
   score_ = Grid2<float>(frame, 0.0f);
   const bool with_log = log_table == LogLikelihoodTable::kBuild;
   log_likelihood_ = with_log ? Grid2<float>(frame, 0.0f) : Grid2<float>();
