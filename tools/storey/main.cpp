@@ -30,7 +30,7 @@ void printCommands() {
 // (grids above the mmap threshold are unmapped, and the heap's top is trimmed) and the next
 // target faults it in again page by page: a tenth of a front-end run on intel went into
 // page faults. Served from the heap and kept there, it is reused; the process keeps what it
-// has needed at its peak (infinite-corridor: 460 MB instead of 410 MB).
+// has needed at its peak (infinite-corridor: 457-470 MB instead of 409 MB).
 void keepFreedMemory() {
 #if defined(__GLIBC__)
   mallopt(M_MMAP_MAX,
