@@ -71,17 +71,23 @@ MatchTarget::MatchTarget(const grid::OccupancyGrid& grid, const grid::Likelihood
     const int half = 1 << (level - 1);
     const int split = std::max(0, f.width - half);  // x + half is inside below this
     grid::Grid2<float> next(f, 0.0f);
+    // Rows as Eigen arrays: the compiler cannot tell that `out` does not alias the previous
+    // level, so a plain loop stays scalar; Eigen's packet max does four or more at once.
+    using ConstRow = Eigen::Map<const Eigen::ArrayXf>;
+    using Row = Eigen::Map<Eigen::ArrayXf>;
+    const int tail = f.width - split;
     for (int y = 0; y < f.height; ++y) {
       const float* a = &prev.data[f.index(0, y)];
       float* out = &next.data[f.index(0, y)];
       if (y + half < f.height) {
         const float* b = &prev.data[f.index(0, y + half)];
-        for (int x = 0; x < split; ++x)
-          out[x] = std::max(std::max(a[x], a[x + half]), std::max(b[x], b[x + half]));
-        for (int x = split; x < f.width; ++x) out[x] = std::max(a[x], b[x]);
+        Row(out, split) = ConstRow(a, split)
+                              .max(ConstRow(a + half, split))
+                              .max(ConstRow(b, split).max(ConstRow(b + half, split)));
+        Row(out + split, tail) = ConstRow(a + split, tail).max(ConstRow(b + split, tail));
       } else {
-        for (int x = 0; x < split; ++x) out[x] = std::max(a[x], a[x + half]);
-        for (int x = split; x < f.width; ++x) out[x] = a[x];
+        Row(out, split) = ConstRow(a, split).max(ConstRow(a + half, split));
+        Row(out + split, tail) = ConstRow(a + split, tail);
       }
     }
     coarse_levels_.push_back(std::move(next));
