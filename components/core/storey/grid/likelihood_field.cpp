@@ -30,7 +30,13 @@ std::vector<std::uint8_t> obstacleMask(const OccupancyGrid& grid, double occupie
   const float logit = static_cast<float>(std::log(occupied_threshold / (1.0 - occupied_threshold)));
   const std::vector<float>& log_odds = grid.logOdds().data;
   std::vector<std::uint8_t> mask(f.cellCount(), 0);
-  for (std::size_t i = 0; i < mask.size(); ++i) mask[i] = log_odds[i] != 0.0f && log_odds[i] > logit;
+  if (logit >= 0.0f) {
+    // Above a non-negative logit is never exactly 0: one comparison, which vectorises.
+    for (std::size_t i = 0; i < mask.size(); ++i) mask[i] = log_odds[i] > logit;
+  } else {
+    for (std::size_t i = 0; i < mask.size(); ++i)
+      mask[i] = log_odds[i] != 0.0f && log_odds[i] > logit;
+  }
   return mask;
 }
 
