@@ -33,8 +33,9 @@ void printCommands() {
 // has needed at its peak (infinite-corridor: 457-470 MB instead of 409 MB).
 void keepFreedMemory() {
 #if defined(__GLIBC__)
-  mallopt(M_MMAP_MAX,
-          0);  // no allocation gets its own mapping (32 MB is glibc's largest threshold)
+  // No allocation gets its own mapping: 32 MB, glibc's largest mmap threshold, is below
+  // infinite-corridor's closure maps.
+  mallopt(M_MMAP_MAX, 0);
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
 #endif
 }
