@@ -1,7 +1,8 @@
 // The front end on real laser logs with odometry derived from the corrected poses plus
 // seeded noise (5 % of distance per axis, 2°/m + 2 % of the turn in heading), compared
-// with the corrected poses by the relation metric (Kümmerle et al. 2009). intel, csail
-// and infinite-corridor run here; docs/floor_mapper.md has every log, run with `storey slam`.
+// with the corrected poses by the relation metric (Kümmerle et al. 2009). intel, csail,
+// infinite-corridor and freiburg-101 run here; docs/floor_mapper.md has every log, run with `storey
+// slam`.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -157,6 +158,31 @@ TEST(RealLogs, CsailAgainstTheReferencePosesItsScansConfirm) {
   EXPECT_LT(checked.nearby.translation_mean, 0.03);
   EXPECT_LT(checked.nearby.rotation_mean * 180 / M_PI, 0.5);
   EXPECT_LT(checked.far.translation_mean, 0.5);
+}
+
+TEST(RealLogs, Freiburg101MeetsTheGoalOnEverySeedTried) {
+  // Not among the four logs, but in the shared data: 292 scans of 360 beams in a long
+  // hall with offices off it. Its reference has no pose its scans contradict.
+  STOREY_REQUIRE_DATA(path, "carmen/freiburg-101-corrected.log.gz");
+  const LogData log = readLog(path);
+  ASSERT_EQ(log.scans.size(), 292u);
+  // Achieved (session 32), seeds 1-6: nearby 0.0252-0.0263 m / 0.197-0.211°, far 0.129-0.165 m /
+  // 0.39-0.55°, 30 closures each, none more than 0.1 m off. Seeds 1 and 4 run here (seed 4 has
+  // the largest nearby error).
+  for (const int seed : {1, 4}) {
+    const auto odometry = simulateOdometry(log.poses, OdometryNoise{}, seed);
+    const std::string label = common::str("freiburg-101 seed ", seed, " (shipped config)");
+    const LogRun run = runAndEvaluate(log, odometry, log.poses, label.c_str(), shippedOptions());
+    const RelationErrors odo = relationErrors(odometry, log.poses);
+    EXPECT_LT(run.errors.nearby.translation_mean, 0.03) << label;
+    EXPECT_LT(run.errors.nearby.rotation_mean * 180 / M_PI, 0.5) << label;
+    EXPECT_LT(run.errors.far.translation_mean, 0.2) << label;
+    EXPECT_LT(run.errors.far.rotation_mean * 180 / M_PI, 0.7) << label;
+    EXPECT_LT(run.errors.far.translation_mean, 0.05 * odo.far.translation_mean) << label;
+    ASSERT_FALSE(run.closure_errors.empty()) << label;
+    EXPECT_LT(*std::max_element(run.closure_errors.begin(), run.closure_errors.end()), 0.3)
+        << label;
+  }
 }
 
 // infinite-corridor with the shipped config and odometry noise `seed`: the relation errors
