@@ -51,6 +51,23 @@ std::vector<double> parseList(const std::string& text, std::size_t count, const 
   return values;
 }
 
+// One line: the odometry noise rates fitted to a graph's odometry edges, next to the configured
+// ones.
+void printOdometryFit(std::ostream& out, const char* poses, const mapping::OdometryNoiseFit& fit,
+                      const mapping::OdometryNoiseModel& configured) {
+  if (fit.steps == 0) return;
+  const auto rates = [](const mapping::OdometryNoiseModel& m) {
+    std::ostringstream s;
+    s << std::fixed << std::setprecision(3) << "translation_per_meter " << m.translation_per_meter
+      << "  rotation_per_meter " << m.rotation_per_meter << "  rotation_per_radian "
+      << m.rotation_per_radian;
+    return s.str();
+  };
+  out << "odometry noise fitted to " << poses << " (" << fit.steps
+      << " steps): " << rates(fit.model)
+      << "\n  configured (slam.odometry_noise):                " << rates(configured) << "\n";
+}
+
 void printStats(std::ostream& out, const char* name, const mapping::ErrorStats& s) {
   out << std::fixed << std::setprecision(4) << "  " << name << " pairs: " << s.count
       << "  translation " << s.translation_mean << " ± " << s.translation_std << " m"
@@ -601,6 +618,12 @@ int run_slam(Args& args) {
   else report << "  log duration: unknown (bad stamps)  scans/s: " << scans.size() / run.seconds;
   report << "\n";
   report << "odometry: " << input.odometry_note << "\n";
+  // The odometry model the run's own graph suggests, for a robot whose odometry_noise is not
+  // calibrated yet (it sets the odometry edges' weight and max_tracking_chi2's gate).
+  std::map<int, Pose2> graph_poses;
+  for (const auto& n : fg.nodes) graph_poses[n.id] = n.pose;
+  printOdometryFit(report, "the finished graph",
+                   mapping::fitOdometryNoise(fg, graph_poses, options.odometry), options.odometry);
   if (!reference.empty()) {
     // The estimate's and the odometry's relation errors, over the pairs without a left-out pose.
     auto printRelations = [&](const std::vector<bool>& left_out) {
@@ -639,6 +662,9 @@ int run_slam(Args& args) {
       if (run.status[i] == mapping::ScanStatus::kNode && k < slam.floorGraph().nodes.size())
         node_reference[slam.floorGraph().nodes[k++].id] = reference[i];
     writeLoopAttempts(out_dir + "/loop_closures.csv", slam.loopAttempts(), &node_reference);
+    printOdometryFit(report, "the reference",
+                     mapping::fitOdometryNoise(slam.floorGraph(), node_reference, options.odometry),
+                     options.odometry);
     report << "edges against the reference (NEES: 3 when an edge's covariance is right):\n";
     for (const auto& c : mapping::edgeConsistency(slam.floorGraph(), node_reference))
       report << "  " << std::left << std::setw(13) << floor::edgeKindName(c.kind) << std::right << " "

@@ -84,6 +84,13 @@ TEST_F(SlamCommand, MapsABagsFloorWithItsOdometryAgainstTheTruth) {
   EXPECT_LT(nearby, 0.01);
   EXPECT_LT(far, 0.1);
   EXPECT_LT(far, odometry_far / 3.0) << "the map should hold the odometry's drift";
+  // The odometry model fitted to the graph's odometry edges, by the graph's own poses and by
+  // the truth's, for calibrating slam.odometry_noise (the rates are checked in unit tests).
+  EXPECT_NE(r.output.find("odometry noise fitted to the finished graph ("), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("odometry noise fitted to the reference ("), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("configured (slam.odometry_noise):"), std::string::npos) << r.output;
   EXPECT_EQ(lineCount(dir + "/slam/trajectory.csv"), 181u + 1u) << "a row per scan and a header";
   EXPECT_GT(lineCount(dir + "/slam/graph.g2o"), 100u);
   EXPECT_TRUE(std::ifstream(dir + "/slam/map.png").good());

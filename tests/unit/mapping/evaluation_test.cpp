@@ -1,11 +1,15 @@
 // Evaluation against reference poses (mapping/evaluation.h): edge consistency, the
 // relation error with left-out poses, and the check of reference poses against their scans.
+#include "storey/mapping/evaluation.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <map>
+#include <random>
+#include <vector>
 
-#include "storey/mapping/evaluation.h"
 #include "synthetic_world.h"
 
 namespace storey::mapping {
@@ -45,6 +49,89 @@ TEST(EdgeConsistency, NormalisesEachKindsErrorByItsInformation) {
   EXPECT_NEAR(result[1].mean_nees, 6.5, 1e-9);
   EXPECT_NEAR(result[1].rms_rotation_error, 0.03 / std::sqrt(2.0), 1e-9);
   EXPECT_NEAR(result[1].rms_rotation_sigma, 0.01, 1e-9);
+}
+
+// A graph whose odometry edges are simulateOdometry's steps along a random walk, with the walk
+// as the nodes' poses.
+floor::FloorGraph odometryGraph(const std::vector<Pose2>& truth, const OdometryNoise& noise,
+                                std::uint64_t seed, std::map<int, Pose2>* poses) {
+  const std::vector<Pose2> odometry = simulateOdometry(truth, noise, seed);
+  floor::FloorGraph graph;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    (*poses)[static_cast<int>(i)] = truth[i];
+    if (i == 0) continue;
+    floor::FloorEdge e;
+    e.from = static_cast<int>(i - 1);
+    e.to = static_cast<int>(i);
+    e.measurement = odometry[i - 1].between(odometry[i]);
+    e.kind = floor::EdgeKind::kOdometry;
+    graph.edges.push_back(e);
+  }
+  return graph;
+}
+
+std::vector<Pose2> randomWalk(std::size_t steps, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> length(0.05, 1.2), turn(-0.8, 0.8);
+  std::vector<Pose2> walk{Pose2()};
+  for (std::size_t i = 1; i < steps; ++i) {
+    const double d = length(rng), t = turn(rng);
+    walk.push_back(walk.back() * Pose2(d, 0.0, t));
+  }
+  return walk;
+}
+
+TEST(OdometryNoiseFit, FindsTheRatesTheOdometryWasDrawnWith) {
+  // Three models, each term on its own and all together; 4000 steps are enough to tell each
+  // rate within 10 %.
+  const std::vector<Pose2> walk = randomWalk(4000, 3);
+  for (const OdometryNoise& noise :
+       {OdometryNoise{0.05, 2.0 * M_PI / 180.0, 0.02}, OdometryNoise{0.1, 0.0, 0.2},
+        OdometryNoise{0.02, 0.05, 0.0}}) {
+    std::map<int, Pose2> poses;
+    const floor::FloorGraph graph = odometryGraph(walk, noise, 7, &poses);
+    OdometryNoiseModel floors;
+    floors.min_translation_stddev = floors.min_rotation_stddev = 1e-6;  // out of the way
+    const OdometryNoiseFit fit = fitOdometryNoise(graph, poses, floors);
+    EXPECT_EQ(fit.steps, 3999u);
+    std::printf("drawn %.4f %.4f %.4f, fitted %.4f %.4f %.4f\n", noise.translation_fraction,
+                noise.rotation_per_meter, noise.rotation_fraction, fit.model.translation_per_meter,
+                fit.model.rotation_per_meter, fit.model.rotation_per_radian);
+    const auto near = [](double fitted, double drawn) {
+      return drawn == 0.0 ? fitted < 0.003 : std::abs(fitted - drawn) < 0.1 * drawn;
+    };
+    EXPECT_PRED2(near, fit.model.translation_per_meter, noise.translation_fraction);
+    EXPECT_PRED2(near, fit.model.rotation_per_meter, noise.rotation_per_meter);
+    EXPECT_PRED2(near, fit.model.rotation_per_radian, noise.rotation_fraction);
+    EXPECT_EQ(fit.model.min_translation_stddev, floors.min_translation_stddev);
+  }
+}
+
+TEST(OdometryNoiseFit, OnlyOdometryEdgesWithBothPosesCount) {
+  const std::vector<Pose2> walk = randomWalk(200, 5);
+  std::map<int, Pose2> poses;
+  floor::FloorGraph graph = odometryGraph(walk, OdometryNoise{}, 2, &poses);
+  const OdometryNoiseFit all = fitOdometryNoise(graph, poses);
+  // A scan-match edge 1 m off and an odometry edge to a node without a pose change nothing.
+  floor::FloorEdge match;
+  match.from = 0, match.to = 1, match.kind = floor::EdgeKind::kScanMatch;
+  match.measurement = Pose2(5.0, 0.0, 1.0);
+  floor::FloorEdge dangling;
+  dangling.from = 199, dangling.to = 200, dangling.kind = floor::EdgeKind::kOdometry;
+  dangling.measurement = Pose2(3.0, 0.0, 0.0);
+  graph.edges.push_back(match);
+  graph.edges.push_back(dangling);
+  const OdometryNoiseFit more = fitOdometryNoise(graph, poses);
+  EXPECT_EQ(all.steps, 199u);
+  EXPECT_EQ(more.steps, 199u);
+  EXPECT_EQ(more.model.translation_per_meter, all.model.translation_per_meter);
+  EXPECT_EQ(more.model.rotation_per_radian, all.model.rotation_per_radian);
+  // No odometry edge at all: nothing fitted, the floors' model back.
+  OdometryNoiseModel floors;
+  floors.translation_per_meter = 0.123;
+  const OdometryNoiseFit none = fitOdometryNoise(floor::FloorGraph{}, poses, floors);
+  EXPECT_EQ(none.steps, 0u);
+  EXPECT_EQ(none.model.translation_per_meter, 0.123);
 }
 
 TEST(RelationErrors, PairsWithALeftOutPoseAreNotCounted) {
