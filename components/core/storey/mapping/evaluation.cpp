@@ -254,11 +254,14 @@ OdometryNoiseFit fitOdometryNoise(const floor::FloorGraph& graph, const std::map
   fit.steps = steps.size();
   if (steps.empty()) return fit;
   // Negative log-likelihoods up to constants: two translation components per step with standard
-  // deviation max(floor, a·d); the heading with max(floor, b·d + c·|Δθ|).
+  // deviation max(floor, a·d); the heading with max(floor, b·d + c·|Δθ|). A zero floor would let
+  // a zero rate explain an exact step with a likelihood without bound.
+  const double translation_floor = std::max(floors.min_translation_stddev, 1e-9);
+  const double rotation_floor = std::max(floors.min_rotation_stddev, 1e-9);
   const auto translationCost = [&](double a) {
     double cost = 0.0;
     for (const auto& s : steps) {
-      const double sigma = std::max(floors.min_translation_stddev, a * s.distance);
+      const double sigma = std::max(translation_floor, a * s.distance);
       cost += 2.0 * std::log(sigma) + s.translation_error_squared / (2.0 * sigma * sigma);
     }
     return cost;
@@ -266,7 +269,7 @@ OdometryNoiseFit fitOdometryNoise(const floor::FloorGraph& graph, const std::map
   const auto rotationCost = [&](double b, double c) {
     double cost = 0.0;
     for (const auto& s : steps) {
-      const double sigma = std::max(floors.min_rotation_stddev, b * s.distance + c * s.turn);
+      const double sigma = std::max(rotation_floor, b * s.distance + c * s.turn);
       cost += std::log(sigma) + s.rotation_error * s.rotation_error / (2.0 * sigma * sigma);
     }
     return cost;
