@@ -63,8 +63,11 @@ void printOdometryFit(std::ostream& out, const char* poses, const mapping::Odome
       << m.rotation_per_radian;
     return s.str();
   };
-  out << "odometry noise fitted to " << poses << " (" << fit.steps
-      << " steps): " << rates(fit.model)
+  const mapping::OdometryNoiseModel& m = fit.model;
+  const bool a_floor_explains = m.translation_per_meter == 0.0 ||
+                                (m.rotation_per_meter == 0.0 && m.rotation_per_radian == 0.0);
+  out << "odometry noise fitted to " << poses << " (" << fit.steps << " steps): " << rates(m)
+      << (a_floor_explains ? "  (0: the minimum standard deviation alone explains the steps)" : "")
       << "\n  configured (slam.odometry_noise):                " << rates(configured) << "\n";
 }
 
@@ -428,6 +431,7 @@ int mapFloors(const mapping::FloorSlamOptions& options, const SlamInput& input,
     folders += (folders.empty() ? "" : ",") + name;
     writeGraphAndMap(slam->poseGraph(), fg, out_dir + "/" + name);
     std::vector<Pose2> estimate, reference, odometry;
+    std::map<int, Pose2> graph_poses, node_reference;
     {
       std::ofstream csv(out_dir + "/" + name + "/trajectory.csv");
       csv << "stamp,x,y,theta,status\n" << std::setprecision(10);
@@ -438,13 +442,24 @@ int mapFloors(const mapping::FloorSlamOptions& options, const SlamInput& input,
         if (found == scan_index.end()) continue;
         estimate.push_back(node.pose);
         odometry.push_back(input.odometry[found->second]);
-        if (!input.reference.empty()) reference.push_back(input.reference[found->second]);
+        graph_poses[node.id] = node.pose;
+        if (!input.reference.empty()) {
+          reference.push_back(input.reference[found->second]);
+          node_reference[node.id] = input.reference[found->second];
+        }
       }
     }
     const auto& st = slam->stats();
     report << name << ": nodes: " << fg.nodes.size() << "  matched: " << st.matched
            << "  match failures: " << st.match_failures << "  loop closures: " << st.loop_closures
            << " of " << st.loop_attempts << " attempts\n";
+    printOdometryFit(report, "its finished graph",
+                     mapping::fitOdometryNoise(fg, graph_poses, options.odometry),
+                     options.odometry);
+    if (!input.reference.empty())
+      printOdometryFit(report, "the reference",
+                       mapping::fitOdometryNoise(fg, node_reference, options.odometry),
+                       options.odometry);
     if (!input.reference.empty() && estimate.size() >= 2) {
       const mapping::RelationErrors errors = mapping::relationErrors(estimate, reference);
       const mapping::RelationErrors odo = mapping::relationErrors(odometry, reference);
@@ -483,7 +498,9 @@ int run_slam(Args& args) {
              "Bags: one robot's scans with its recorded odometry (interpolated at each scan's\n"
              "stamp); --truth compares with a ground-truth trajectory.csv, --reference with the\n"
              "poses of the log the bag was converted from (by stamp). A `storey simulate` output\n"
-             "folder may be given as LOG: its bag/, and its ground_truth/ as the truth.")
+             "folder may be given as LOG: its bag/, and its ground_truth/ as the truth.\n"
+             "The report gives the odometry noise rates the finished graph's poses (and the\n"
+             "reference's) make most likely, to calibrate slam.odometry_noise for a robot.")
       .option("output", "DIR", "output folder", "slam_out")
       .option("config", "FILE",
               "front-end options: the 'slam' section of this YAML file (e.g. "

@@ -118,6 +118,10 @@ TEST_F(SlamCommand, MapsEachFloorOfABagIntoItsOwnGraph) {
     const double nearby = translation(section, "slam", "nearby");
     ASSERT_GE(nearby, 0.0) << section;
     EXPECT_LT(nearby, 0.01);
+    const std::string head = section.substr(0, section.find("relation error"));
+    EXPECT_NE(head.find("odometry noise fitted to its finished graph ("), std::string::npos)
+        << section;
+    EXPECT_NE(head.find("odometry noise fitted to the reference ("), std::string::npos) << section;
     EXPECT_GT(lineCount(dir + "/slam/" + floor + "/trajectory.csv"), 100u);
     EXPECT_GT(lineCount(dir + "/slam/" + floor + "/graph.g2o"), 100u);
     EXPECT_TRUE(std::ifstream(dir + "/slam/" + floor + "/map.png").good());
