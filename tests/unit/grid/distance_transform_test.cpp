@@ -118,6 +118,24 @@ TEST(DistanceTransformShapes, BoundedIsExactUpToItsBoundAndAboveItBeyond) {
   EXPECT_GT(d2.at(5000, 1), 100.0f);
 }
 
+TEST(DistanceTransformShapes, BoundedRowsWithNoSourceNearEnoughAreInfinite) {
+  // The output grid is not filled before the transform: a row whose columns all have their
+  // nearest source beyond the bound must be written as infinite by the transform itself. The
+  // grid is built twice, first over memory left holding finite values by another grid.
+  const GridFrame f = frame(40, 30);
+  std::vector<std::uint8_t> src(f.cellCount(), 0);
+  src[f.index(5, 2)] = 1;
+  for (int pass = 0; pass < 2; ++pass) {
+    { const Grid2<float> scratch(f, 7.0f); }
+    const Grid2<float> d2 = squaredDistanceTransform(f, src, 3);
+    EXPECT_EQ(d2.at(5, 2), 0.0f);
+    EXPECT_EQ(d2.at(7, 4), 8.0f);
+    for (int y = 6; y < f.height; ++y)
+      for (int x = 0; x < f.width; ++x)
+        ASSERT_EQ(d2.at(x, y), std::numeric_limits<float>::infinity()) << x << "," << y;
+  }
+}
+
 TEST(DistanceTransformShapes, NoSourceOrEmptyGrid) {
   const GridFrame f = frame(9, 4);
   const std::vector<std::uint8_t> none(f.cellCount(), 0);

@@ -10,6 +10,9 @@ namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
+// Each cell's distance to the nearest source in its column; written in full before it is read.
+using ColumnDistances = std::vector<std::int32_t, DefaultInitAllocator<std::int32_t>>;
+
 // Phase 2 of the transform over every row: g holds each cell's distance to the nearest
 // source in its column. Only the columns listed for a row enter its lower envelope (all of
 // them for the exact transform; those with a source close enough for a bounded one).
@@ -58,7 +61,7 @@ struct Envelope {
 };
 
 template <typename Int>
-void lowerEnvelopeRows(const GridFrame& frame, const std::vector<std::int32_t>& g,
+void lowerEnvelopeRows(const GridFrame& frame, const ColumnDistances& g,
                        std::int32_t max_column_distance, Grid2<float>* out) {
   const int w = frame.width, h = frame.height;
   std::vector<Int> buffer(6 * static_cast<std::size_t>(w));
@@ -88,7 +91,10 @@ void lowerEnvelopeRows(const GridFrame& frame, const std::vector<std::int32_t>& 
   };
   auto finish = [&](int k, int y) {
     float* row = &out->data[frame.index(0, y)];
-    if (count[k] > 0) e[k].emit(w, row);  // otherwise no source near enough: stays infinite
+    if (count[k] > 0)
+      e[k].emit(w, row);
+    else
+      std::fill(row, row + w, kInf);  // no source near enough
   };
   int y = 0;
   for (; y + 1 < h; y += 2) {
@@ -124,20 +130,20 @@ Grid2<float> squaredDistanceTransform(const GridFrame& frame,
                                       const std::vector<std::uint8_t>& is_source,
                                       int max_distance) {
   const int w = frame.width, h = frame.height;
-  Grid2<float> out(frame, kInf);
-  if (w <= 0 || h <= 0) return out;
+  if (w <= 0 || h <= 0) return Grid2<float>(frame, kInf);
   if (std::find_if(is_source.begin(),
                    is_source.begin() + static_cast<std::ptrdiff_t>(frame.cellCount()),
                    [](std::uint8_t s) { return s != 0; }) ==
       is_source.begin() + static_cast<std::ptrdiff_t>(frame.cellCount()))
-    return out;  // no source anywhere: every distance is infinite
+    return Grid2<float>(frame, kInf);   // no source anywhere: every distance is infinite
+  Grid2<float> out(frame, Unfilled{});  // every row written by the envelope pass
   // A column without a source gets g = w + h: its parabolas, at least (w + h)^2, never beat
   // a real source (at most (w-1)^2 + (h-1)^2 away), and some column has one. Bounded, a
   // column whose nearest source is farther than max_distance from the row leaves the row's
   // envelope: through it every distance is above max_distance anyway.
   const std::int32_t none = w + h;
   const std::int32_t max_column_distance = max_distance >= 0 ? std::min(max_distance, none) : none;
-  std::vector<std::int32_t> g(frame.cellCount());
+  ColumnDistances g(frame.cellCount());
   for (int x = 0; x < w; ++x) g[x] = is_source[x] ? 0 : none;
   for (int y = 1; y < h; ++y) {
     const std::uint8_t* src = &is_source[frame.index(0, y)];

@@ -28,7 +28,7 @@ std::vector<std::uint8_t> obstacleMask(const OccupancyGrid& grid, double occupie
   // p > threshold exactly where the log-odds exceed logit(threshold): a comparison per
   // cell instead of an exp. An unobserved cell (log-odds exactly 0) is never occupied.
   const float logit = static_cast<float>(std::log(occupied_threshold / (1.0 - occupied_threshold)));
-  const std::vector<float>& log_odds = grid.logOdds().data;
+  const auto& log_odds = grid.logOdds().data;
   std::vector<std::uint8_t> mask(f.cellCount(), 0);
   if (logit >= 0.0f) {
     // Above a non-negative logit is never exactly 0: one comparison, which vectorises.
@@ -93,9 +93,10 @@ void LikelihoodField::build(const std::vector<std::uint8_t>& obstacles, LogLikel
   const int exact_up_to =
       tabulate ? static_cast<int>(std::ceil(std::sqrt(static_cast<double>(table_size)))) : -1;
   distance_ = squaredDistanceTransform(frame, obstacles, exact_up_to);
-  score_ = Grid2<float>(frame, 0.0f);
+  // Both written cell by cell below.
+  score_ = Grid2<float>(frame, Unfilled{});
   const bool with_log = log_table == LogLikelihoodTable::kBuild;
-  log_likelihood_ = with_log ? Grid2<float>(frame, 0.0f) : Grid2<float>();
+  log_likelihood_ = with_log ? Grid2<float>(frame, Unfilled{}) : Grid2<float>();
   float* distance = distance_.data.data();
   float* score = score_.data.data();
   float* log_likelihood = with_log ? log_likelihood_.data.data() : nullptr;

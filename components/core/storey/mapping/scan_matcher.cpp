@@ -70,7 +70,7 @@ MatchTarget::MatchTarget(const grid::OccupancyGrid& grid, const grid::Likelihood
     const grid::Grid2<float>& prev = pyramidLevel(level - 1);
     const int half = 1 << (level - 1);
     const int split = std::max(0, f.width - half);  // x + half is inside below this
-    grid::Grid2<float> next(f, 0.0f);
+    grid::Grid2<float> next(f, grid::Unfilled{});   // every row written below
     // Rows as Eigen arrays: the compiler cannot tell that `out` does not alias the previous
     // level, so a plain loop stays scalar; Eigen's packet max does four or more at once.
     using ConstRow = Eigen::Map<const Eigen::ArrayXf>;
