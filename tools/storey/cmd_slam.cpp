@@ -431,7 +431,7 @@ int mapFloors(const mapping::FloorSlamOptions& options, const SlamInput& input,
     folders += (folders.empty() ? "" : ",") + name;
     writeGraphAndMap(slam->poseGraph(), fg, out_dir + "/" + name);
     std::vector<Pose2> estimate, reference, odometry;
-    std::map<int, Pose2> graph_poses, node_reference;
+    std::map<int, Pose2> node_reference;
     {
       std::ofstream csv(out_dir + "/" + name + "/trajectory.csv");
       csv << "stamp,x,y,theta,status\n" << std::setprecision(10);
@@ -442,7 +442,6 @@ int mapFloors(const mapping::FloorSlamOptions& options, const SlamInput& input,
         if (found == scan_index.end()) continue;
         estimate.push_back(node.pose);
         odometry.push_back(input.odometry[found->second]);
-        graph_poses[node.id] = node.pose;
         if (!input.reference.empty()) {
           reference.push_back(input.reference[found->second]);
           node_reference[node.id] = input.reference[found->second];
@@ -453,8 +452,7 @@ int mapFloors(const mapping::FloorSlamOptions& options, const SlamInput& input,
     report << name << ": nodes: " << fg.nodes.size() << "  matched: " << st.matched
            << "  match failures: " << st.match_failures << "  loop closures: " << st.loop_closures
            << " of " << st.loop_attempts << " attempts\n";
-    printOdometryFit(report, "its finished graph",
-                     mapping::fitOdometryNoise(fg, graph_poses, options.odometry),
+    printOdometryFit(report, "its finished graph", mapping::fitOdometryNoise(fg, options.odometry),
                      options.odometry);
     if (!input.reference.empty())
       printOdometryFit(report, "the reference",
@@ -637,10 +635,8 @@ int run_slam(Args& args) {
   report << "odometry: " << input.odometry_note << "\n";
   // The odometry model the run's own graph suggests, for a robot whose odometry_noise is not
   // calibrated yet (it sets the odometry edges' weight and max_tracking_chi2's gate).
-  std::map<int, Pose2> graph_poses;
-  for (const auto& n : fg.nodes) graph_poses[n.id] = n.pose;
-  printOdometryFit(report, "the finished graph",
-                   mapping::fitOdometryNoise(fg, graph_poses, options.odometry), options.odometry);
+  printOdometryFit(report, "the finished graph", mapping::fitOdometryNoise(fg, options.odometry),
+                   options.odometry);
   if (!reference.empty()) {
     // The estimate's and the odometry's relation errors, over the pairs without a left-out pose.
     auto printRelations = [&](const std::vector<bool>& left_out) {

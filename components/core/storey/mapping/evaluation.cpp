@@ -232,6 +232,12 @@ double minimiseRate(const F& f, double lo, double hi) {
   return f(mid) < best_value ? mid : best;
 }
 
+// −log of a zero-mean Gaussian density up to a constant: `components` independent ones with
+// standard deviation sigma whose squared errors sum to `squared_error`.
+double gaussianCost(double sigma, double squared_error, int components) {
+  return components * std::log(sigma) + squared_error / (2.0 * sigma * sigma);
+}
+
 }  // namespace
 
 OdometryNoiseFit fitOdometryNoise(const floor::FloorGraph& graph, const std::map<int, Pose2>& poses,
@@ -261,16 +267,16 @@ OdometryNoiseFit fitOdometryNoise(const floor::FloorGraph& graph, const std::map
   const auto translationCost = [&](double a) {
     double cost = 0.0;
     for (const auto& s : steps) {
-      const double sigma = std::max(translation_floor, a * s.distance);
-      cost += 2.0 * std::log(sigma) + s.translation_error_squared / (2.0 * sigma * sigma);
+      cost +=
+          gaussianCost(std::max(translation_floor, a * s.distance), s.translation_error_squared, 2);
     }
     return cost;
   };
   const auto rotationCost = [&](double b, double c) {
     double cost = 0.0;
     for (const auto& s : steps) {
-      const double sigma = std::max(rotation_floor, b * s.distance + c * s.turn);
-      cost += std::log(sigma) + s.rotation_error * s.rotation_error / (2.0 * sigma * sigma);
+      cost += gaussianCost(std::max(rotation_floor, b * s.distance + c * s.turn),
+                           s.rotation_error * s.rotation_error, 1);
     }
     return cost;
   };
@@ -290,6 +296,13 @@ OdometryNoiseFit fitOdometryNoise(const floor::FloorGraph& graph, const std::map
   fit.model.rotation_per_meter = b;
   fit.model.rotation_per_radian = c;
   return fit;
+}
+
+OdometryNoiseFit fitOdometryNoise(const floor::FloorGraph& graph,
+                                  const OdometryNoiseModel& floors) {
+  std::map<int, Pose2> poses;
+  for (const auto& node : graph.nodes) poses[node.id] = node.pose;
+  return fitOdometryNoise(graph, poses, floors);
 }
 
 }  // namespace storey::mapping

@@ -106,16 +106,19 @@ std::vector<EdgeConsistency> edgeConsistency(const floor::FloorGraph& graph,
 // its error is the measured step minus the step between the two poses, per component in the
 // older node's frame, scaled by the step between the poses, as simulateOdometry draws it. The rates
 // (translation_per_meter, rotation_per_meter, rotation_per_radian) are fitted; the minimum standard
-// deviations are taken from `floors` and kept. Fitted to the graph's own poses, the rates come out
-// low where the scans said little and the graph kept the odometry (a bare corridor's axis): they
-// are what the scans could check, a lower bound. Without odometry edges, `steps` is 0 and the model
-// is `floors`.
+// deviations are taken from `floors` and kept. Fitted to the graph's own poses, the rates are
+// biased both ways: low where the scans said little and the graph kept the odometry (a bare
+// corridor's axis), high by the graph's own errors (docs/floor_mapper.md, "Odometry noise fitted
+// to the graph"). Without odometry edges, `steps` is 0 and the model is `floors`.
 struct OdometryNoiseFit {
   OdometryNoiseModel model;
   std::size_t steps = 0;  // odometry edges with both nodes in `poses`
 };
 OdometryNoiseFit fitOdometryNoise(const floor::FloorGraph& graph,
                                   const std::map<int, geometry::Pose2>& poses,
+                                  const OdometryNoiseModel& floors = {});
+// The same with the graph's own node poses, which needs nothing but the run.
+OdometryNoiseFit fitOdometryNoise(const floor::FloorGraph& graph,
                                   const OdometryNoiseModel& floors = {});
 
 }  // namespace storey::mapping
