@@ -14,6 +14,7 @@
 #include "storey/io/carmen.h"
 #include "storey/mapping/evaluation.h"
 #include "storey/mapping/floor_slam.h"
+#include "storey/mapping/input_sequencer.h"
 #include "test_support.h"
 
 namespace storey::mapping {
@@ -184,6 +185,72 @@ TEST(RealLogs, Freiburg101MeetsTheGoalOnEverySeedTried) {
     EXPECT_LT(*std::max_element(run.closure_errors.begin(), run.closure_errors.end()), 0.3)
         << label;
   }
+}
+
+// csail's .gfs log with the odometry of its ODOM lines, interpolated at each scan's stamp by
+// the component's own InputSequencer (as for a bag or live), instead of the pose on each laser
+// line (which is the ODOM sample 0.21 s after the scan). At scan 328 that stream holds still
+// for 0.42 s while the robot turns 78 degrees, then turns 85 degrees within 0.22 s: one step
+// misses a turn beyond the tracking window, the next is a jump. Without the wide search the
+// node lands 72 degrees off and a closure later joins it there (far error 8.2 m).
+TEST(RealLogs, CsailOdometryStreamThatStallsDoesNotBreakTheMap) {
+  STOREY_REQUIRE_DATA(gfs_path, "carmen/csail.corrected.gfs.gz");
+  STOREY_REQUIRE_DATA(reference_path, "carmen/csail-corrected.log.gz");
+  const LogData reference_log = readLog(reference_path);
+  LogData log;
+  std::vector<Pose2> odometry;
+  std::vector<double> laser_stamps;
+  InputSequencerOptions sequencing;
+  sequencing.wait_for_floor_detector = false;
+  InputSequencer sequencer(
+      sequencing,
+      [&](const sensor::LaserScan& scan, const Pose2& odom) {
+        const auto it = std::lower_bound(laser_stamps.begin(), laser_stamps.end(), scan.stamp);
+        ASSERT_TRUE(it != laser_stamps.end() && *it == scan.stamp);
+        log.scans.push_back(scan);
+        log.poses.push_back(
+            reference_log.poses[static_cast<std::size_t>(it - laser_stamps.begin())]);
+        odometry.push_back(odom);
+      },
+      [](const detection::FloorEvent&) {}, "test");
+  io::CarmenReaderOptions reader_options;
+  reader_options.strict = false;
+  io::CarmenReader reader(gfs_path, reader_options);
+  io::CarmenRecord record;
+  std::size_t odometry_samples = 0;
+  while (reader.next(&record)) {
+    if (record.kind == io::CarmenRecordKind::kOdometry) {
+      sequencer.addOdometry(record.odometry);
+      ++odometry_samples;
+    } else if (record.kind == io::CarmenRecordKind::kLaser) {
+      laser_stamps.push_back(record.laser.scan.stamp);
+      sequencer.addScan(record.laser.scan);
+    }
+  }
+  sequencer.flush();
+  ASSERT_EQ(laser_stamps.size(), 406u);
+  ASSERT_EQ(log.scans.size(), 406u);  // every scan has odometry within max_odometry_gap
+  EXPECT_GT(odometry_samples, 1900u);
+
+  FloorSlamOptions options = shippedOptions();
+  ASSERT_TRUE(options.wide_search_on_failure);
+  const LogRun run =
+      runAndEvaluate(log, odometry, log.poses, "csail, ODOM stream (shipped config)", options);
+  // Achieved (session 33): nearby 0.0341 m / 0.78 deg, far 0.43 m (the laser lines' odometry:
+  // 0.0343 m / 0.59 deg, far 0.41 m); 4 wide matches, 3 followed by odometry that caught up.
+  EXPECT_GE(run.stats.wide_matches, 2u);
+  EXPECT_GE(run.stats.caught_up_matches, 1u);
+  EXPECT_LT(run.errors.far.translation_mean, 0.7);
+  EXPECT_LT(run.errors.nearby.translation_mean, 0.045);
+  EXPECT_LT(run.errors.nearby.rotation_mean * 180 / M_PI, 1.0);
+  ASSERT_FALSE(run.closure_errors.empty());
+  EXPECT_LT(*std::max_element(run.closure_errors.begin(), run.closure_errors.end()), 0.5);
+
+  options.wide_search_on_failure = false;
+  const LogRun without =
+      runAndEvaluate(log, odometry, log.poses, "csail, ODOM stream, no wide search", options);
+  EXPECT_GT(without.errors.far.translation_mean, 2.0);
+  EXPECT_GT(*std::max_element(without.closure_errors.begin(), without.closure_errors.end()), 1.0);
 }
 
 // infinite-corridor with the shipped config and odometry noise `seed`: the relation errors

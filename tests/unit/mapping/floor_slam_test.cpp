@@ -382,6 +382,71 @@ TEST_F(FloorSlamBadInput, OdometryJumpIsNotTrusted) {
   EXPECT_LT((r2.pose.translation() - (Pose2(2, 1.2, 0).between(truth2)).translation()).norm(), 0.05);
 }
 
+// Odometry whose heading is stale for one scan (csail's ODOM stream holds still for 0.4 s,
+// then turns 85 degrees at once): the robot turned 0.7 rad, twice the tracking window, before
+// odometry says so. Placed by odometry, the node is 0.7 rad off. With wide_search_on_failure
+// the scan is found in the wide window; the next scan is found whether the odometry catches up
+// (stale) or never does (a wheel slipped), and no untrusted odometry step becomes an edge.
+TEST(FloorSlam, AScanOdometryTurnedTooLittleIsFoundInTheWideWindow) {
+  const test::World world = test::officeWorld();
+  struct Outcome {
+    ScanResult stale, next;
+    FloorSlamStats stats;
+    bool odometry_edge_into_stale = false, odometry_edge_into_next = false;
+  };
+  const Pose2 stale_truth(3.8, 1.2, 0.95), stale_odometry(3.8, 1.2, 0.25);
+  const Pose2 next_truth(4.0, 1.3, 1.0);
+  auto run = [&](bool wide, bool catches_up) {
+    FloorSlamOptions options;
+    options.wide_search_on_failure = wide;
+    FloorSlam slam(options, "robot", 0, 0, 0.0);
+    for (int i = 0; i < 6; ++i) {
+      const Pose2 p(2 + 0.3 * i, 1.2, 0.05 * i);
+      slam.addScan(world.scan(p, i), p);
+    }
+    Outcome o;
+    o.stale = slam.addScan(world.scan(stale_truth, 10.0), stale_odometry);
+    // Caught up: odometry is the truth again. Slipped: it moves on from where it stalled.
+    const Pose2 next_odometry =
+        catches_up ? next_truth : stale_odometry * stale_truth.between(next_truth);
+    o.next = slam.addScan(world.scan(next_truth, 11.0), next_odometry);
+    o.stats = slam.stats();
+    for (const auto& e : slam.floorGraph().edges) {
+      if (e.kind != floor::EdgeKind::kOdometry) continue;
+      o.odometry_edge_into_stale |= e.to == o.stale.node_id;
+      o.odometry_edge_into_next |= e.to == o.next.node_id;
+    }
+    return o;
+  };
+  const Pose2 start(2, 1.2, 0);
+  auto heading_error = [&](const ScanResult& r, const Pose2& truth) {
+    return std::abs(geometry::angleDiff(r.pose.theta(), start.between(truth).theta()));
+  };
+  const Outcome off = run(false, true);
+  ASSERT_EQ(off.stale.status, ScanStatus::kNode);
+  EXPECT_FALSE(off.stale.matched);
+  EXPECT_GT(heading_error(off.stale, stale_truth), 0.3);
+  EXPECT_EQ(off.stats.wide_matches, 0u);
+
+  for (const bool catches_up : {true, false}) {
+    SCOPED_TRACE(catches_up ? "odometry catches up" : "odometry slipped");
+    const Outcome on = run(true, catches_up);
+    ASSERT_EQ(on.stale.status, ScanStatus::kNode) << on.stale.reason;
+    ASSERT_EQ(on.next.status, ScanStatus::kNode) << on.next.reason;
+    EXPECT_TRUE(on.stale.matched);
+    EXPECT_TRUE(on.next.matched);
+    EXPECT_EQ(on.stats.wide_matches, 1u);
+    EXPECT_EQ(on.stats.caught_up_matches, catches_up ? 1u : 0u);
+    EXPECT_LT(heading_error(on.stale, stale_truth), 0.02);
+    EXPECT_LT(heading_error(on.next, next_truth), 0.02);
+    EXPECT_LT((on.next.pose.translation() - start.between(next_truth).translation()).norm(), 0.05);
+    // The step that missed the turn is no edge; nor is the one that caught up. After a slip
+    // the next step is right again and is one.
+    EXPECT_FALSE(on.odometry_edge_into_stale);
+    EXPECT_EQ(on.odometry_edge_into_next, !catches_up);
+  }
+}
+
 TEST_F(FloorSlamBadInput, DifferentBeamCountIsMatched) {
   const Pose2 truth(3.8, 1.2, 0.3);
   const ScanResult r = slam_.addScan(world_.scan(truth, 10.0, 181), truth);

@@ -175,6 +175,15 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
       node.getDouble("max_odometry_rotation_step", o.max_odometry_rotation_step, 0.0, 2 * M_PI);
   o.jump_linear_window = node.getDouble("jump_linear_window", o.jump_linear_window, 0.0, 100.0);
   o.jump_angular_window = node.getDouble("jump_angular_window", o.jump_angular_window, 0.0, M_PI);
+  o.wide_search_on_failure = node.get<bool>("wide_search_on_failure", o.wide_search_on_failure);
+  o.wide_search_linear_window =
+      node.getDouble("wide_search_linear_window", o.wide_search_linear_window, 0.0, 100.0);
+  o.wide_search_angular_window =
+      node.getDouble("wide_search_angular_window", o.wide_search_angular_window, 0.0, M_PI);
+  o.wide_search_max_translation_stddev = node.getDouble(
+      "wide_search_max_translation_stddev", o.wide_search_max_translation_stddev, 0.0, 100.0);
+  o.wide_search_max_rotation_stddev = node.getDouble("wide_search_max_rotation_stddev",
+                                                     o.wide_search_max_rotation_stddev, 0.0, M_PI);
   o.degenerate_ratio = node.getDouble("degenerate_ratio", o.degenerate_ratio, 0.0, 1e6);
   o.max_tracking_chi2 = node.getDouble("max_tracking_chi2", o.max_tracking_chi2, 0.0, 1e12);
   o.successor_match_nodes = node.getInt("successor_match_nodes", o.successor_match_nodes, 0, 1000);
@@ -276,6 +285,11 @@ struct FloorSlam::Impl {
   std::size_t beam_count = 0;
   Pose2 ref_pose, ref_odometry;  // prediction = ref_pose * ref_odometry^-1 * odometry
   bool jump_since_node = false;
+  // The last node was found by the wide search: its odometry step missed a turn. If that
+  // odometry was only stale, it catches up, and the step from the node before it (the
+  // anchor) predicts the next scan; if it slipped for good, ref_pose's prediction does.
+  bool catch_up_anchor = false;
+  Pose2 anchor_pose, anchor_odometry;
   std::size_t chain_start = 0;  // first node of the current run of tracked nodes
   std::vector<std::size_t> run_starts;  // every such first node, in order
   std::size_t successors_matched = 0;   // nodes before this one were tried (at finish)
@@ -504,11 +518,25 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     s.local_dirty = false;
     s.nodes_since_rebuild = 0;
   }
-  const bool jumped = s.jump_since_node;
-  MatchResult match =
-      jumped ? s.matcher.match(s.local_target, points, prediction, options_.jump_linear_window,
-                               options_.jump_angular_window)
-             : s.matcher.match(s.local_target, points, prediction);
+  bool jumped = s.jump_since_node;
+  MatchResult match;
+  bool caught_up = false;
+  if (s.catch_up_anchor) {
+    match = s.matcher.match(s.local_target, points,
+                            s.anchor_pose * s.anchor_odometry.between(odometry));
+    if (match.success) {
+      // The odometry caught up: its step since the last node holds the missed turn.
+      ++stats_.caught_up_matches;
+      common::logWarn(str("floor_slam: odometry caught up with the scan at ", scan.stamp,
+                          "; that odometry step is not trusted"));
+      caught_up = true;
+      jumped = true;
+    }
+  }
+  if (!caught_up)
+    match = jumped ? s.matcher.match(s.local_target, points, prediction,
+                                     options_.jump_linear_window, options_.jump_angular_window)
+                   : s.matcher.match(s.local_target, points, prediction);
   const Eigen::Matrix3d odom_info = odometryInformation(motion, options_.odometry);
   const LocalMapOptions& lm = options_.local_map;
   if (!match.success && !jumped && lm.retry_nodes > 0 && lm.retry_nodes < lm.max_nodes &&
@@ -520,6 +548,36 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     if (retry.success) {
       ++stats_.retry_matches;
       match = retry;
+    }
+  }
+  // After a jump too: stale odometry that catches up turns by what it missed and more,
+  // beyond max_odometry_rotation_step, and the turn since the last node can exceed the jump
+  // window.
+  bool wide_matched = false;
+  if (!match.success && options_.wide_search_on_failure) {
+    MatchResult wide =
+        s.matcher.match(s.local_target, points, prediction, options_.wide_search_linear_window,
+                        options_.wide_search_angular_window);
+    // Only a match that knows where it is: along a corridor the wide window holds look-alike
+    // places, and a match there is as unsure as the window (synthetic corridor: 0.26 m, 0.24 rad;
+    // csail's right ones 0.04 m, 0.04 rad at most).
+    const Eigen::Matrix2d translation_cov = wide.covariance.topLeftCorner<2, 2>();
+    const bool certain =
+        std::sqrt(std::max(
+            0.0,
+            Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(translation_cov).eigenvalues()(1))) <=
+            options_.wide_search_max_translation_stddev &&
+        std::sqrt(std::max(0.0, wide.covariance(2, 2))) <= options_.wide_search_max_rotation_stddev;
+    if (wide.success && !certain) ++stats_.wide_matches_unsure;
+    if (wide.success && certain) {
+      ++stats_.wide_matches;
+      common::logWarn(str("floor_slam: the scan at ", scan.stamp, " matched ",
+                          prediction.between(wide.pose).translation().norm(), " m and ",
+                          std::abs(geometry::angleDiff(wide.pose.theta(), prediction.theta())),
+                          " rad from where odometry put it; that odometry step is not trusted"));
+      match = wide;
+      wide_matched = !jumped;  // after a detected jump, ref_pose is no trusted anchor
+      jumped = true;
     }
   }
   if (match.success && !jumped && options_.max_tracking_chi2 > 0.0) {
@@ -558,7 +616,13 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     common::logDebug(str("floor_slam: scan at ", scan.stamp, " not matched (", match.problem,
                          "); using odometry"));
   }
+  const Pose2 anchor_pose = s.ref_pose, anchor_odometry = s.ref_odometry;
   appendNode(scan, odometry, pose, /*starts_run=*/jumped);
+  s.catch_up_anchor = wide_matched;
+  if (wide_matched) {
+    s.anchor_pose = anchor_pose;
+    s.anchor_odometry = anchor_odometry;
+  }
   const int to = floor_graph_.nodes.back().id;
   Eigen::Matrix3d step_cov = odom_info.inverse();
   if (!jumped) appendEdge(from, to, motion, odom_info, floor::EdgeKind::kOdometry);
@@ -601,6 +665,7 @@ void FloorSlam::appendNode(const sensor::LaserScan& scan, const Pose2& odometry,
   s.ref_pose = pose;
   s.ref_odometry = odometry;
   s.jump_since_node = false;
+  s.catch_up_anchor = false;
   if (starts_run) {
     s.chain_start = floor_graph_.nodes.size() - 1;
     s.run_starts.push_back(s.chain_start);

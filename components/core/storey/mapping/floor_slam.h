@@ -181,6 +181,17 @@ struct FloorSlamOptions {
   double max_odometry_rotation_step = 1.6;  // rad
   double jump_linear_window = 1.5;          // m
   double jump_angular_window = 0.8;         // rad
+  // A scan that neither the local map nor the last nodes' map match in the tracking window
+  // is searched again in this wider window around the prediction. Found there, outside the
+  // window the odometry step promised, that step is wrong (stale odometry that catches up
+  // later, a wheel slipping): it is not trusted, as after a jump. false: such a scan is
+  // placed by odometry.
+  bool wide_search_on_failure = true;
+  double wide_search_linear_window = 1.5;        // m
+  double wide_search_angular_window = M_PI / 2;  // rad: a corridor turned half round fits as well
+  // A wide match is used only when its covariance (from the score surface) is this tight.
+  double wide_search_max_translation_stddev = 0.1;  // m, along the least certain axis
+  double wide_search_max_rotation_stddev = 0.05;    // rad
   // Along a direction where the scan match's information is below degenerate_ratio times
   // the odometry step's (a bare corridor's axis), a new node's position is the two fused
   // by their information, not the match's alone (solution remapping for degenerate
@@ -281,6 +292,9 @@ struct FloorSlamStats {
   std::size_t matched = 0, match_failures = 0, odometry_jumps = 0;
   std::size_t matches_against_odometry = 0;  // matches refused by max_tracking_chi2
   std::size_t retry_matches = 0;             // scans matched by the retry on the last nodes' map
+  std::size_t wide_matches = 0;  // scans matched only in the wide window (odometry not trusted)
+  std::size_t caught_up_matches = 0;    // scans after a wide match, where stale odometry caught up
+  std::size_t wide_matches_unsure = 0;  // wide matches not used: their covariance too wide
   std::size_t successor_matches = 0;         // edges from matching a node against its successors
   std::size_t loop_attempts = 0, loop_closures = 0, loop_rejected_inconsistent = 0;
   std::size_t loop_ambiguous = 0;  // attempts whose scan fit as well elsewhere
