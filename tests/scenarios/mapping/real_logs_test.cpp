@@ -236,8 +236,11 @@ TEST(RealLogs, CsailOdometryStreamThatStallsDoesNotBreakTheMap) {
   ASSERT_TRUE(options.wide_search_on_failure);
   const LogRun run =
       runAndEvaluate(log, odometry, log.poses, "csail, ODOM stream (shipped config)", options);
-  // Achieved (session 33): nearby 0.0341 m / 0.78 deg, far 0.43 m (the laser lines' odometry:
-  // 0.0343 m / 0.59 deg, far 0.41 m); 4 wide matches, 3 followed by odometry that caught up.
+  std::printf("wide matches: %zu, odometry caught up after %zu, %zu unsure\n",
+              run.stats.wide_matches, run.stats.caught_up_matches, run.stats.wide_matches_unsure);
+  // Achieved (session 33): nearby 0.0370 m / 0.81 deg, far 0.46 m (storey slam on the bag
+  // converted from it, float32 beams: 0.0341 m / 0.78 deg, 0.43 m; on the laser lines' odometry
+  // 0.0343 m / 0.59 deg, 0.41 m).
   EXPECT_GE(run.stats.wide_matches, 2u);
   EXPECT_GE(run.stats.caught_up_matches, 1u);
   EXPECT_LT(run.errors.far.translation_mean, 0.7);
