@@ -243,12 +243,27 @@ struct SlamInput {
   std::vector<detection::FloorEvent> floor_events;  // a bag's rides, by the floor detector
 };
 
-// A CARMEN or .gfs log: its poses are the reference, and (simulate_odometry) the odometry
-// is derived from them with seeded noise; otherwise the log's own, with the poses of
-// `reference_log` (if given) as the reference.
-SlamInput logInput(const std::string& path, bool simulate_odometry,
+// The log's ODOM lines, in file order.
+std::vector<sensor::OdometrySample> readLogOdometry(const std::string& path) {
+  io::CarmenReaderOptions reader_options;
+  reader_options.strict = false;
+  io::CarmenReader reader(path, reader_options);
+  std::vector<sensor::OdometrySample> samples;
+  io::CarmenRecord record;
+  while (reader.next(&record))
+    if (record.kind == io::CarmenRecordKind::kOdometry) samples.push_back(record.odometry);
+  return samples;
+}
+
+// A CARMEN or .gfs log: its poses are the reference, and ("simulated") the odometry is derived
+// from them with seeded noise; otherwise the log's own ("recorded": the pose on each laser
+// line; "stream": its ODOM lines interpolated at each scan's stamp, as the floor_mapper pairs
+// them live), with the poses of `reference_log` (if given) as the reference.
+SlamInput logInput(const std::string& path, const std::string& odometry_source,
                    const mapping::OdometryNoise& noise, const std::string& noise_text,
-                   std::uint64_t seed, const std::string& reference_log, long max_scans) {
+                   std::uint64_t seed, const std::string& reference_log, long max_scans,
+                   const mapping::InputSequencerOptions& sequencing) {
+  const bool simulate_odometry = odometry_source == "simulated";
   SlamInput input;
   input.source = "log: " + path;
   std::vector<io::CarmenLaser> lasers = readLogLasers(path);
@@ -274,6 +289,10 @@ SlamInput logInput(const std::string& path, bool simulate_odometry,
       std::cerr << "storey slam: " << backwards
                 << " stamps repeat or go backwards; made monotone\n";
   } else {
+    if (odometry_source == "stream")
+      throw std::runtime_error(path +
+                               ": the scans' stamps are not increasing, so --odometry stream "
+                               "cannot pair them with the ODOM lines");
     std::cerr << "storey slam: the log's stamps are not increasing; using the scan index as time\n";
     for (std::size_t i = 0; i < scans.size(); ++i) scans[i].stamp = static_cast<double>(i);
   }
@@ -283,9 +302,9 @@ SlamInput logInput(const std::string& path, bool simulate_odometry,
     input.odometry_note = "simulated from the log's poses, noise " + noise_text +
                           " (translation fraction, deg per m, heading fraction), seed " +
                           std::to_string(seed);
-  } else {
+  } else if (odometry_source == "recorded") {
     input.odometry = log_poses;
-    input.odometry_note = "as recorded";
+    input.odometry_note = "as recorded on the laser lines";
   }
   if (!reference_log.empty()) {
     const std::vector<io::CarmenLaser> ref = readLogLasers(reference_log);
@@ -295,6 +314,30 @@ SlamInput logInput(const std::string& path, bool simulate_odometry,
                                std::to_string(scans.size()));
     input.reference.clear();
     for (std::size_t i = 0; i < scans.size(); ++i) input.reference.push_back(ref[i].robotPose());
+  }
+  if (odometry_source == "stream") {
+    const std::vector<sensor::OdometrySample> samples = readLogOdometry(path);
+    if (samples.empty())
+      throw std::runtime_error(path + " has no ODOM lines for --odometry stream");
+    const auto paired = mapping::odometryAtScans(scans, samples, sequencing);
+    // Scans without odometry near them are dropped, with their reference poses.
+    std::vector<sensor::LaserScan> kept_scans;
+    std::vector<Pose2> kept_reference;
+    for (std::size_t i = 0; i < scans.size(); ++i) {
+      if (!paired[i]) continue;
+      kept_scans.push_back(std::move(scans[i]));
+      input.odometry.push_back(*paired[i]);
+      if (!input.reference.empty()) kept_reference.push_back(input.reference[i]);
+    }
+    if (kept_scans.size() < scans.size())
+      std::cerr << "storey slam: " << scans.size() - kept_scans.size()
+                << " scans had no ODOM line within " << sequencing.max_odometry_gap
+                << " s and were dropped\n";
+    if (kept_scans.empty()) throw std::runtime_error(path + ": no scan has an ODOM line near it");
+    scans = std::move(kept_scans);
+    if (!input.reference.empty()) input.reference = std::move(kept_reference);
+    input.odometry_note = "the log's ODOM lines at each scan's stamp (" +
+                          std::to_string(samples.size()) + " samples)";
   }
   return input;
 }
@@ -490,8 +533,10 @@ int run_slam(Args& args) {
              "its own frame; `storey map` aligns them).\n"
              "Logs: with --odometry simulated (the default), odometry is derived from the log's\n"
              "(corrected) poses with seeded noise and the result is compared with those poses by\n"
-             "the relation metric (Kümmerle et al. 2009). With --odometry recorded, the log's\n"
-             "odometry is used; --reference names a log of the same scans whose poses serve as\n"
+             "the relation metric (Kümmerle et al. 2009). With --odometry recorded, the pose on\n"
+             "each laser line is the odometry; with --odometry stream, the log's ODOM lines\n"
+             "interpolated at each scan's stamp (as the floor_mapper pairs them live; csail's\n"
+             ".gfs has both). --reference names a log of the same scans whose poses serve as\n"
              "reference.\n"
              "Bags: one robot's scans with its recorded odometry (interpolated at each scan's\n"
              "stamp); --truth compares with a ground-truth trajectory.csv, --reference with the\n"
@@ -508,7 +553,9 @@ int run_slam(Args& args) {
               "bag: floor detector options, the 'detector' section of this YAML file (e.g. "
               "config/floor_detector.yaml: the building's storey height, floor heights); "
               "default: built-in defaults")
-      .option("odometry", "simulated|recorded", "odometry source (a bag's is recorded)",
+      .option("odometry", "simulated|recorded|stream",
+              "log: odometry simulated from its poses, the pose on each laser line, or its ODOM "
+              "lines at each scan's stamp (as live); a bag's is recorded",
               "simulated")
       .option("odometry-noise", "T,R,F",
               "simulated odometry noise: translation sigma per metre (fraction), heading sigma "
@@ -533,8 +580,9 @@ int run_slam(Args& args) {
   const bool check_reference = !args.flagSet("no-reference-check");
   const std::string out_dir = args.get("output");
   const std::string odometry_source = args.get("odometry");
-  if (odometry_source != "simulated" && odometry_source != "recorded")
-    throw UsageError("--odometry must be simulated or recorded");
+  if (odometry_source != "simulated" && odometry_source != "recorded" &&
+      odometry_source != "stream")
+    throw UsageError("--odometry must be simulated, recorded or stream");
   const auto noise_values = parseList(args.get("odometry-noise"), 3, "odometry-noise");
   mapping::OdometryNoise noise;
   noise.translation_fraction = noise_values[0];
@@ -579,14 +627,16 @@ int run_slam(Args& args) {
     detector_options = detection::loadFloorDetectorOptions(args.get("detector-config"));
   if (from_bag && args.has("odometry") && odometry_source != "recorded")
     throw UsageError(
-        "--odometry simulated needs a log's corrected poses; a bag's odometry is recorded");
+        "--odometry " + odometry_source +
+        " is for logs; a bag's odometry is recorded (interpolated at each scan's stamp)");
   const SlamInput input =
-      from_bag ? bagInput(bag_path, args.has("robot") ? args.get("robot") : "", truth_path,
-                          args.has("reference") ? args.get("reference") : "", max_scans, sequencing,
-                          detector_options)
-               : logInput(log_path, odometry_source == "simulated", noise,
-                          args.get("odometry-noise"), static_cast<std::uint64_t>(seed),
-                          args.has("reference") ? args.get("reference") : "", max_scans);
+      from_bag
+          ? bagInput(bag_path, args.has("robot") ? args.get("robot") : "", truth_path,
+                     args.has("reference") ? args.get("reference") : "", max_scans, sequencing,
+                     detector_options)
+          : logInput(log_path, odometry_source, noise, args.get("odometry-noise"),
+                     static_cast<std::uint64_t>(seed),
+                     args.has("reference") ? args.get("reference") : "", max_scans, sequencing);
   const std::vector<sensor::LaserScan>& scans = input.scans;
   const std::vector<Pose2>& odometry = input.odometry;
   const std::vector<Pose2>& reference = input.reference;

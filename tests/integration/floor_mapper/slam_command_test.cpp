@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -243,35 +244,47 @@ TEST_F(SlamCommand, TakesOneRobotOfSeveralAndDropsScansWithoutOdometry) {
 // A CARMEN log converted into a bag (`storey convert`) keeps its scans' stamps, so the log's
 // poses are the bag's reference: --reference matches them by stamp. Shifted stamps match
 // nothing and are refused naming the log.
+// A 6 m square room with a pillar; the robot drives a circle of radius 1.5 m about its
+// centre, a 180-beam laser forward: 60 FLASER lines 0.2 s apart from t = 10 s, each with the
+// true pose. With `odom_lines`, ODOM lines of the true pose halfway between the scans.
+void writeRoomLog(const std::string& path, bool odom_lines) {
+  std::ofstream file(path);
+  file << std::fixed << std::setprecision(4);
+  auto pose_at = [](double t) {
+    const double phi = 2.0 * M_PI * (t - 10.0) / 12.0;
+    return std::array<double, 3>{1.5 * std::cos(phi), 1.5 * std::sin(phi), phi + M_PI / 2.0};
+  };
+  for (int k = 0; k < 60; ++k) {
+    const double stamp = 10.0 + 0.2 * k;
+    if (odom_lines) {
+      const double t = stamp + 0.1;
+      const auto p = pose_at(t);
+      file << "ODOM " << p[0] << ' ' << p[1] << ' ' << p[2] << " 0.785 0.524 0 " << t << " host "
+           << t << '\n';
+    }
+    const auto [x, y, theta] = pose_at(stamp);
+    file << "FLASER 180";
+    for (int b = 0; b < 180; ++b) {
+      const double a = theta - M_PI / 2.0 + b * M_PI / 180.0;
+      const double dx = std::cos(a), dy = std::sin(a);
+      double range = 1e9;  // nearest of the four walls at +-3 m...
+      if (std::abs(dx) > 1e-9) range = std::min(range, ((dx > 0 ? 3.0 : -3.0) - x) / dx);
+      if (std::abs(dy) > 1e-9) range = std::min(range, ((dy > 0 ? 3.0 : -3.0) - y) / dy);
+      // ...and a pillar of radius 0.3 m at (0.5, 0.2), so the room has no symmetry.
+      const double px = x - 0.5, py = y - 0.2, along = -(px * dx + py * dy);
+      const double miss = px * px + py * py - along * along;
+      if (along > 0.0 && miss < 0.09) range = std::min(range, along - std::sqrt(0.09 - miss));
+      file << ' ' << range;
+    }
+    file << ' ' << x << ' ' << y << ' ' << theta << ' ' << x << ' ' << y << ' ' << theta << ' '
+         << stamp << " host " << stamp << '\n';
+  }
+}
+
 TEST_F(SlamCommand, ABagConvertedFromALogIsComparedWithTheLogsPoses) {
   const std::string dir = storey::test::makeTempDir("slam_cmd");
   const std::string log = dir + "/room.log";
-  {
-    // A 6 m square room with a pillar; the robot drives a circle of radius 1.5 m about its
-    // centre, a 180-beam laser forward.
-    std::ofstream file(log);
-    file << std::fixed << std::setprecision(4);
-    for (int k = 0; k < 60; ++k) {
-      const double phi = 2.0 * M_PI * k / 60.0;
-      const double x = 1.5 * std::cos(phi), y = 1.5 * std::sin(phi), theta = phi + M_PI / 2.0;
-      file << "FLASER 180";
-      for (int b = 0; b < 180; ++b) {
-        const double a = theta - M_PI / 2.0 + b * M_PI / 180.0;
-        const double dx = std::cos(a), dy = std::sin(a);
-        double range = 1e9;  // nearest of the four walls at +-3 m...
-        if (std::abs(dx) > 1e-9) range = std::min(range, ((dx > 0 ? 3.0 : -3.0) - x) / dx);
-        if (std::abs(dy) > 1e-9) range = std::min(range, ((dy > 0 ? 3.0 : -3.0) - y) / dy);
-        // ...and a pillar of radius 0.3 m at (0.5, 0.2), so the room has no symmetry.
-        const double px = x - 0.5, py = y - 0.2, along = -(px * dx + py * dy);
-        const double miss = px * px + py * py - along * along;
-        if (along > 0.0 && miss < 0.09) range = std::min(range, along - std::sqrt(0.09 - miss));
-        file << ' ' << range;
-      }
-      const double stamp = 10.0 + 0.2 * k;
-      file << ' ' << x << ' ' << y << ' ' << theta << ' ' << x << ' ' << y << ' ' << theta << ' '
-           << stamp << " host " << stamp << '\n';
-    }
-  }
+  writeRoomLog(log, false);
   storey::test::CommandResult r =
       storey::test::runCommand(storey + " convert " + log + " " + dir + "/bag");
   ASSERT_EQ(r.status, 0) << r.output;
@@ -298,6 +311,37 @@ TEST_F(SlamCommand, ABagConvertedFromALogIsComparedWithTheLogsPoses) {
                                log);
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("--truth or --reference"), std::string::npos) << r.output;
+}
+
+// A log's ODOM lines, interpolated at each scan's stamp as the floor_mapper pairs them live
+// (--odometry stream), against its laser lines' poses as the reference.
+TEST_F(SlamCommand, PairsALogsScansWithItsOdomLines) {
+  const std::string dir = storey::test::makeTempDir("slam_cmd");
+  const std::string log = dir + "/room.log";
+  writeRoomLog(log, true);
+  storey::test::CommandResult r =
+      storey::test::runCommand(storey + " slam " + log + " --odometry stream --reference " + log +
+                               " --output " + dir + "/slam --quiet");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("odometry: the log's ODOM lines at each scan's stamp (60 samples)"),
+            std::string::npos)
+      << r.output;
+  // Interpolated on a chord of the circle: 1.5 m * (1 - cos 3 deg) inside the arc, at every scan
+  // alike.
+  const double odometry_nearby = translation(r.output, "odometry", "nearby");
+  ASSERT_GE(odometry_nearby, 0.0) << r.output;
+  EXPECT_LT(odometry_nearby, 0.002) << r.output;
+  const double nearby = translation(r.output, "slam", "nearby");
+  ASSERT_GE(nearby, 0.0) << r.output;
+  EXPECT_LT(nearby, 0.01) << r.output;
+
+  const std::string without = dir + "/no_odom.log";
+  writeRoomLog(without, false);
+  r = storey::test::runCommand(storey + " slam " + without + " --odometry stream --output " + dir +
+                               "/slam2");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find(without + " has no ODOM lines for --odometry stream"), std::string::npos)
+      << r.output;
 }
 
 }  // namespace

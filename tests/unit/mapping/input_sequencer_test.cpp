@@ -233,5 +233,34 @@ TEST(InputSequencerOptions, ReadFromTheFloorMappersKeys) {
   }
 }
 
+// A recording's scans paired with its odometry stream, as live: interpolated at each
+// scan's stamp between samples at most max_odometry_gap apart, none where no sample is
+// within max_odometry_gap.
+TEST(InputSequencer, RecordedScansArePairedWithOdometryAtTheirStamps) {
+  std::vector<sensor::LaserScan> scans(4);
+  for (std::size_t i = 0; i < scans.size(); ++i)
+    scans[i].stamp = std::vector<double>{0.5, 1.0, 1.0, 5.0}[i];
+  std::vector<sensor::OdometrySample> odometry(3);
+  for (int i = 0; i < 3; ++i) {
+    odometry[i].stamp = i;
+    odometry[i].pose = geometry::Pose2(2.0 * i, 0.0, 0.1 * i);
+  }
+  InputSequencerOptions options;
+  options.max_odometry_gap = 1.0;  // samples 1 s apart are interpolated between
+  const auto paired = odometryAtScans(scans, odometry, options);
+  ASSERT_EQ(paired.size(), 4u);
+  ASSERT_TRUE(paired[0] && paired[1] && paired[2]);
+  EXPECT_NEAR(paired[0]->x(), 1.0, 1e-12);
+  EXPECT_NEAR(paired[0]->theta(), 0.05, 1e-12);
+  EXPECT_NEAR(paired[1]->x(), 2.0, 1e-12);
+  EXPECT_NEAR(paired[2]->x(), 2.0, 1e-12);
+  EXPECT_FALSE(paired[3]);  // 3 s after the last sample
+  InputSequencerOptions wide_gap;
+  wide_gap.max_odometry_gap = 5.0;
+  const auto held = odometryAtScans(scans, odometry, wide_gap);
+  ASSERT_TRUE(held[3]);
+  EXPECT_NEAR(held[3]->x(), 4.0, 1e-12);  // the last sample, held
+}
+
 }  // namespace
 }  // namespace storey::mapping

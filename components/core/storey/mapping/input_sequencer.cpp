@@ -166,4 +166,30 @@ void InputSequencer::trimOdometry() {
   while (odometry_.size() > 2 && odometry_.front().stamp < keep_from) odometry_.pop_front();
 }
 
+std::vector<std::optional<geometry::Pose2>> odometryAtScans(
+    const std::vector<sensor::LaserScan>& scans,
+    const std::vector<sensor::OdometrySample>& odometry, InputSequencerOptions options) {
+  std::vector<std::optional<geometry::Pose2>> paired(scans.size());
+  std::size_t next = 0;  // the first scan not yet passed on or dropped
+  options.wait_for_floor_detector = false;
+  InputSequencer sequencer(
+      options,
+      [&](const sensor::LaserScan& scan, const geometry::Pose2& pose) {
+        // Scans come out in input order; those dropped before this one have earlier stamps.
+        while (next < scans.size() && scans[next].stamp < scan.stamp) ++next;
+        if (next < scans.size()) paired[next++] = pose;
+      },
+      [](const detection::FloorEvent&) {}, "odometryAtScans");
+  // Fed merged by stamp, as they would arrive live (odometry first at equal stamps).
+  std::size_t o = 0;
+  for (const auto& scan : scans) {
+    while (o < odometry.size() && odometry[o].stamp <= scan.stamp)
+      sequencer.addOdometry(odometry[o++]);
+    sequencer.addScan(scan);
+  }
+  while (o < odometry.size()) sequencer.addOdometry(odometry[o++]);
+  sequencer.flush();
+  return paired;
+}
+
 }  // namespace storey::mapping

@@ -14,7 +14,9 @@
 #include <cstddef>
 #include <deque>
 #include <functional>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "storey/common/config.h"
 #include "storey/detection/floor_detector.h"
@@ -94,5 +96,12 @@ class InputSequencer {
   bool paused_ = false;
   InputSequencerStats stats_;
 };
+
+// Recorded scans paired with odometry as the InputSequencer pairs them live: interpolated
+// at each scan's stamp (options.max_odometry_gap). Both in stamp order. Empty for a scan with
+// no sample near enough (the sequencer drops those).
+std::vector<std::optional<geometry::Pose2>> odometryAtScans(
+    const std::vector<sensor::LaserScan>& scans,
+    const std::vector<sensor::OdometrySample>& odometry, InputSequencerOptions options = {});
 
 }  // namespace storey::mapping
