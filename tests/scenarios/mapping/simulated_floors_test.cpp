@@ -144,6 +144,33 @@ TEST(SimulatedFloors, Tower10FloorGraphsKeepTheirScale) {
   EXPECT_GT(sum_scan_nees / floors, 0.3) << "the scan-match covariance is still far too wide for this laser";
 }
 
+// small2's robot with odometry that stalls for 2 s every 8 s on average (sim OdometryOptions).
+// A stall during a turn in place leaves the scans in it skipped (odometry says the robot
+// stood still), then catches up by 2.3 rad in one step: a jump. Searched around the last pose
+// (0.8 rad), it matched a wrong place and floor 0 broke; tried first as the motion it says
+// (with wide_search_on_failure), it is found.
+TEST(SimulatedFloors, OdometryThatStallsDuringATurnIsCaughtUp) {
+  sim::Scenario scenario = sim::loadScenario(test::sourceDir() + "/config/buildings/small2.yaml");
+  scenario.robots.at(0).model.odometry.stall_interval = 8.0;
+  scenario.robots.at(0).model.odometry.stall_duration = 2.0;
+  const sim::Simulation run = sim::simulate(scenario, 1);
+  EXPECT_GT(run.robots.at(0).odometry_stalls, 10u);
+  FloorSlamOptions options = mapperOptionsFor(scenario);
+  ASSERT_TRUE(options.wide_search_on_failure);
+  auto worst = [&](const FloorSlamOptions& o, const char* label) {
+    double worst_residual = 0.0;
+    for (const FloorResult& f : mapFloors(run, o)) {
+      std::printf("%s F%d: %zu nodes, rigid residual %.3f m\n", label, f.floor, f.nodes,
+                  f.rms_residual);
+      worst_residual = std::max(worst_residual, f.rms_residual);
+    }
+    return worst_residual;
+  };
+  EXPECT_LT(worst(options, "stalls, wide search"), 0.05);
+  options.wide_search_on_failure = false;
+  EXPECT_GT(worst(options, "stalls, no wide search"), 1.0);
+}
+
 TEST(SimulatedFloors, FeaturelessCorridorKeepsItsLength) {
   // Floor B's 127 m corridor has nothing along its axis but its ends and a lobby: the
   // matches must leave that axis to the odometry. Before normal_tilt_stddev, noisy

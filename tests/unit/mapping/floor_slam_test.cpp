@@ -453,6 +453,41 @@ TEST(FloorSlam, AScanOdometryTurnedTooLittleIsFoundInTheWideWindow) {
   }
 }
 
+// Odometry that stalls while the robot turns in place: the scans in the stall are skipped
+// (odometry says it stood still), then odometry catches up by 1.8 rad in one step, more than
+// max_odometry_rotation_step: a jump. Searched around the last pose (jump_angular_window
+// 0.8 rad) it cannot be found; with wide_search_on_failure the jump is first tried as the
+// motion it says.
+TEST(FloorSlam, AJumpIsFirstTriedAsTheMotionItSays) {
+  const test::World world = test::officeWorld();
+  auto run = [&](bool wide) {
+    FloorSlamOptions options;
+    options.wide_search_on_failure = wide;
+    FloorSlam slam(options, "robot", 0, 0, 0.0);
+    driveOfficeStart(slam, world);
+    const Pose2 last(3.5, 1.2, 0.25);
+    for (int k = 1; k <= 3; ++k)  // turning, odometry stalled at the last pose
+      EXPECT_EQ(slam.addScan(world.scan(Pose2(3.5, 1.2, 0.25 + 0.5 * k), 6 + k), last).status,
+                ScanStatus::kSkipped);
+    const Pose2 turned(3.5, 1.2, 0.25 + 1.8);
+    const ScanResult r = slam.addScan(world.scan(turned, 10.0), turned);
+    EXPECT_EQ(slam.stats().odometry_jumps, 1u);
+    return std::make_pair(r, slam.stats());
+  };
+  const Pose2 start(2, 1.2, 0);
+  const double truth_heading = start.between(Pose2(3.5, 1.2, 2.05)).theta();
+  const auto [off, off_stats] = run(false);
+  EXPECT_FALSE(off.status == ScanStatus::kNode &&
+               std::abs(geometry::angleDiff(off.pose.theta(), truth_heading)) < 0.05);
+  const auto [on, on_stats] = run(true);
+  ASSERT_EQ(on.status, ScanStatus::kNode) << on.reason;
+  EXPECT_TRUE(on.matched);
+  EXPECT_EQ(on_stats.caught_up_matches, 1u);
+  EXPECT_LT(std::abs(geometry::angleDiff(on.pose.theta(), truth_heading)), 0.02);
+  EXPECT_LT((on.pose.translation() - start.between(Pose2(3.5, 1.2, 2.05)).translation()).norm(),
+            0.05);
+}
+
 TEST_F(FloorSlamBadInput, DifferentBeamCountIsMatched) {
   const Pose2 truth(3.8, 1.2, 0.3);
   const ScanResult r = slam_.addScan(world_.scan(truth, 10.0, 181), truth);

@@ -203,6 +203,51 @@ TEST_F(Small2, OdometryDriftsButStaysNearTruth) {
   EXPECT_LT(error, 10.0);
 }
 
+// Odometry that stalls now and then: while it does, the published pose repeats the last one;
+// after, it is the pose it would have been, and every other stream is unchanged.
+TEST_F(Small2, OdometryStallsHoldThePoseThenCatchUp) {
+  Scenario stalling = *scenario_;
+  stalling.robots[0].model.odometry.stall_interval = 10.0;
+  stalling.robots[0].model.odometry.stall_duration = 0.5;
+  const Simulation run = simulate(stalling, 42);
+  const RobotRun& with = run.robots[0];
+  const RobotRun& without = run_->robots[0];
+  EXPECT_EQ(without.odometry_stalls, 0u);
+  const double duration = with.odometry.back().stamp - with.odometry.front().stamp;
+  EXPECT_GT(with.odometry_stalls, duration / 10.0 / 2.0);
+  EXPECT_LT(with.odometry_stalls, duration / 10.0 * 2.0);
+  ASSERT_EQ(with.odometry.size(), without.odometry.size());
+  std::size_t held = 0, caught_up_moving = 0;
+  for (std::size_t i = 1; i < with.odometry.size(); ++i) {
+    const auto& a = with.odometry[i];
+    const auto& b = without.odometry[i];
+    EXPECT_EQ(a.stamp, b.stamp);
+    const bool same =
+        a.pose.x() == b.pose.x() && a.pose.y() == b.pose.y() && a.pose.theta() == b.pose.theta();
+    if (same) continue;
+    // Not the undisturbed pose: then it repeats the one before.
+    const auto& previous = with.odometry[i - 1];
+    EXPECT_TRUE(a.pose.x() == previous.pose.x() && a.pose.y() == previous.pose.y() &&
+                a.pose.theta() == previous.pose.theta())
+        << "sample " << i;
+    ++held;
+    if (i + 1 < with.odometry.size() &&
+        with.odometry[i + 1].pose.x() == without.odometry[i + 1].pose.x() &&
+        (b.pose.translation() - a.pose.translation()).norm() > 0.05)
+      ++caught_up_moving;
+  }
+  // 20 Hz: a 0.5 s stall holds 10 samples (fewer where the robot stood still anyway).
+  EXPECT_LE(held, with.odometry_stalls * 10);
+  EXPECT_GT(held, with.odometry_stalls * 3);
+  EXPECT_GT(caught_up_moving, 0u);  // some stalls happened while it drove
+  // The other streams do not see the stalls.
+  Simulation others = run;
+  Simulation reference = *run_;
+  others.robots[0].odometry.clear();
+  reference.robots[0].odometry.clear();
+  EXPECT_TRUE(serialize(others) == serialize(reference));
+}
+
 TEST_F(Small2, TheLaserSeesOnlyTheCabinDuringTheRide) {
   const RobotRun& robot = run_->robots[0];
   const Transit& up = robot.transits[0];

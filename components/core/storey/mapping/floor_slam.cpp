@@ -479,6 +479,13 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
       ++stats_.odometry_jumps;
       common::logWarn(str("floor_slam: odometry jumped by (", step.x(), ", ", step.y(), ", ", step.theta(),
                           ") before the scan at ", scan.stamp, "; searching a wider window"));
+      // Odometry that stalled while the robot turned catches up in one step: first try that
+      // step as the motion it says (the scans in the stall were skipped, none moved enough).
+      if (options_.wide_search_on_failure && !s.catch_up_anchor) {
+        s.catch_up_anchor = true;
+        s.anchor_pose = s.ref_pose;
+        s.anchor_odometry = s.ref_odometry;
+      }
       s.ref_pose = last_pose_;
       s.ref_odometry = odometry;
       s.jump_since_node = true;

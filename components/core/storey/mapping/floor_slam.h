@@ -184,8 +184,10 @@ struct FloorSlamOptions {
   // A scan that neither the local map nor the last nodes' map match in the tracking window
   // is searched again in this wider window around the prediction. Found there, outside the
   // window the odometry step promised, that step is wrong (stale odometry that catches up
-  // later, a wheel slipping): it is not trusted, as after a jump. false: such a scan is
-  // placed by odometry.
+  // later, a wheel slipping): it is not trusted, as after a jump. The next scan is first
+  // tried where the odometry's step from the node before puts it (stale odometry that caught
+  // up), and so is a scan after an odometry jump (a stall during a turn, caught up in one
+  // step). false: such a scan is placed by odometry, and a jump searched around the last pose.
   bool wide_search_on_failure = true;
   double wide_search_linear_window = 1.5;        // m
   double wide_search_angular_window = M_PI / 2;  // rad: a corridor turned half round fits as well
@@ -293,7 +295,8 @@ struct FloorSlamStats {
   std::size_t matches_against_odometry = 0;  // matches refused by max_tracking_chi2
   std::size_t retry_matches = 0;             // scans matched by the retry on the last nodes' map
   std::size_t wide_matches = 0;  // scans matched only in the wide window (odometry not trusted)
-  std::size_t caught_up_matches = 0;    // scans after a wide match, where stale odometry caught up
+  std::size_t caught_up_matches =
+      0;  // found where stale odometry caught up (after a wide match or a jump)
   std::size_t wide_matches_unsure = 0;  // wide matches not used: their covariance too wide
   std::size_t successor_matches = 0;         // edges from matching a node against its successors
   std::size_t loop_attempts = 0, loop_closures = 0, loop_rejected_inconsistent = 0;

@@ -126,6 +126,8 @@ RobotModel readRobotModel(const common::ConfigNode& node) {
     o.rotation_sigma = n.getDouble("rotation_sigma", 0.0, 1.0);
     o.rotation_per_metre_sigma = n.getDouble("rotation_per_metre_sigma", 0.0, 1.0);
     o.elevator_heading_sigma = n.getDouble("elevator_heading_sigma_deg", 0.0, 0.0, 45.0) * kDegree;
+    o.stall_interval = n.getDouble("stall_interval", 0.0, 0.0, 1e6);
+    o.stall_duration = n.getDouble("stall_duration", o.stall_duration, 0.0, 60.0);
     n.finish();
   }
   {

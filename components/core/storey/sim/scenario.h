@@ -31,6 +31,11 @@ struct OdometryOptions {
   double rotation_sigma = 0.02;            // rad per sqrt(rad) turned
   double rotation_per_metre_sigma = 0.01;  // rad per sqrt(m) driven
   double elevator_heading_sigma = 0.0;     // extra heading error per elevator ride, rad
+  // Stalls: now and then the published pose holds still for stall_duration while the robot
+  // moves, then catches up at once (a driver or bus that lags). Starts are exponentially
+  // distributed with this mean; 0: none.
+  double stall_interval = 0.0;  // s
+  double stall_duration = 0.5;  // s
 };
 
 struct BarometerOptions {

@@ -16,7 +16,15 @@ constexpr double kGravity = 9.80665;
 
 // Independent random streams per robot and sensor, so adding a sensor or a robot does not
 // change the others' noise.
-enum Stream : std::uint64_t { kLaserStream = 1, kOdometryStream, kPressureStream, kImuStream };
+// kOdometryStallStream is its own, so that stalls leave every other draw (and the poses
+// odometry catches up to) as they were.
+enum Stream : std::uint64_t {
+  kLaserStream = 1,
+  kOdometryStream,
+  kPressureStream,
+  kImuStream,
+  kOdometryStallStream
+};
 constexpr std::uint64_t kWeatherStream = 0xA7;
 
 std::uint64_t streamSeed(std::uint64_t seed, std::size_t robot, Stream stream) {
@@ -122,6 +130,13 @@ RobotRun simulateRobot(const Scenario& scenario, std::size_t index, std::uint64_
     std::size_t next_ride = 0;
     geometry::Pose2 estimate;
     geometry::Pose2 previous = trajectory.at(start).pose;
+    Rng stalls(streamSeed(seed, index, kOdometryStallStream));
+    auto nextStall = [&](double after) {
+      return o.stall_interval > 0.0 ? after - o.stall_interval * std::log(1.0 - stalls.uniform())
+                                    : std::numeric_limits<double>::infinity();
+    };
+    double stall_start = nextStall(start), stall_end = -std::numeric_limits<double>::infinity();
+    sensor::OdometrySample held;  // the sample a stall repeats
     for (double t : sampleTimes(start, end, o.rate)) {
       const MotionState state = trajectory.at(t);
       const geometry::Pose2 delta = previous.between(state.pose);
@@ -150,6 +165,17 @@ RobotRun simulateRobot(const Scenario& scenario, std::size_t index, std::uint64_
       sample.pose = estimate;
       sample.linear_velocity = state.v;  // velocities are reported without noise
       sample.angular_velocity = state.omega;
+      if (t >= stall_start && !run.odometry.empty()) {
+        stall_end = stall_start + o.stall_duration;
+        stall_start = nextStall(stall_end);
+        held = run.odometry.back();
+        ++run.odometry_stalls;
+      }
+      if (t < stall_end) {
+        const double stamp = sample.stamp;
+        sample = held;
+        sample.stamp = stamp;
+      }
       run.odometry.push_back(sample);
       previous = state.pose;
     }

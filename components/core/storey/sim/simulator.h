@@ -35,6 +35,7 @@ struct RobotRun {
   std::vector<TruthSample> truth;  // one per scan, same stamps
   std::vector<Transit> transits;
   Trajectory trajectory;
+  std::size_t odometry_stalls = 0;  // times the odometry held still (OdometryOptions)
 };
 
 struct Simulation {
