@@ -225,12 +225,14 @@ std::vector<Pose2> truthAtScans(std::vector<eval::PoseRow> rows, const std::stri
   return poses;
 }
 
-// A log's laser readings, read leniently: shared logs carry odd lines that are skipped.
-std::vector<io::CarmenLaser> readLogLasers(const std::string& path) {
+// A log's laser readings and ODOM lines, read leniently: shared logs carry odd lines that are
+// skipped.
+io::CarmenLog readLog(const std::string& path) {
   io::CarmenReaderOptions reader_options;
   reader_options.strict = false;
-  return io::readCarmenLasers(path, reader_options);
+  return io::readCarmenLog(path, reader_options);
 }
+std::vector<io::CarmenLaser> readLogLasers(const std::string& path) { return readLog(path).lasers; }
 
 // What the front end runs on: scans with their odometry, and reference poses when known.
 struct SlamInput {
@@ -243,18 +245,6 @@ struct SlamInput {
   std::vector<detection::FloorEvent> floor_events;  // a bag's rides, by the floor detector
 };
 
-// The log's ODOM lines, in file order.
-std::vector<sensor::OdometrySample> readLogOdometry(const std::string& path) {
-  io::CarmenReaderOptions reader_options;
-  reader_options.strict = false;
-  io::CarmenReader reader(path, reader_options);
-  std::vector<sensor::OdometrySample> samples;
-  io::CarmenRecord record;
-  while (reader.next(&record))
-    if (record.kind == io::CarmenRecordKind::kOdometry) samples.push_back(record.odometry);
-  return samples;
-}
-
 // A CARMEN or .gfs log: its poses are the reference, and ("simulated") the odometry is derived
 // from them with seeded noise; otherwise the log's own ("recorded": the pose on each laser
 // line; "stream": its ODOM lines interpolated at each scan's stamp, as the floor_mapper pairs
@@ -266,7 +256,8 @@ SlamInput logInput(const std::string& path, const std::string& odometry_source,
   const bool simulate_odometry = odometry_source == "simulated";
   SlamInput input;
   input.source = "log: " + path;
-  std::vector<io::CarmenLaser> lasers = readLogLasers(path);
+  io::CarmenLog log = readLog(path);
+  std::vector<io::CarmenLaser>& lasers = log.lasers;
   if (max_scans > 0 && lasers.size() > static_cast<std::size_t>(max_scans))
     lasers.resize(max_scans);
   if (lasers.empty()) throw std::runtime_error(path + " holds no laser readings with poses");
@@ -316,7 +307,7 @@ SlamInput logInput(const std::string& path, const std::string& odometry_source,
     for (std::size_t i = 0; i < scans.size(); ++i) input.reference.push_back(ref[i].robotPose());
   }
   if (odometry_source == "stream") {
-    const std::vector<sensor::OdometrySample> samples = readLogOdometry(path);
+    const std::vector<sensor::OdometrySample>& samples = log.odometry;
     if (samples.empty())
       throw std::runtime_error(path + " has no ODOM lines for --odometry stream");
     const auto paired = mapping::odometryAtScans(scans, samples, sequencing);

@@ -199,14 +199,10 @@ TEST(RealLogs, CsailOdometryStreamThatStallsDoesNotBreakTheMap) {
   const LogData reference_log = readLog(reference_path);
   io::CarmenReaderOptions reader_options;
   reader_options.strict = false;
-  io::CarmenReader reader(gfs_path, reader_options);
-  io::CarmenRecord record;
+  const io::CarmenLog gfs = io::readCarmenLog(gfs_path, reader_options);
   std::vector<sensor::LaserScan> scans;
-  std::vector<sensor::OdometrySample> samples;
-  while (reader.next(&record)) {
-    if (record.kind == io::CarmenRecordKind::kOdometry) samples.push_back(record.odometry);
-    if (record.kind == io::CarmenRecordKind::kLaser) scans.push_back(record.laser.scan);
-  }
+  for (const auto& l : gfs.lasers) scans.push_back(l.scan);
+  const std::vector<sensor::OdometrySample>& samples = gfs.odometry;
   ASSERT_EQ(scans.size(), 406u);
   EXPECT_GT(samples.size(), 1900u);
   const auto paired = odometryAtScans(scans, samples);

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <memory>
 
 #include "storey/mapping/evaluation.h"
 #include "storey/mapping/floor_sessions.h"
@@ -326,6 +327,14 @@ void driveOfficeStart(FloorSlam& slam, const test::World& world) {
   }
 }
 
+// A front end with `options` that has driven that start.
+std::unique_ptr<FloorSlam> officeSlamAfterStart(const FloorSlamOptions& options,
+                                                const test::World& world) {
+  auto slam = std::make_unique<FloorSlam>(options, "robot", 0, 0, 0.0);
+  driveOfficeStart(*slam, world);
+  return slam;
+}
+
 class FloorSlamBadInput : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -408,16 +417,15 @@ TEST(FloorSlam, AScanOdometryTurnedTooLittleIsFoundInTheWideWindow) {
   auto run = [&](bool wide, bool catches_up) {
     FloorSlamOptions options;
     options.wide_search_on_failure = wide;
-    FloorSlam slam(options, "robot", 0, 0, 0.0);
-    driveOfficeStart(slam, world);
+    const auto slam = officeSlamAfterStart(options, world);
     Outcome o;
-    o.stale = slam.addScan(world.scan(stale_truth, 10.0), stale_odometry);
+    o.stale = slam->addScan(world.scan(stale_truth, 10.0), stale_odometry);
     // Caught up: odometry is the truth again. Slipped: it moves on from where it stalled.
     const Pose2 next_odometry =
         catches_up ? next_truth : stale_odometry * stale_truth.between(next_truth);
-    o.next = slam.addScan(world.scan(next_truth, 11.0), next_odometry);
-    o.stats = slam.stats();
-    for (const auto& e : slam.floorGraph().edges) {
+    o.next = slam->addScan(world.scan(next_truth, 11.0), next_odometry);
+    o.stats = slam->stats();
+    for (const auto& e : slam->floorGraph().edges) {
       if (e.kind != floor::EdgeKind::kOdometry) continue;
       o.odometry_edge_into_stale |= e.to == o.stale.node_id;
       o.odometry_edge_into_next |= e.to == o.next.node_id;
@@ -463,16 +471,15 @@ TEST(FloorSlam, AJumpIsFirstTriedAsTheMotionItSays) {
   auto run = [&](bool wide) {
     FloorSlamOptions options;
     options.wide_search_on_failure = wide;
-    FloorSlam slam(options, "robot", 0, 0, 0.0);
-    driveOfficeStart(slam, world);
+    const auto slam = officeSlamAfterStart(options, world);
     const Pose2 last(3.5, 1.2, 0.25);
     for (int k = 1; k <= 3; ++k)  // turning, odometry stalled at the last pose
-      EXPECT_EQ(slam.addScan(world.scan(Pose2(3.5, 1.2, 0.25 + 0.5 * k), 6 + k), last).status,
+      EXPECT_EQ(slam->addScan(world.scan(Pose2(3.5, 1.2, 0.25 + 0.5 * k), 6 + k), last).status,
                 ScanStatus::kSkipped);
     const Pose2 turned(3.5, 1.2, 0.25 + 1.8);
-    const ScanResult r = slam.addScan(world.scan(turned, 10.0), turned);
-    EXPECT_EQ(slam.stats().odometry_jumps, 1u);
-    return std::make_pair(r, slam.stats());
+    const ScanResult r = slam->addScan(world.scan(turned, 10.0), turned);
+    EXPECT_EQ(slam->stats().odometry_jumps, 1u);
+    return std::make_pair(r, slam->stats());
   };
   const Pose2 start(2, 1.2, 0);
   const double truth_heading = start.between(Pose2(3.5, 1.2, 2.05)).theta();
@@ -505,14 +512,14 @@ TEST(FloorSlam, AMatchThatDisagreesWithOdometryIsNotUsedWhenGated) {
   auto run = [&](double max_chi2) {
     FloorSlamOptions options;
     options.max_tracking_chi2 = max_chi2;
-    FloorSlam slam(options, "robot", 0, 0, 0.0);
-    driveOfficeStart(slam, world);
+    const auto slam = officeSlamAfterStart(options, world);
     const Pose2 claimed(3.8, 1.2, 0.3), truth(3.8, 1.4, 0.3);
     // Where the odometry step puts the new node: from the last node, as the graph has it.
-    const Pose2 predicted = slam.floorGraph().nodes.back().pose * Pose2(3.5, 1.2, 0.25).between(claimed);
-    const ScanResult r = slam.addScan(world.scan(truth, 10.0), claimed);
+    const Pose2 predicted =
+        slam->floorGraph().nodes.back().pose * Pose2(3.5, 1.2, 0.25).between(claimed);
+    const ScanResult r = slam->addScan(world.scan(truth, 10.0), claimed);
     EXPECT_EQ(r.status, ScanStatus::kNode) << r.reason;
-    return std::make_tuple(r, slam.stats(), slam.floorGraph().edges.back().kind, predicted);
+    return std::make_tuple(r, slam->stats(), slam->floorGraph().edges.back().kind, predicted);
   };
   const Pose2 start(2, 1.2, 0);
   const auto [used, used_stats, used_edge, unused] = run(0.0);

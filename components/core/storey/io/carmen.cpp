@@ -491,15 +491,22 @@ bool CarmenReader::next(CarmenRecord* record) {
   return false;
 }
 
+CarmenLog readCarmenLog(const std::string& path, const CarmenReaderOptions& options) {
+  CarmenReader reader(path, options);
+  CarmenLog log;
+  CarmenRecord record;
+  while (reader.next(&record)) {
+    if (record.kind == CarmenRecordKind::kLaser && record.laser.has_pose)
+      log.lasers.push_back(record.laser);
+    else if (record.kind == CarmenRecordKind::kOdometry)
+      log.odometry.push_back(record.odometry);
+  }
+  return log;
+}
+
 std::vector<CarmenLaser> readCarmenLasers(const std::string& path,
                                           const CarmenReaderOptions& options) {
-  CarmenReader reader(path, options);
-  std::vector<CarmenLaser> lasers;
-  CarmenRecord record;
-  while (reader.next(&record))
-    if (record.kind == CarmenRecordKind::kLaser && record.laser.has_pose)
-      lasers.push_back(record.laser);
-  return lasers;
+  return readCarmenLog(path, options).lasers;
 }
 
 // ---------------------------------------------------------------------------------------

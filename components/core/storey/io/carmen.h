@@ -150,8 +150,14 @@ class CarmenReader {
   std::map<std::string, double> last_stamp_;
 };
 
-// Reads every laser record of a log that has a pose (FLASER, RLASER, ROBOTLASER,
-// LASER_READING), in file order. Convenience for small logs and tests.
+// Every laser record of a log that has a pose (FLASER, RLASER, ROBOTLASER, LASER_READING)
+// and every ODOM line, each in file order. Convenience for small logs and tests.
+struct CarmenLog {
+  std::vector<CarmenLaser> lasers;
+  std::vector<sensor::OdometrySample> odometry;
+};
+CarmenLog readCarmenLog(const std::string& path, const CarmenReaderOptions& options = {});
+// Its lasers alone.
 std::vector<CarmenLaser> readCarmenLasers(const std::string& path,
                                           const CarmenReaderOptions& options = {});
 

@@ -52,6 +52,12 @@ graph::OptimizerOptions withoutRobustKernels(graph::OptimizerOptions options) {
 // match's information is below `ratio` times the odometry step's replaced by the two
 // fused by their information (at the match's heading).
 //
+// Standard deviation along the least certain horizontal axis of a pose covariance (m).
+double largestTranslationStddev(const Eigen::Matrix3d& covariance) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(covariance.topLeftCorner<2, 2>());
+  return std::sqrt(std::max(0.0, eig.eigenvalues().maxCoeff()));
+}
+
 // Degeneracy: in a bare corridor the match knows less along the axis than odometry does,
 // and its correlative result there lags at the local map's frontier (the ring of
 // FloorSlam.LoopClosureCorrectsDrift stood still for 15 m). Elsewhere, and in heading, the
@@ -568,12 +574,8 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     // Only a match that knows where it is: along a corridor the wide window holds look-alike
     // places, and a match there is as unsure as the window (synthetic corridor: 0.26 m, 0.24 rad;
     // csail's right ones 0.04 m, 0.04 rad at most).
-    const Eigen::Matrix2d translation_cov = wide.covariance.topLeftCorner<2, 2>();
     const bool certain =
-        std::sqrt(std::max(
-            0.0,
-            Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(translation_cov).eigenvalues()(1))) <=
-            options_.wide_search_max_translation_stddev &&
+        largestTranslationStddev(wide.covariance) <= options_.wide_search_max_translation_stddev &&
         std::sqrt(std::max(0.0, wide.covariance(2, 2))) <= options_.wide_search_max_rotation_stddev;
     if (wide.success && !certain) ++stats_.wide_matches_unsure;
     if (wide.success && certain) {
@@ -751,8 +753,7 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   if (n <= static_cast<std::size_t>(o.min_node_gap)) return false;
   const floor::FloorNode& current = floor_graph_.nodes.back();
   // Search radius from the current pose's uncertainty.
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(covariance_.topLeftCorner<2, 2>());
-  const double sigma_xy = std::sqrt(std::max(0.0, eig.eigenvalues().maxCoeff()));
+  const double sigma_xy = largestTranslationStddev(covariance_);
   const double sigma_theta = std::sqrt(std::max(0.0, covariance_(2, 2)));
   const double radius = std::min(o.max_search_radius, o.search_radius + o.sigma_factor * sigma_xy);
   const std::size_t last_candidate = n - 1 - o.min_node_gap;

@@ -295,8 +295,8 @@ struct FloorSlamStats {
   std::size_t matches_against_odometry = 0;  // matches refused by max_tracking_chi2
   std::size_t retry_matches = 0;             // scans matched by the retry on the last nodes' map
   std::size_t wide_matches = 0;  // scans matched only in the wide window (odometry not trusted)
-  std::size_t caught_up_matches =
-      0;  // found where stale odometry caught up (after a wide match or a jump)
+  // Scans found where stale odometry caught up (after a wide match or a jump).
+  std::size_t caught_up_matches = 0;
   std::size_t wide_matches_unsure = 0;  // wide matches not used: their covariance too wide
   std::size_t successor_matches = 0;         // edges from matching a node against its successors
   std::size_t loop_attempts = 0, loop_closures = 0, loop_rejected_inconsistent = 0;
