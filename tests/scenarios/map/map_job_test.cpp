@@ -4,13 +4,23 @@
 
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <thread>
 
+#include "sensor_msgs/msg/LaserScan.h"
+#include "sensor_msgs/msg/LaserScanPubSubTypes.h"
 #include "storey/common/config.h"
+#include "storey/runtime/context.h"
+#include "storey/runtime/subscription.h"
 #include "storey/eval/trajectory.h"
 #include "storey/sim/ground_truth.h"
 #include "storey/sim/scenario.h"
@@ -78,6 +88,48 @@ TEST(MapJob, SameSeedGivesTheSameBuilding) {
   runMapJob(bundled(212, b));
   EXPECT_EQ(readFile(a + "/building.yaml"), readFile(b + "/building.yaml"));
   EXPECT_EQ(readFile(a + "/trajectory.csv"), readFile(b + "/trajectory.csv"));
+}
+
+// An offline job beside a live replay on the same DDS domain: the replay publishes another
+// recording under the same robot name (small2, seed 2) for the whole job, and a listener
+// on the domain checks that it does. The job must write byte for byte the building it
+// writes alone.
+TEST(MapJob, AReplayOnTheSameDomainDoesNotChangeTheBuilding) {
+  constexpr int kDomain = 225;
+  const std::string dir = test::makeTempDir("storey_map_beside_replay");
+  writeSimulationBag(sim::simulate(sim::loadScenario(defaultBuilding(defaultConfigDir())), 2), dir + "/other_bag");
+  runMapJob(bundled(kDomain, dir + "/alone"));
+
+  const pid_t replay = fork();
+  ASSERT_GE(replay, 0);
+  if (replay == 0) {
+    const std::string domain = std::to_string(kDomain), bag = dir + "/other_bag";
+    execl(STOREY_EXECUTABLE, STOREY_EXECUTABLE, "replay", bag.c_str(), "--domain", domain.c_str(), "--rate", "5",
+          "--wait", "0", "--quiet", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  struct Stop {
+    pid_t pid;
+    ~Stop() {
+      kill(pid, SIGKILL);
+      waitpid(pid, nullptr, 0);
+    }
+  } stop{replay};
+  runtime::ContextOptions listener_options;
+  listener_options.domain_id = kDomain;
+  runtime::Context listener(listener_options);
+  std::atomic<int> scans{0};
+  runtime::Subscription<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType> sub(
+      listener, "robot1/scan", runtime::TopicKind::kSensor, [&](const auto&) { ++scans; });
+  for (int i = 0; i < 2000 && scans == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_GT(scans, 0) << "the replay publishes nothing";
+  runMapJob(bundled(kDomain, dir + "/beside"));
+  const int during = scans;
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  ASSERT_GT(scans, during) << "the replay ended before the job";
+
+  for (const char* file : {"building.yaml", "trajectory.csv", "graph.g2o", "floor_0.pgm", "floor_1.pgm"})
+    EXPECT_TRUE(readFile(dir + "/alone/" + file) == readFile(dir + "/beside/" + file)) << file << " differs";
 }
 
 TEST(MapJob, BadInputsAreReportedClearly) {

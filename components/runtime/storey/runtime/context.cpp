@@ -1,6 +1,11 @@
 #include "storey/runtime/context.h"
 
+#include <unistd.h>
+
+#include <atomic>
 #include <cstdlib>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
 #include <fstream>
 #include <set>
 
@@ -34,10 +39,42 @@ void loadQosProfiles(const std::string& path) {
   loaded.insert(path);
 }
 
+// See ContextOptions::isolated. Fast DDS adds the domain's multicast locators only when
+// no metatraffic locator is given, and announces to its multicast locators when no
+// initial peer is given: one unicast locator on 127.0.0.1 leaves nothing to announce to.
+void isolate(fdds::DomainParticipantQos& qos) {
+  namespace rtps = eprosima::fastrtps::rtps;
+  qos.transport().use_builtin_transports = false;
+  qos.transport().user_transports.clear();
+  auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+  udp->interfaceWhiteList = {"127.0.0.1"};
+  qos.transport().user_transports.push_back(udp);
+  rtps::Locator_t loopback;
+  loopback.kind = LOCATOR_KIND_UDPv4;
+  rtps::IPLocator::setIPv4(loopback, 127, 0, 0, 1);
+  auto& builtin = qos.wire_protocol().builtin;
+  builtin.metatrafficUnicastLocatorList.clear();
+  builtin.metatrafficUnicastLocatorList.push_back(loopback);
+  builtin.metatrafficMulticastLocatorList.clear();
+  builtin.initialPeersList.clear();
+  qos.wire_protocol().default_unicast_locator_list.clear();
+  qos.wire_protocol().default_unicast_locator_list.push_back(loopback);
+  qos.wire_protocol().default_multicast_locator_list.clear();
+  builtin.discovery_config.ignoreParticipantFlags = static_cast<rtps::ParticipantFilteringFlags_t>(
+      rtps::ParticipantFilteringFlags_t::FILTER_DIFFERENT_HOST | rtps::ParticipantFilteringFlags_t::FILTER_DIFFERENT_PROCESS |
+      rtps::ParticipantFilteringFlags_t::FILTER_SAME_PROCESS);
+}
+
+// A partition no other participant uses: a second guard should one be matched anyway.
+std::string isolatedPartition() {
+  static std::atomic<unsigned> next{0};
+  return "storey_isolated_" + std::to_string(::getpid()) + "_" + std::to_string(next++);
+}
+
 // Explicit options win; else STOREY_SECURITY_DIR names a security folder in which this
 // participant (by name) has its identity, so a whole `storey launch` can be secured.
 SecurityOptions resolveSecurity(const ContextOptions& options) {
-  if (options.security.enabled()) return options.security;
+  if (options.security.enabled() || options.isolated) return options.security;
   const char* dir = std::getenv("STOREY_SECURITY_DIR");
   if (!dir || !*dir) return {};
   try {
@@ -100,6 +137,8 @@ Context::Context(const ContextOptions& options) {
   fdds::DomainParticipantQos qos = factory->get_default_participant_qos();
   factory->get_participant_qos_from_profile(kParticipantProfile, qos);
   qos.name(options.participant_name);
+  isolated_ = options.isolated;
+  if (isolated_) isolate(qos);
   const SecurityOptions security = resolveSecurity(options);
   for (const auto& [name, value] : securityProperties(security)) {
     qos.properties().properties().emplace_back(name, value);
@@ -115,8 +154,15 @@ Context::Context(const ContextOptions& options) {
                           "files and that they are signed by the given CAs)"
                         : ""));
   }
-  publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
-  subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
+  fdds::PublisherQos publisher_qos = fdds::PUBLISHER_QOS_DEFAULT;
+  fdds::SubscriberQos subscriber_qos = fdds::SUBSCRIBER_QOS_DEFAULT;
+  if (isolated_) {
+    const std::string partition = isolatedPartition();
+    publisher_qos.partition().push_back(partition.c_str());
+    subscriber_qos.partition().push_back(partition.c_str());
+  }
+  publisher_ = participant_->create_publisher(publisher_qos);
+  subscriber_ = participant_->create_subscriber(subscriber_qos);
   if (!publisher_ || !subscriber_) {
     participant_->delete_contained_entities();
     factory->delete_participant(participant_);

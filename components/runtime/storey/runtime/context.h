@@ -43,6 +43,14 @@ struct ContextOptions {
   int executor_threads = 1;
   // DDS Security (storey/runtime/security.h); all paths empty: an unsecured participant.
   SecurityOptions security;
+  // For offline jobs (storey map, experiments): a participant that discovers nobody and
+  // that nobody discovers, so a replay or a live robot on the same domain can neither
+  // feed it nor hear it. UDP on 127.0.0.1 only (no shared memory), no multicast and no
+  // initial peers, every other participant ignored (other hosts, other processes and
+  // this process alike), and its publisher and subscriber in a partition of their own.
+  // Its own writers and readers still match each other (delivered within the process).
+  // STOREY_SECURITY_DIR is not applied to it.
+  bool isolated = false;
 };
 
 // The domain id ContextOptions{domain_id} resolves to (environment included).
@@ -56,6 +64,7 @@ class Context {
   Context& operator=(const Context&) = delete;
 
   int domainId() const { return domain_id_; }
+  bool isolated() const { return isolated_; }
   Executor& executor() { return *executor_; }
   eprosima::fastdds::dds::DomainParticipant& participant() { return *participant_; }
 
@@ -96,6 +105,7 @@ class Context {
                                                    eprosima::fastdds::dds::DataReaderListener* l);
 
   int domain_id_ = 0;
+  bool isolated_ = false;
   std::unique_ptr<Executor> executor_;
   // Declared before participant_: it must outlive the participant that calls it.
   std::unique_ptr<eprosima::fastdds::dds::DomainParticipantListener> discovery_logger_;

@@ -35,6 +35,7 @@ class Subscription : public SubscriptionBase {
   Subscription(Context& context, const std::string& topic, TopicKind kind, Callback callback)
       : context_(context), state_(std::make_shared<State>()) {
     state_->topic = topic;
+    state_->kind = kind;
     state_->callback = std::move(callback);
     state_->executor = &context.executor();
     listener_ = std::make_unique<Listener>(state_);
@@ -80,6 +81,7 @@ class Subscription : public SubscriptionBase {
   // fraction of the scans (docs/runtime.md).
   struct State {
     std::string topic;
+    TopicKind kind = TopicKind::kSensor;
     Callback callback;
     Executor* executor = nullptr;
     std::size_t depth = 0;  // keep-last depth of `ready`; 0: keep all
@@ -169,12 +171,21 @@ class Subscription : public SubscriptionBase {
     }
 
     // Logged (debug) so a process that takes no sample shows whether it matched a writer.
+    // A robot's sensor topic has one writer, its driver or replay: a second one (another
+    // replay or robot on this domain, under the same robot name) mixes two streams, so it
+    // is a warning.
     void on_subscription_matched(eprosima::fastdds::dds::DataReader*,
                                  const eprosima::fastdds::dds::SubscriptionMatchedStatus& status) override {
       auto state = state_.lock();
       if (!state) return;
       common::logDebug(common::str("dds: reader on ", state->topic, ": ", status.current_count_change > 0 ? "matched" : "unmatched",
                                    " a writer, ", status.current_count, " now"));
+      if (state->kind == TopicKind::kSensor && status.current_count_change > 0 && status.current_count > 1) {
+        common::logWarn(common::str("sensor topic ", state->topic, " has ", status.current_count,
+                                    " writers, where a robot's sensor topic has one: another replay or robot on this DDS "
+                                    "domain under the same name (or a restarted driver whose old participant has "
+                                    "not yet expired); their samples are mixed"));
+      }
     }
 
    private:

@@ -234,6 +234,8 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   runtime::ContextOptions context_options;
   context_options.domain_id = options.domain_id;
   context_options.participant_name = "storey_map";
+  // Offline: nothing else on the domain may feed the components or hear them.
+  context_options.isolated = true;
   runtime::Context context(context_options);
   runtime::ComponentRegistry registry;
   catalog::registerStoreyComponents(registry);
