@@ -196,5 +196,81 @@ TEST(ReferenceCheck, AReferenceMovedAlongABareCorridorIsNotContradicted) {
   for (const auto& c : checkReferencePoses(scans, reference)) EXPECT_FALSE(c.contradicted) << "scan " << c.index;
 }
 
+TEST(SimulatedOdometry, SystematicErrorsScaleAndTurnEveryStep) {
+  std::vector<Pose2> line;
+  for (int i = 0; i <= 10; ++i) line.emplace_back(i, 0, 0);
+  OdometryNoise exact{0.0, 0.0, 0.0};
+  exact.scale = 1.03;
+  exact.heading_drift_per_meter = 0.01;
+  const std::vector<Pose2> odometry = simulateOdometry(line, exact, 1);
+  ASSERT_EQ(odometry.size(), line.size());
+  for (std::size_t i = 1; i < odometry.size(); ++i) {
+    const Pose2 step = odometry[i - 1].between(odometry[i]);
+    EXPECT_NEAR(step.x(), 1.03, 1e-12);
+    EXPECT_NEAR(step.theta(), 0.01, 1e-12);
+  }
+}
+
+TEST(SimulatedOdometry, AStallHoldsThePoseThenCatchesUpAndLeavesTheRestAlone) {
+  std::vector<Pose2> line;
+  for (int i = 0; i <= 40; ++i) line.emplace_back(0.25 * i, 0, 0);
+  OdometryNoise noisy;
+  OdometryNoise stalling = noisy;
+  stalling.stall_every = 4.0;
+  stalling.stall_length = 1.0;
+  const std::vector<Pose2> plain = simulateOdometry(line, noisy, 3);
+  const std::vector<Pose2> stalled = simulateOdometry(line, stalling, 3);
+  int held = 0;
+  for (std::size_t i = 1; i < line.size(); ++i) {
+    const bool same = stalled[i].x() == stalled[i - 1].x() && stalled[i].y() == stalled[i - 1].y();
+    if (same) {
+      ++held;
+      continue;
+    }
+    // Outside a stall, and where it catches up, the odometry is the stall-free one.
+    EXPECT_EQ(stalled[i].x(), plain[i].x()) << i;
+    EXPECT_EQ(stalled[i].theta(), plain[i].theta()) << i;
+  }
+  // Stalls at 4 m and 8 m of 10 m, each held for 1 m (4 steps of 0.25 m, the last of them
+  // catching up).
+  EXPECT_EQ(held, 6);
+}
+
+TEST(ThinnedIndices, KeepAPoseOnceItMovedOrTurnedEnough) {
+  const std::vector<Pose2> poses = {Pose2(0, 0, 0), Pose2(0.3, 0, 0), Pose2(0.6, 0, 0), Pose2(0.6, 0, 0.4),
+                                    Pose2(0.6, 0, 1.1), Pose2(1.7, 0, 1.1)};
+  EXPECT_EQ(thinnedIndices(poses, 0.5, 0.5), (std::vector<std::size_t>{0, 2, 4, 5}));
+  EXPECT_EQ(thinnedIndices(poses, 0.0, 0.0).size(), poses.size());
+}
+
+TEST(DegradeScan, CutsRangesDropsBeamsAddsNoiseAndNarrowsTheView) {
+  sensor::LaserScan scan;
+  scan.angle_min = -M_PI / 2;
+  scan.angle_increment = M_PI / 180;
+  scan.range_min = 0.1;
+  scan.range_max = 30.0;
+  for (int i = 0; i <= 180; ++i) scan.ranges.push_back(i % 2 ? 2.0f : 6.0f);
+  std::mt19937_64 rng(1);
+  LaserDegradation cut;
+  cut.max_range = 3.5;
+  const sensor::LaserScan short_range = degradeScan(scan, cut, rng);
+  EXPECT_EQ(short_range.countReturns(), 90u);  // the 6 m readings are gone
+  EXPECT_DOUBLE_EQ(short_range.range_max, 3.5);
+  LaserDegradation half;
+  half.beam_step = 2;
+  EXPECT_EQ(degradeScan(scan, half, rng).size(), 91u);
+  LaserDegradation narrow;
+  narrow.field_of_view = M_PI / 2;
+  const sensor::LaserScan view = degradeScan(scan, narrow, rng);
+  EXPECT_EQ(view.size(), 91u);
+  EXPECT_NEAR(view.angle_min, -M_PI / 4, 1e-9);
+  LaserDegradation noise;
+  noise.range_noise = 0.03;
+  const sensor::LaserScan noisy = degradeScan(scan, noise, rng);
+  double sum2 = 0.0;
+  for (std::size_t i = 0; i < scan.size(); ++i) sum2 += std::pow(noisy.ranges[i] - scan.ranges[i], 2);
+  EXPECT_NEAR(std::sqrt(sum2 / static_cast<double>(scan.size())), 0.03, 0.006);
+}
+
 }  // namespace
 }  // namespace storey::mapping

@@ -1,7 +1,9 @@
 #include "storey/mapping/evaluation.h"
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <stdexcept>
 
@@ -32,9 +34,79 @@ std::vector<Pose2> simulateOdometry(const std::vector<Pose2>& reference, const O
     const double noise_theta = normal(rng);
     const double noise_y = normal(rng);
     const double noise_x = normal(rng);
-    const Pose2 noisy(step.x() + st * noise_x, step.y() + st * noise_y, step.theta() + sr * noise_theta);
+    const Pose2 noisy(noise.scale * step.x() + st * noise_x, noise.scale * step.y() + st * noise_y,
+                      step.theta() + noise.heading_drift_per_meter * d + sr * noise_theta);
     out.push_back(out.back() * noisy);
   }
+  if (noise.stall_every > 0.0 && noise.stall_length > 0.0) {
+    // Travel and turning along the reference decide when a stall starts and ends.
+    double travelled = 0.0, next_stall = noise.stall_every;
+    double stall_travel = 0.0, stall_turn = 0.0;
+    bool stalled = false;
+    Pose2 held;
+    for (std::size_t i = 1; i < reference.size(); ++i) {
+      const Pose2 step = reference[i - 1].between(reference[i]);
+      travelled += step.translation().norm();
+      if (stalled) {
+        stall_travel += step.translation().norm();
+        stall_turn += std::abs(step.theta());
+        if (stall_travel >= noise.stall_length || stall_turn >= noise.stall_length) stalled = false;
+        else out[i] = held;
+      } else if (travelled >= next_stall) {
+        stalled = true;
+        held = out[i - 1];
+        out[i] = held;
+        stall_travel = step.translation().norm();
+        stall_turn = std::abs(step.theta());
+        next_stall = travelled + noise.stall_every;
+      }
+    }
+  }
+  return out;
+}
+
+std::vector<std::size_t> thinnedIndices(const std::vector<Pose2>& poses, double min_translation,
+                                        double min_rotation) {
+  std::vector<std::size_t> kept;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (!kept.empty()) {
+      const Pose2 step = poses[kept.back()].between(poses[i]);
+      if (step.translation().norm() < min_translation && std::abs(step.theta()) < min_rotation) continue;
+    }
+    kept.push_back(i);
+  }
+  return kept;
+}
+
+sensor::LaserScan degradeScan(const sensor::LaserScan& scan, const LaserDegradation& d, std::mt19937_64& rng) {
+  sensor::LaserScan out = sensor::subsample(scan, std::max<std::size_t>(1, d.beam_step));
+  if (d.field_of_view > 0.0) {
+    // Beams within ±fov/2 of the sensor's axis, as one contiguous run.
+    std::size_t first = out.ranges.size(), last = 0;
+    for (std::size_t i = 0; i < out.ranges.size(); ++i)
+      if (std::abs(out.angle(i)) <= 0.5 * d.field_of_view + 1e-9) {
+        first = std::min(first, i);
+        last = i;
+      }
+    if (first <= last) {
+      out.angle_min = out.angle(first);
+      out.ranges = std::vector<float>(out.ranges.begin() + static_cast<std::ptrdiff_t>(first),
+                                      out.ranges.begin() + static_cast<std::ptrdiff_t>(last) + 1);
+    }
+  }
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (std::size_t i = 0; i < out.ranges.size(); ++i) {
+    const bool valid = out.isReturn(i);
+    // One draw per beam whatever its range, so conditions do not shift each other's noise.
+    const double noise = d.range_noise > 0.0 ? d.range_noise * normal(rng) : 0.0;
+    if (!valid) continue;
+    if (d.max_range > 0.0 && out.ranges[i] >= d.max_range) {
+      out.ranges[i] = std::numeric_limits<float>::infinity();
+      continue;
+    }
+    out.ranges[i] = static_cast<float>(std::max(out.range_min, out.ranges[i] + noise));
+  }
+  if (d.max_range > 0.0) out.range_max = std::min(out.range_max, d.max_range);
   return out;
 }
 

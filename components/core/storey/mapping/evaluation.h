@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <map>
+#include <random>
 #include <vector>
 
 #include "storey/geometry/pose2.h"
@@ -15,16 +16,44 @@ namespace storey::mapping {
 
 // Odometry noise per step between consecutive poses: each translation component gets
 // N(0, (translation_fraction·d)²), the heading N(0, (rotation_per_meter·d +
-// rotation_fraction·|Δθ|)²), d the step's length.
+// rotation_fraction·|Δθ|)²), d the step's length. On top, systematic errors of a real robot:
+// the step's translation scaled by `scale` (a wheel radius 3 % too large: 1.03) and the
+// heading turned by heading_drift_per_meter·d (unequal wheels); and stalls: every
+// stall_every metres of travel the odometry holds its pose for stall_length metres (or
+// stall_length radians of turning, whichever comes first), then catches up in one step.
 struct OdometryNoise {
   double translation_fraction = 0.05;
   double rotation_per_meter = 2.0 * M_PI / 180.0;
   double rotation_fraction = 0.02;
+  double scale = 1.0;
+  double heading_drift_per_meter = 0.0;  // rad per m
+  double stall_every = 0.0;              // m (0: no stalls)
+  double stall_length = 0.0;             // m, or rad turned
 };
 
 // Odometry poses chained from the reference's steps with seeded noise (first pose kept).
+// The systematic errors and stalls draw nothing: with them off the same seed gives the
+// same noise.
 std::vector<geometry::Pose2> simulateOdometry(const std::vector<geometry::Pose2>& reference,
                                               const OdometryNoise& noise, std::uint64_t seed);
+
+// Indices of the poses kept when a log is thinned as a sparser recording would be: the
+// first, then each pose at least min_translation (m) or min_rotation (rad) from the last kept.
+std::vector<std::size_t> thinnedIndices(const std::vector<geometry::Pose2>& poses, double min_translation,
+                                        double min_rotation);
+
+// A laser other than the logged one, made from its scans: returns beyond max_range become no
+// returns (a shorter-range sensor), every beam_step-th beam kept, Gaussian range noise
+// added, and beams outside ±field_of_view/2 of the sensor's forward axis dropped.
+struct LaserDegradation {
+  double max_range = 0.0;      // m (0: as logged)
+  std::size_t beam_step = 1;
+  double range_noise = 0.0;    // m, standard deviation
+  double field_of_view = 0.0;  // rad (0: as logged)
+};
+// One scan degraded; the noise draws from `rng`.
+sensor::LaserScan degradeScan(const sensor::LaserScan& scan, const LaserDegradation& degradation,
+                              std::mt19937_64& rng);
 
 struct OfflineRun {
   std::vector<geometry::Pose2> trajectory;  // per scan, at the final graph's poses
