@@ -3,14 +3,14 @@
 # sanitizer build scripts/sanitize.sh uses too; scripts/configure-asan.sh) and
 # runs each for SECONDS (default 60), printing executions and coverage per target.
 # Usage: scripts/fuzz.sh [SECONDS] [target...]   (targets: carmen graph scenario config bag
-# journal cdr). New crashing inputs are left in build-asan/fuzz/findings/<target>/; keep each as
+# journal journal_file cdr). New crashing inputs are left in build-asan/fuzz/findings/<target>/; keep each as
 # a regression input under tests/fuzz/regressions/<target>/ (docs/fuzzing.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -eq 0 ] && targets=(carmen graph scenario config bag journal cdr)
+[ ${#targets[@]} -eq 0 ] && targets=(carmen graph scenario config bag journal journal_file cdr)
 scripts/configure-asan.sh
 
 # One build at a time on the shared machine (the lock scripts/dev-build.sh takes).

@@ -19,6 +19,7 @@ STOREY_FUZZ_ENTRY(scenario)
 STOREY_FUZZ_ENTRY(config)
 STOREY_FUZZ_ENTRY(bag)
 STOREY_FUZZ_ENTRY(journal)
+STOREY_FUZZ_ENTRY(journal_file)
 STOREY_FUZZ_ENTRY(cdr)
 
 namespace fs = std::filesystem;
@@ -58,4 +59,5 @@ TEST(FuzzRegressions, Scenario) { EXPECT_GT(replay("scenario", storeyFuzz_scenar
 TEST(FuzzRegressions, Config) { EXPECT_GT(replay("config", storeyFuzz_config), 0u); }
 TEST(FuzzRegressions, Bag) { replay("bag", storeyFuzz_bag); }
 TEST(FuzzRegressions, Journal) { replay("journal", storeyFuzz_journal); }
+TEST(FuzzRegressions, JournalFile) { replay("journal_file", storeyFuzz_journal_file); }
 TEST(FuzzRegressions, Cdr) { replay("cdr", storeyFuzz_cdr); }

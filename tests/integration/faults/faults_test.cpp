@@ -12,8 +12,8 @@
 // of its own, downstream of the component under test (two separate runs would differ by
 // thread timing alone).
 //
-// DDS domains: the brief's 240-249 are not valid with Fast DDS' default port mapping (at
-// most 232), so these tests use 140-143.
+// DDS domains: 240-249 are not valid with Fast DDS' default port mapping (at most 232),
+// so these tests use 140-145.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -328,12 +328,12 @@ class Deployment {
 
   // Replays the bag in the background (returns at once), once both detectors and both
   // mappers subscribe.
-  void startReplay(const std::string& bag) {
+  void startReplay(const std::string& bag, double rate = kReplayRate) {
     // Components drop input until active: wait until every process says it runs.
     const auto end = Clock::now() + std::chrono::seconds(30);
     while (running() < processes_.size() && Clock::now() < end) sleepFor(0.05);
     ASSERT_EQ(running(), processes_.size()) << logs();
-    replay_ = spawn({kStorey, "replay", bag, "--rate", std::to_string(kReplayRate), "--domain",
+    replay_ = spawn({kStorey, "replay", bag, "--rate", std::to_string(rate), "--domain",
                      std::to_string(domain_), "--subscribers", std::to_string(subscribers_), "--wait", "0.5",
                      // Every reliable subscriber, a restarted one catching up on the
                      // history included, gets every sample before the replay (the only
@@ -352,7 +352,7 @@ class Deployment {
     // subscriber's acknowledgments (seconds for a restarted one catching up on the
     // history), and the matchers' idle rule may fire while it waits.
     const auto published_by = Clock::now() + std::chrono::seconds(120);
-    while (readText(log("replay")).find("messages published") == std::string::npos && Clock::now() < published_by)
+    while (!replayPublishedAll() && Clock::now() < published_by)
       sleepFor(0.05);
     const std::size_t main_before = matchings("] floor_matcher: matched");
     const std::size_t witness_before = matchings("witness_matcher: matched");
@@ -393,6 +393,9 @@ class Deployment {
     std::size_t n = countOf(readText(log("launch")), "] running ");
     for (const auto& p : processes_) n += countOf(readText(log(p)), "] running ");
     return n;
+  }
+  bool replayPublishedAll() const {
+    return readText(log("replay")).find("messages published") != std::string::npos;
   }
   std::size_t matchings(const std::string& line) const {
     std::size_t n = 0;
@@ -486,6 +489,37 @@ TEST_F(FaultsTest, SplitDeploymentEqualsSingleProcess) {
 TEST_F(FaultsTest, GraphServerKilledAndRestartedGivesTheSameBuilding) {
   const auto [b, witness] = withRestart(141, "server", 6.0, Deployment::Witness::kServer);
   expectSameBuilding(compare(witness, b));
+}
+
+// The graph server killed and restarted five times during one replay (slowed to 3x so
+// that five restarts fit in it). Each restart resumes from the journal and gets the
+// topics' whole history again, which must not be journalled again: the journal holds the
+// very records of the witness server's, which runs undisturbed on the same topics, each
+// once, and gives the same building.
+TEST_F(FaultsTest, GraphServerKilledFiveTimesJournalsEveryRecordOnce) {
+  Deployment d(dir_ + "/server5", 145, Deployment::Layout::kOnePerComponent, Deployment::Witness::kServer);
+  d.startAll();
+  d.startReplay(bag_, 3.0);
+  for (int kill = 1; kill <= 5; ++kill) {
+    // Running (and, after a restart, resumed), then 1.5 s of updates.
+    const auto end = Clock::now() + std::chrono::seconds(30);
+    while (countOf(readText(d.log("server")), "] running ") < static_cast<std::size_t>(kill) && Clock::now() < end)
+      sleepFor(0.05);
+    sleepFor(1.5);
+    ASSERT_FALSE(d.replayPublishedAll()) << "the replay ended before kill " << kill;
+    d.killHard("server");
+    sleepFor(kRestartAfter);
+    d.start("server");
+  }
+  d.finish();
+  EXPECT_EQ(countOf(readText(d.log("server")), ": resumed "), 5u) << readText(d.log("server"));
+  std::map<std::vector<std::uint8_t>, int> records, witness_records;
+  for (const auto& r : building::readJournal(d.journal()).records) ++records[building::encodeRecord(r)];
+  for (const auto& r : building::readJournal(d.witnessJournal()).records) ++witness_records[building::encodeRecord(r)];
+  for (const auto& [bytes, count] : records) EXPECT_EQ(count, 1) << "a record journalled " << count << " times";
+  EXPECT_TRUE(records == witness_records) << records.size() << " distinct records, the witness " << witness_records.size();
+  EXPECT_EQ(building::checkJournal(d.journal()).repeated_updates, 0u);
+  expectSameBuilding(compare(rebuild(d.witnessJournal()), rebuild(d.journal())));
 }
 
 TEST_F(FaultsTest, MatcherKilledAndRestartedGivesTheSameBuilding) {

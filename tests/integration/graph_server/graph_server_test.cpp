@@ -223,6 +223,98 @@ TEST_F(GraphServerTest, ARetractionDropsAConstraintStillWaitingForItsGraphs) {
   server.cleanup();
 }
 
+// A restarted server gets the topics' whole history again. Each update carries the poses
+// of every node so far, which later updates move: applied again, an old update would put
+// back old poses and be journalled a second time, and a constraint that was retracted
+// would come back with its retraction. The journal must not grow, and the building must
+// be the one before the restart.
+TEST_F(GraphServerTest, AHistoryDeliveredAgainAfterARestartIsNotJournalledAgain) {
+  const std::string journal = test::makeTempDir() + "/graph.journal";
+  const std::string params = "{optimize_min_period: 0.05, journal: '" + journal + "', publish_maps: false}";
+  std::vector<storey_msgs::msg::FloorGraphUpdate> history;
+  for (int graph : {0, 1}) {
+    const auto full = makeUpdate(graph, graph, 3.0 * graph);
+    for (std::uint32_t k = 0; k < full.new_nodes().size(); ++k) {
+      storey_msgs::msg::FloorGraphUpdate u = full;
+      u.sequence_number(k);
+      u.new_nodes() = {full.new_nodes()[k]};
+      u.new_edges().clear();
+      if (k > 0) u.new_edges() = {full.new_edges()[k - 1]};
+      for (std::uint32_t i = 0; i <= k; ++i) {
+        storey_msgs::msg::NodePose pose;
+        pose.floor_graph_id(static_cast<std::uint32_t>(graph));
+        pose.node_id(i);
+        pose.x(full.new_nodes()[i].x() + 0.01 * k);  // each optimisation moves every node
+        pose.y(full.new_nodes()[i].y());
+        pose.theta(full.new_nodes()[i].theta());
+        u.optimized_poses().push_back(pose);
+      }
+      history.push_back(u);
+    }
+  }
+  const Pose2 offset(1.0, -0.5, 0.3);
+  std::vector<storey_msgs::msg::InterFloorConstraint> constraints;
+  for (int k : {1, 2, 3}) constraints.push_back(makeConstraint(k, k, offset));
+  constraints.push_back(makeConstraint(2, 2, offset));
+  constraints.back().retracted(true);
+  constraints.back().reason("test");
+
+  auto deliver = [&](GraphServer& server, runtime::Context& context) {
+    runtime::Publisher<storey_msgs::msg::FloorGraphUpdate, storey_msgs::msg::FloorGraphUpdatePubSubType> graphs(
+        context, "storey/floor_graphs", runtime::TopicKind::kGraph);
+    runtime::Publisher<storey_msgs::msg::InterFloorConstraint, storey_msgs::msg::InterFloorConstraintPubSubType>
+        constraint_pub(context, "storey/inter_floor_constraints", runtime::TopicKind::kGraph);
+    ASSERT_TRUE(graphs.waitForSubscribers(1, 5.0));
+    ASSERT_TRUE(constraint_pub.waitForSubscribers(1, 5.0));
+    for (const auto& u : history) graphs.publish(u);
+    for (const auto& c : constraints) constraint_pub.publish(c);
+    const std::size_t expected = history.size() + constraints.size();
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    auto handled = [&] {
+      const GraphServerStats s = server.stats();
+      return s.updates_accepted + s.constraints_accepted + s.constraints_retracted + s.duplicates_ignored + s.rejected;
+    };
+    while (std::chrono::steady_clock::now() < deadline && handled() < expected)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    ASSERT_EQ(handled(), expected);
+  };
+  runtime::ContextOptions isolated;
+  isolated.isolated = true;
+  building::BuildingGraph before;
+  std::size_t records = 0;
+  {
+    runtime::Context context(isolated);
+    GraphServer server(context, common::ConfigNode::loadString(params), "graph_server");
+    server.configure();
+    server.activate();
+    deliver(server, context);
+    EXPECT_EQ(server.stats().rejected, 0u);
+    before = server.snapshot().first;
+    records = building::readJournal(journal).records.size();
+    EXPECT_EQ(records, history.size() + constraints.size());
+  }
+  runtime::Context context(isolated);
+  GraphServer restarted(context, common::ConfigNode::loadString(params), "graph_server");
+  restarted.configure();
+  restarted.activate();
+  EXPECT_EQ(restarted.stats().replayed_from_journal, records);
+  deliver(restarted, context);
+  EXPECT_EQ(restarted.stats().duplicates_ignored, history.size() + constraints.size());
+  EXPECT_EQ(building::readJournal(journal).records.size(), records);
+  const auto after = restarted.snapshot().first;
+  ASSERT_EQ(after.floorGraphs().size(), before.floorGraphs().size());
+  for (const auto& [id, graph] : before.floorGraphs()) {
+    const auto& again = after.floorGraphs().at(id);
+    ASSERT_EQ(again.nodes.size(), graph.nodes.size());
+    for (std::size_t i = 0; i < graph.nodes.size(); ++i)
+      EXPECT_EQ(again.nodes[i].pose.x(), graph.nodes[i].pose.x()) << "graph " << id << " node " << i;
+    EXPECT_EQ(again.edges.size(), graph.edges.size());
+  }
+  EXPECT_EQ(after.constraints().size(), before.constraints().size());
+  restarted.deactivate();
+  restarted.cleanup();
+}
+
 TEST(GraphServerOptions, UnknownKeyIsAnError) {
   EXPECT_THROW(readGraphServerOptions(common::ConfigNode::loadString("{optimise_period: 1}", "gs.yaml")),
                common::ConfigError);

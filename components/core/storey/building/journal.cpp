@@ -1,6 +1,5 @@
 #include "storey/building/journal.h"
 
-
 #include <algorithm>
 #include <cstring>
 #include <fstream>
@@ -10,6 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "storey/common/file_checks.h"
 #include "storey/common/log.h"
 #include "storey/common/record_file.h"
 
@@ -257,6 +257,72 @@ JournalReadResult readJournal(const std::string& path) {
   result.torn_tail = read.torn_tail;
   result.valid_bytes = read.valid_bytes;
   return result;
+}
+
+JournalCheck checkJournal(const std::string& path) {
+  JournalCheck check;
+  BuildingGraph building;
+  std::set<std::pair<int, std::uint32_t>> updates;
+  std::set<std::string> robots;
+  check.scan = common::scanRecordFile(path, kFileMagic, "journal", [&](const std::uint8_t* payload, std::size_t size) {
+    const JournalRecord record = decodeRecord(payload, size);
+    if (const auto* d = std::get_if<FloorGraphDelta>(&record)) {
+      ++check.deltas;
+      robots.insert(d->robot);
+      if (!updates.insert({d->graph_id, d->sequence}).second) ++check.repeated_updates;
+    } else if (std::holds_alternative<InterGraphConstraint>(record)) {
+      ++check.constraints;
+    } else {
+      ++check.retractions;
+    }
+    try {
+      applyRecord(building, record);
+    } catch (const std::exception& e) {
+      check.skipped.push_back("record " + std::to_string(check.deltas + check.constraints + check.retractions) +
+                              ": " + e.what());
+    }
+  });
+  check.floor_graphs = building.floorGraphs().size();
+  for (const auto& [id, graph] : building.floorGraphs()) check.nodes += graph.nodes.size();
+  check.robots.assign(robots.begin(), robots.end());
+  return check;
+}
+
+void printJournalCheck(std::ostream& out, const std::string& path, const JournalCheck& check) {
+  const auto& scan = check.scan;
+  out << path << ": storey journal, " << common::byteCount(scan.file_bytes) << "\n";
+  out << "  intact: " << scan.records << " records in the first " << scan.valid_bytes << " bytes (" << check.deltas
+      << " floor-graph updates, " << check.constraints << " constraints, " << check.retractions << " retractions)\n";
+  out << "  building: " << check.floor_graphs << " floor graphs, " << check.nodes << " nodes, robots:";
+  for (const auto& robot : check.robots) out << " " << robot;
+  out << "\n";
+  if (check.repeated_updates)
+    out << "  " << check.repeated_updates << " floor-graph updates journalled more than once\n";
+  for (const auto& why : check.skipped) out << "  " << why << " (not applied)\n";
+  switch (scan.end) {
+    case common::RecordFileEnd::kIntact:
+      out << "  end: intact\n";
+      break;
+    case common::RecordFileEnd::kTornTail:
+      out << "  end: torn last record at offset " << scan.valid_bytes << " (" << scan.problem << ", "
+          << scan.file_bytes - scan.valid_bytes << " bytes): a graph server drops it when it opens the journal\n";
+      break;
+    case common::RecordFileEnd::kDamaged:
+      out << "  end: " << common::describeDamage(path, "journal", scan) << "\n";
+      break;
+  }
+}
+
+common::RecordFileScan salvageJournal(const std::string& in, const std::string& out) {
+  return common::salvageRecordFile(in, out, kFileMagic, "journal", [](const std::uint8_t* payload, std::size_t size) {
+    (void)decodeRecord(payload, size);
+  });
+}
+
+bool looksLikeJournal(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char head[sizeof kFileMagic] = {};
+  return in.read(head, sizeof head) && std::memcmp(head, kFileMagic, sizeof head) == 0;
 }
 
 JournalWriter::JournalWriter(const std::string& path, bool sync)

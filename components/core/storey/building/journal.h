@@ -1,7 +1,8 @@
 // The graph server's journal: every accepted floor-graph change, inter-floor constraint
 // and constraint retraction is appended (length-prefixed, CRC-checked) before it is acknowledged, so a
 // restarted server rebuilds exactly what it had. A torn last record (a crash mid-write) is
-// detected, dropped with a warning and cut off; corruption before the end is an error.
+// detected, dropped with a warning and cut off; damage before the end is an error
+// (common::RecordFileDamaged) naming the offset, and the file is left as it is.
 #pragma once
 
 #include <cstdint>
@@ -51,8 +52,8 @@ struct JournalReadResult {
   std::uint64_t valid_bytes = 0;  // length of the intact prefix
 };
 
-// Reads every record. Throws std::runtime_error naming the file and offset for a corrupt
-// record that is not the last one, or for a file that is not a storey journal.
+// Reads every record. Throws common::RecordFileDamaged naming the file and offset for
+// damage before the end, std::runtime_error for a file that is not a storey journal.
 JournalReadResult readJournal(const std::string& path);
 
 class JournalWriter {
@@ -87,6 +88,27 @@ struct JournalBuilding {
 JournalBuilding rebuildFromJournal(const std::string& path);
 // One line per problem the rebuild met (a torn tail, each skipped record), naming `path`.
 void printJournalProblems(std::ostream& out, const std::string& path, const JournalBuilding& journal);
+
+// A journal's state for `storey journal check`: where its intact prefix ends and why,
+// and what that prefix holds. Throws only for a file that is not a journal.
+struct JournalCheck {
+  common::RecordFileScan scan;
+  std::size_t deltas = 0, constraints = 0, retractions = 0;
+  std::size_t floor_graphs = 0, nodes = 0;
+  std::vector<std::string> robots;
+  // Floor-graph updates journalled more than once (same graph and sequence number).
+  std::size_t repeated_updates = 0;
+  std::vector<std::string> skipped;  // records that cannot be applied, as in JournalBuilding
+};
+JournalCheck checkJournal(const std::string& path);
+void printJournalCheck(std::ostream& out, const std::string& path, const JournalCheck& check);
+
+// Writes the records before a torn tail or damage to a new journal `out` (which must not
+// exist); returns the scan of `in`.
+common::RecordFileScan salvageJournal(const std::string& in, const std::string& out);
+
+// True for a file that starts like a graph server journal.
+bool looksLikeJournal(const std::string& path);
 
 // Encoding, exposed for tests and fuzzing.
 std::vector<std::uint8_t> encodeRecord(const JournalRecord& record);

@@ -1,6 +1,8 @@
 #include "storey/mapping/input_log.h"
 
 #include <cmath>
+#include <cstring>
+#include <fstream>
 #include <stdexcept>
 
 namespace storey::mapping {
@@ -99,6 +101,24 @@ InputLog::InputLog(const std::string& path, const std::function<void(const Logge
         else last_event_decided_at_ = input.event.decided_at;
         on_existing(input);
       });
+}
+
+bool looksLikeInputLog(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char head[sizeof kFileMagic] = {};
+  return in.read(head, sizeof head) && std::memcmp(head, kFileMagic, sizeof head) == 0;
+}
+
+common::RecordFileScan scanInputLog(const std::string& path) {
+  return common::scanRecordFile(path, kFileMagic, "input log", [](const std::uint8_t* payload, std::size_t size) {
+    (void)decodeLoggedInput(payload, size);
+  });
+}
+
+common::RecordFileScan salvageInputLog(const std::string& in, const std::string& out) {
+  return common::salvageRecordFile(in, out, kFileMagic, "input log", [](const std::uint8_t* payload, std::size_t size) {
+    (void)decodeLoggedInput(payload, size);
+  });
 }
 
 void InputLog::appendScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry) {

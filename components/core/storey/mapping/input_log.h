@@ -48,6 +48,12 @@ class InputLog {
   std::unique_ptr<common::RecordFileWriter> file_;
 };
 
+// For `storey journal check|salvage`: whether a file starts like an input log, its state
+// (every record decoded), and a copy of its intact records in a new file `out`.
+bool looksLikeInputLog(const std::string& path);
+common::RecordFileScan scanInputLog(const std::string& path);
+common::RecordFileScan salvageInputLog(const std::string& in, const std::string& out);
+
 // Encoding, exposed for tests and fuzzing; decodeLoggedInput throws std::runtime_error on
 // bad bytes.
 std::vector<std::uint8_t> encodeLoggedInput(const LoggedInput& input);

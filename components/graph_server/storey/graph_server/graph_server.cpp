@@ -36,10 +36,12 @@ GraphServer::~GraphServer() { stopWorker(); }
 void GraphServer::onConfigure() {
   options_ = readGraphServerOptions(parameters());
   building_ = building::BuildingGraph(options_.building);
+  redelivery_ = {};
   if (!options_.journal_path.empty()) {
     journal_ = std::make_unique<building::JournalWriter>(options_.journal_path, options_.journal_sync);
     for (const auto& record : journal_->existing()) {
       try {
+        redelivery_.noteAccepted(building_, record);
         building::applyRecord(building_, record);
         ++stats_.replayed_from_journal;
       } catch (const std::exception& e) {
@@ -129,11 +131,12 @@ void GraphServer::accept(const building::JournalRecord& record) {
   // Check, journal, then apply: a bad record changes nothing and is never journalled.
   if (const auto* d = std::get_if<building::FloorGraphDelta>(&record)) {
     building::checkDelta(building_, *d);
-    if (changesNothing(building_, *d)) {
+    if (redelivery_.isRedelivery(building_, record) || changesNothing(building_, *d)) {
       ++stats_.duplicates_ignored;
       return;
     }
     if (journal_) journal_->append(record);
+    redelivery_.noteAccepted(building_, record);
     building::applyDelta(building_, *d);
     ++stats_.updates_accepted;
   } else if (const auto* r = std::get_if<building::ConstraintRetraction>(&record)) {
@@ -150,13 +153,14 @@ void GraphServer::accept(const building::JournalRecord& record) {
       return;
     }
     if (journal_) journal_->append(record);
+    redelivery_.noteAccepted(building_, record);
     building_.retractConstraint(*r);
     ++stats_.constraints_retracted;
     logInfo(str(name(), ": retracted the constraint graph ", r->graph_from, " node ", r->node_from, " -> graph ",
                 r->graph_to, " node ", r->node_to, ": ", r->reason));
   } else {
     const auto& constraint = std::get<building::InterGraphConstraint>(record);
-    if (holdsConstraint(building_, constraint)) {
+    if (holdsConstraint(building_, constraint) || redelivery_.isRedelivery(building_, record)) {
       ++stats_.duplicates_ignored;
       return;
     }

@@ -13,6 +13,7 @@
 #include "storey/building/building_graph.h"
 #include "storey/building/building_outputs.h"
 #include "storey/building/journal.h"
+#include "storey/building/redelivery.h"
 #include "storey/runtime/component.h"
 #include "storey_msgs/msg/BuildingStatePubSubTypes.h"
 #include "storey_msgs/msg/FloorGraphUpdatePubSubTypes.h"
@@ -82,6 +83,7 @@ class GraphServer : public runtime::Component {
   mutable std::mutex mutex_;
   std::condition_variable changed_;
   building::BuildingGraph building_;
+  building::RedeliveryFilter redelivery_;  // what was accepted before and comes again
   building::BuildingSolution solution_;
   std::vector<building::InterGraphConstraint> pending_constraints_;  // waiting for their graphs
   std::uint64_t accepted_generation_ = 0;
