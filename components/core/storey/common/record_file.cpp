@@ -137,7 +137,7 @@ bool allZero(const ByteSource& source, std::uint64_t from) {
 
 void MemoryByteSource::read(std::uint64_t offset, std::uint8_t* out, std::size_t n) const {
   if (offset > size_ || n > size_ - offset) throw std::runtime_error("read past the end");
-  std::memcpy(out, data_ + offset, n);
+  if (n > 0) std::memcpy(out, data_ + offset, n);  // an empty payload's buffer may be null
 }
 
 std::string ByteDecoder::getString() {
