@@ -274,6 +274,26 @@ class ScriptedMatcher : public FloorMatcherComponent {
   std::size_t passes_ = 0;
 };
 
+// A scripted matcher whose passes take `seconds`, saying when one has started.
+class SlowScriptedMatcher : public ScriptedMatcher {
+ public:
+  SlowScriptedMatcher(runtime::Context& context, const std::string& parameters,
+                      std::vector<geometry::Pose2> alignments, double seconds)
+      : ScriptedMatcher(context, parameters, std::move(alignments)), seconds_(seconds) {}
+  std::atomic<bool> started{false};
+
+ protected:
+  matching::MatchResult match(const std::vector<floor::FloorGraph>& graphs,
+                              const matching::FloorMatcherOptions& options) override {
+    started = true;
+    std::this_thread::sleep_for(std::chrono::duration<double>(seconds_));
+    return ScriptedMatcher::match(graphs, options);
+  }
+
+ private:
+  double seconds_;
+};
+
 // A scripted matcher that matches at every update of a graph, active, with a publisher of
 // floor-graph updates, discovered.
 struct GrowingScriptedMatcher {
@@ -473,6 +493,31 @@ TEST(FloorMatcherComponent, WhatAGrowthPassHeldBackIsPublishedWhenTheInputSettle
     EXPECT_EQ(matcher.stats().matchings, 1u) << "released without matching again";
     matcher.deactivate();
   }
+}
+
+// A pass still running when the matcher is deactivated (a deployment stopped while it
+// matches) publishes its constraints before the publisher goes quiet.
+TEST(FloorMatcherComponent, APassRunningWhenDeactivatedStillPublishes) {
+  const TwoFloors two;
+  runtime::ContextOptions isolated;
+  isolated.isolated = true;
+  runtime::Context context(isolated);
+  ReceivedConstraints received(context);
+  SlowScriptedMatcher matcher(context, "{min_nodes: 10, match_while_growing: false, match_after_idle: 0.2}",
+                              {two.truth}, 1.0);
+  matcher.configure();
+  matcher.activate();
+  FloorGraphPublisher graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
+  ASSERT_TRUE(graphs.waitForSubscribers(1, 5.0));
+  for (const auto& g : two.floors.graphs) graphs.publish(toUpdate(g, 0, g.nodes.size(), 0));
+  ASSERT_TRUE(waitUntil([&] { return matcher.started.load(); }));
+  matcher.deactivate();
+  EXPECT_EQ(matcher.stats().constraints_published, 3u);
+  EXPECT_TRUE(waitUntil([&] {
+    std::lock_guard<std::mutex> lock(received.mutex);
+    return received.messages.size() == 3;
+  })) << "constraints dropped at deactivation";
+  matcher.cleanup();
 }
 
 // A matcher restarted in a new process has no memory of what its predecessor published,

@@ -109,6 +109,8 @@ void FloorMatcherComponent::onActivate() {
   worker_ = std::thread([this] { workerLoop(); });
 }
 
+// A pass in progress completes and publishes; no new pass starts.
+void FloorMatcherComponent::onDeactivating() { stopWorker(); }
 void FloorMatcherComponent::onDeactivate() { stopWorker(); }
 
 void FloorMatcherComponent::onCleanup() {

@@ -85,6 +85,7 @@ class FloorMatcherComponent : public runtime::Component {
                                       const matching::FloorMatcherOptions& options);
   void onConfigure() override;
   void onActivate() override;
+  void onDeactivating() override;
   void onDeactivate() override;
   void onCleanup() override;
 

@@ -72,6 +72,8 @@ void GraphServer::onActivate() {
   worker_ = std::thread([this] { workerLoop(); });
 }
 
+// An optimisation in progress completes and publishes its state; no new one starts.
+void GraphServer::onDeactivating() { stopWorker(); }
 void GraphServer::onDeactivate() { stopWorker(); }
 
 void GraphServer::onCleanup() {

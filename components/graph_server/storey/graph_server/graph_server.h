@@ -63,6 +63,7 @@ class GraphServer : public runtime::Component {
  protected:
   void onConfigure() override;
   void onActivate() override;
+  void onDeactivating() override;
   void onDeactivate() override;
   void onCleanup() override;
 

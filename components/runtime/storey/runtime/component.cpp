@@ -66,8 +66,9 @@ void Component::activate() {
 void Component::deactivate() {
   executor().invoke([this] {
     requireState(name_, "deactivate", state(), LifecycleState::kActive);
+    onDeactivating();  // what is in flight still goes out
     {
-      // Publishers go quiet before the hook, so nothing is sent while deactivating.
+      // Publishers go quiet before onDeactivate, so nothing is sent while deactivating.
       std::lock_guard<std::mutex> lock(mutex_);
       for (auto& publisher : publishers_) publisher->setActive(false);
       state_ = LifecycleState::kInactive;

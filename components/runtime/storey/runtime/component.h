@@ -5,7 +5,9 @@
 //   unconfigured <--cleanup---- inactive <--deactivate-- active
 //
 // Publishers made with createPublisher() are inactive until activate(): nothing leaves
-// a component before activation. Timers made with createTimer() only fire while active.
+// a component before activation. deactivate() first calls onDeactivating() with the
+// publishers still active, so work in flight (a background pass) publishes its results,
+// then silences the publishers and calls onDeactivate(). Timers made with createTimer() only fire while active.
 // Subscriptions deliver in every state once created (so transient-local history that
 // arrives before activate is not lost); callbacks can check state().
 // Callbacks of all kinds, and the lifecycle hooks, run on the Context's Executor: with
@@ -63,6 +65,9 @@ class Component {
   // subscriptions and timers there.
   virtual void onConfigure() {}
   virtual void onActivate() {}
+  // First step of deactivate(), publishers still active: start nothing new, and finish and
+  // publish what is in flight.
+  virtual void onDeactivating() {}
   virtual void onDeactivate() {}
   virtual void onCleanup() {}
 
