@@ -19,12 +19,14 @@
 #include "sensor_msgs/msg/LaserScan.h"
 #include "sensor_msgs/msg/LaserScanPubSubTypes.h"
 #include "storey/common/config.h"
+#include "storey/io/carmen.h"
 #include "storey/runtime/context.h"
 #include "storey/runtime/subscription.h"
 #include "storey/eval/trajectory.h"
 #include "storey/sim/ground_truth.h"
 #include "storey/sim/scenario.h"
 #include "storey/sim/simulator.h"
+#include "storey/tools/robot_setup.h"
 #include "storey/tools/simulation_bag.h"
 #include "test_support.h"
 
@@ -130,6 +132,61 @@ TEST(MapJob, AReplayOnTheSameDomainDoesNotChangeTheBuilding) {
 
   for (const char* file : {"building.yaml", "trajectory.csv", "graph.g2o", "floor_0.pgm", "floor_1.pgm"})
     EXPECT_TRUE(readFile(dir + "/alone/" + file) == readFile(dir + "/beside/" + file)) << file << " differs";
+}
+
+// Floors recorded on their own (the paper's setting), here small2's robot before and after
+// its ride as two CARMEN logs given as A@0:0 and B@1:3.5. Each log's robot maps its own
+// floor from its first scan: one graph each, on its floor. Its mapper starts there (a
+// floor event stamped 0 came after the log's first scan, also stamped 0, which then made
+// a one-node graph on floor 0).
+TEST(MapJob, FloorsRecordedSeparatelyAreMappedOnTheirOwnFloors) {
+  const std::string dir = test::makeTempDir("storey_map_floors");
+  const sim::Simulation run = sim::simulate(sim::loadScenario(defaultBuilding(defaultConfigDir())), 1);
+  const sim::RobotRun& robot = run.robots.at(0);
+  ASSERT_FALSE(robot.transits.empty());
+  const sim::Transit& ride = robot.transits.front();
+  // Each log's stamps start at 0, as a log recorded on its own may.
+  auto writeLog = [&](const std::string& path, double from, double to) {
+    io::CarmenWriter writer(path);
+    std::size_t odometry = 0;
+    double first = -1.0;
+    for (const auto& scan : robot.scans) {
+      if (scan.stamp < from || scan.stamp > to) continue;
+      while (odometry + 1 < robot.odometry.size() && robot.odometry[odometry + 1].stamp <= scan.stamp) ++odometry;
+      if (first < 0) first = scan.stamp;
+      io::CarmenLaser laser;
+      laser.scan = scan;
+      laser.scan.stamp -= first;
+      laser.has_pose = true;
+      laser.odom_pose = robot.odometry[odometry].pose;
+      laser.laser_pose = laser.odom_pose * scan.sensor_offset;
+      writer.flaser(laser);
+    }
+    writer.close();
+  };
+  writeLog(dir + "/F0.log", 0.0, ride.start);
+  writeLog(dir + "/F1.log", ride.end + 2.0, 1e9);
+  MapJobOptions options = bundled(225, dir + "/out");
+  options.inputs = {parseMapInput(dir + "/F0.log@0:0"), parseMapInput(dir + "/F1.log@1:3.5")};
+  options.keep_graph = true;
+  const MapJobResult result = runMapJob(options);
+  ASSERT_TRUE(result.graph);
+  std::map<std::string, std::vector<const floor::FloorGraph*>> by_robot;
+  for (const auto& [id, g] : result.graph->floorGraphs()) by_robot[g.robot].push_back(&g);
+  ASSERT_EQ(by_robot.size(), 2u);
+  ASSERT_EQ(by_robot.at("floor0").size(), 1u);
+  ASSERT_EQ(by_robot.at("floor1").size(), 1u) << "the floor-1 log's robot has a graph on another floor";
+  EXPECT_EQ(by_robot.at("floor0")[0]->floor_id, 0);
+  EXPECT_EQ(by_robot.at("floor1")[0]->floor_id, 1);
+  EXPECT_DOUBLE_EQ(by_robot.at("floor1")[0]->floor_height, 3.5);
+  EXPECT_GT(by_robot.at("floor1")[0]->nodes.size(), 10u);
+  // The mapper of such a robot starts on its floor and waits for no floor detector.
+  RobotSetup setup;
+  setup.recorded_floor["floor1"] = {1, 3.5};
+  const YAML::Node mapper = floorMapperParameters(defaultConfigDir(), "floor1", setup);
+  EXPECT_EQ(mapper["initial_floor"].as<int>(), 1);
+  EXPECT_DOUBLE_EQ(mapper["initial_height"].as<double>(), 3.5);
+  EXPECT_FALSE(mapper["wait_for_floor_detector"].as<bool>());
 }
 
 TEST(MapJob, BadInputsAreReportedClearly) {

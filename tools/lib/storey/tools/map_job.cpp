@@ -15,7 +15,6 @@
 #include "storey/graph_server/graph_server.h"
 #include "storey/runtime/component_registry.h"
 #include "storey/runtime/context.h"
-#include "storey/runtime/publisher.h"
 #include "storey/runtime/sensor_bag.h"
 #include "storey/runtime/sensor_conversions.h"
 #include "storey/sim/ground_truth.h"
@@ -24,7 +23,6 @@
 #include "storey/tools/replay.h"
 #include "storey/tools/robot_setup.h"
 #include "storey/tools/simulation_bag.h"
-#include "storey_msgs/msg/FloorEventPubSubTypes.h"
 
 namespace storey::tools {
 namespace fs = std::filesystem;
@@ -229,6 +227,13 @@ MapJobResult runMapJob(const MapJobOptions& options) {
     }
     setup.floor_heights = given.heights;
   }
+  // Floors recorded on their own: each mapper starts on its floor. (A floor event stamped
+  // 0 sent before the replay was ordered after the log's scans stamped 0, which then made
+  // a graph on floor 0.)
+  for (const auto& robot : robots) {
+    const PreparedInput& p = *robot_input[robot];
+    if (p.floor) setup.recorded_floor[robot] = {*p.floor, p.height.value_or(0.0)};
+  }
 
   // 3. The components, all in this process.
   runtime::ContextOptions context_options;
@@ -292,31 +297,6 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   }
   for (auto& component : pipeline) component->activate();
 
-  // Floors recorded on their own: tell their mappers which floor they are on.
-  std::vector<std::unique_ptr<runtime::Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>>>
-      event_publishers;
-  for (const auto& robot : robots) {
-    const PreparedInput& p = *robot_input[robot];
-    if (!p.floor) continue;
-    event_publishers.push_back(
-        std::make_unique<runtime::Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>>(
-            context, robot + "/floor_events", runtime::TopicKind::kGraph));
-  }
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery within the process
-  std::size_t event_index = 0;
-  for (const auto& robot : robots) {
-    const PreparedInput& p = *robot_input[robot];
-    if (!p.floor) continue;
-    storey_msgs::msg::FloorEvent event;
-    event.robot(robot);
-    event.kind(storey_msgs::msg::FloorEvent_Constants::KIND_TRANSIT_ENDED);
-    event.floor_id(*p.floor);
-    event.new_floor(true);
-    event.floor_height(p.height.value_or(0.0));
-    event.confidence(1.0);
-    event_publishers[event_index++]->publish(event);
-  }
-  context.executor().drain();
 
   // 4. Replay every recording. After each message the executor is drained, so every
   // component has seen everything up to that stamp before the next one: as fast as the

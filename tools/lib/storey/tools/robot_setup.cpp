@@ -55,6 +55,12 @@ YAML::Node floorMapperParameters(const std::string& config_dir, const std::strin
     n["initial_floor"] = start->second;
     n["initial_height"] = setup.floor_heights.at(static_cast<std::size_t>(start->second));
   }
+  const auto recorded = setup.recorded_floor.find(robot);
+  if (recorded != setup.recorded_floor.end()) {
+    n["initial_floor"] = recorded->second.floor;
+    n["initial_height"] = recorded->second.height;
+    n["wait_for_floor_detector"] = false;
+  }
   return n;
 }
 

@@ -24,6 +24,13 @@ struct RobotSetup {
   // Empty for one robot, whose detector numbers floors from where it starts.
   std::vector<double> floor_heights;
   std::map<std::string, int> start_floor;
+  // Robots recorded on one floor (`storey map PATH@FLOOR:HEIGHT`): floor id and height.
+  // Their mapper starts on that floor and has no floor detector to wait for.
+  struct RecordedFloor {
+    int floor = 0;
+    double height = 0.0;
+  };
+  std::map<std::string, RecordedFloor> recorded_floor;
 };
 
 // What a simulated building's robots are mapped with.
