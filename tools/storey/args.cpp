@@ -1,5 +1,6 @@
 #include "args.h"
 
+#include <cmath>
 #include <iostream>
 #include <sstream>
 
@@ -101,11 +102,21 @@ double Args::getDouble(const std::string& name) const {
   try {
     std::size_t used = 0;
     const double value = std::stod(text, &used);
-    if (used != text.size()) throw std::invalid_argument(text);
+    if (used != text.size() || !std::isfinite(value)) throw std::invalid_argument(text);
     return value;
   } catch (const std::exception&) {
-    throw UsageError("--" + name + " expects a number, got '" + text + "'");
+    throw UsageError("--" + name + " expects a finite number, got '" + text + "'");
   }
+}
+
+double Args::getDouble(const std::string& name, double min, double max) const {
+  const double value = getDouble(name);
+  if (value < min || value > max) {
+    std::ostringstream out;
+    out << "--" << name << " must lie in [" << min << ", " << max << "], got " << get(name);
+    throw UsageError(out.str());
+  }
+  return value;
 }
 
 long Args::getInt(const std::string& name) const {

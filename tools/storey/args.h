@@ -33,7 +33,10 @@ class Args {
   std::optional<std::string> optionalPositional(std::size_t i) const;
   std::string get(const std::string& name) const;  // declared default if absent
   bool has(const std::string& name) const;
+  // A finite number (NaN and infinity are refused: no option has a use for them).
   double getDouble(const std::string& name) const;
+  // A finite number within [min, max]; the error names the option and the range.
+  double getDouble(const std::string& name, double min, double max) const;
   long getInt(const std::string& name) const;
   bool flagSet(const std::string& name) const;
   const std::string& command() const { return command_; }

@@ -47,8 +47,9 @@ int run_map(Args& args) {
   options.seed = static_cast<std::uint64_t>(seed);
   options.domain_id = static_cast<int>(args.getInt("domain"));
   if (args.has("config")) options.config_dir = args.get("config");
-  options.outputs.map.resolution = args.getDouble("resolution");
-  options.outputs.octomap.resolution = args.getDouble("voxel");
+  options.outputs.map.resolution =
+      args.getDouble("resolution", tools::kMapResolutionRange[0], tools::kMapResolutionRange[1]);
+  options.outputs.octomap.resolution = args.getDouble("voxel", tools::kVoxelRange[0], tools::kVoxelRange[1]);
   options.quiet = args.flagSet("quiet");
   if (args.has("output")) {
     options.output_dir = args.get("output");

@@ -199,6 +199,15 @@ TEST(MapJob, BadInputsAreReportedClearly) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/recording"), std::string::npos);
   }
   EXPECT_THROW(parseMapInput("a.log@x"), std::invalid_argument);
+  // A height or floor with no meaning is refused, naming the input (NaN became height 0).
+  for (const char* bad : {"a.log@0:nan", "a.log@0:inf", "a.log@1:-inf", "a.log@0:1e300", "a.log@5000"}) {
+    try {
+      parseMapInput(bad);
+      ADD_FAILURE() << "accepted " << bad;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
+    }
+  }
   const MapInput parsed = parseMapInput("/tmp/a.log@2:7.5");
   EXPECT_EQ(parsed.path, "/tmp/a.log");
   EXPECT_EQ(*parsed.floor, 2);

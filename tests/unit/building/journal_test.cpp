@@ -200,6 +200,32 @@ TEST(Journal, DeltaWithUnknownNodeIsRejected) {
   EXPECT_EQ(building.floorGraphs().at(0).edges.size(), 2u);
 }
 
+// Values with no meaning in a floor graph are refused whole, naming the graph: a floor
+// height of 1e300 m (it gave an empty OctoMap and exit 0), non-finite poses and edges.
+TEST(Journal, DeltasWithValuesOutOfReachAreRejected) {
+  auto errorOf = [](const FloorGraphDelta& d) {
+    BuildingGraph building;
+    try {
+      applyDelta(building, d);
+    } catch (const std::invalid_argument& e) {
+      EXPECT_TRUE(building.floorGraphs().empty());
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  FloorGraphDelta high = makeDelta(0, 0, 2);
+  high.floor_height = 1e300;
+  EXPECT_NE(errorOf(high).find("floor graph 0 (robot robot_a): floor height 1e+300 m"), std::string::npos)
+      << errorOf(high);
+  FloorGraphDelta nan_pose = makeDelta(0, 0, 2);
+  nan_pose.new_nodes[1].pose = geometry::Pose2(std::nan(""), 0, 0);
+  EXPECT_NE(errorOf(nan_pose).find("node 1 has a non-finite pose"), std::string::npos) << errorOf(nan_pose);
+  FloorGraphDelta nan_edge = makeDelta(0, 0, 2);
+  nan_edge.new_edges[0].measurement = geometry::Pose2(0, std::numeric_limits<double>::infinity(), 0);
+  EXPECT_NE(errorOf(nan_edge).find("edge 0 -> 1 has non-finite values"), std::string::npos) << errorOf(nan_edge);
+  EXPECT_EQ(errorOf(makeDelta(0, 0, 2)), "");
+}
+
 // Two robots' mappers that used the same floor-graph id would have their graphs merged
 // (nodes of one dropped as already present): the second is rejected, naming both robots.
 TEST(Journal, AnotherRobotsDeltaUnderTheSameGraphIdIsRejected) {

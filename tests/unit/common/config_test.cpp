@@ -69,6 +69,24 @@ TEST(ConfigNode, MalformedYamlNamesLine) {
   EXPECT_THROW(ConfigNode::loadString("- 1\n- 2\n", "list.yaml"), ConfigError);
 }
 
+// YAML parsers keep one of two equal keys silently (yaml-cpp the first, so the second was
+// not even range-checked): refused anywhere in the file, naming both lines.
+TEST(ConfigNode, DuplicateKeysNameBothLines) {
+  auto errorOf = [](const std::string& text) {
+    try {
+      ConfigNode::loadString(text, "p.yaml");
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(errorOf("a: 1\nb: 2\na: -5\n"), "p.yaml:3: a: duplicate key (also on line 1): only one value can be meant");
+  EXPECT_NE(errorOf("sub:\n  x: 1\n  y: 2\n  x: 3\n").find("p.yaml:4: sub.x: duplicate key (also on line 2)"),
+            std::string::npos);
+  EXPECT_NE(errorOf("list:\n  - {n: 1, n: 2}\n").find("p.yaml:2: list[0].n: duplicate key"), std::string::npos);
+  EXPECT_EQ(errorOf("a: 1\nb: {a: 2}\n"), "");  // the same key in different mappings is fine
+}
+
 TEST(ConfigNode, ChoicesAndSequences) {
   auto node = ConfigNode::loadString("k: huber\nv: [1, 2.5]\nitems:\n  - {n: 1}\n  - {n: 2}\n");
   EXPECT_EQ(node.getChoice("k", {"huber", "cauchy"}), "huber");

@@ -90,6 +90,29 @@ TEST(ScenarioErrors, DegenerateWall) {
   EXPECT_NE(error.find("floors[0].walls[1].polyline"), std::string::npos) << error;
 }
 
+// A corner that is not a finite number is an error naming its line; it dropped the
+// walls it bounded.
+TEST(ScenarioErrors, NonFiniteWallCorner) {
+  for (const std::string bad : {".nan", ".inf", "-.inf"}) {
+    const std::string text = replaceLine("WALL", "        - {polyline: [[8.0, 0.0], [8.0, " + bad + "]]}");
+    const std::string error = errorOf(text);
+    EXPECT_NE(error.find("test.yaml:" + std::to_string(lineOf(text, bad + "]]"))), std::string::npos) << error;
+    EXPECT_NE(error.find("expected a finite number"), std::string::npos) << error;
+  }
+  const std::string outer = replaceLine("WALL", "        - {polyline: [[.nan, 0.0], [8.0, 2.0]]}");
+  EXPECT_NE(errorOf(outer).find("floors[0].walls[1].polyline[0][0]"), std::string::npos) << errorOf(outer);
+}
+
+// yaml-cpp keeps the first of two equal keys: the second is refused, naming both lines.
+TEST(ScenarioErrors, DuplicateKey) {
+  const std::string text = replaceLine("HEIGHT", "      height: 3.0\n      height: 30.0");
+  const std::string error = errorOf(text);
+  EXPECT_NE(error.find("test.yaml:" + std::to_string(lineOf(text, "height: 30.0"))), std::string::npos) << error;
+  EXPECT_NE(error.find("duplicate key (also on line " + std::to_string(lineOf(text, "height: 3.0\n"))),
+            std::string::npos)
+      << error;
+}
+
 TEST(ScenarioErrors, DoorNotOnAWall) {
   const std::string text =
       replaceLine("DOOR", "        - {id: d, span: [[9.0, 0.5], [9.0, 1.5]], open: true}");

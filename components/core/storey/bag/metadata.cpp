@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "storey/bag/bag_error.h"
+#include "storey/common/config.h"
 
 namespace storey::bag {
 namespace {
@@ -114,6 +115,11 @@ BagMetadata metadataFromYaml(const std::string& text, const std::string& file) {
     root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
     throw BagError(file, "line " + std::to_string(e.mark.line + 1) + ": malformed YAML: " + e.msg);
+  }
+  try {
+    common::requireUniqueKeys(root, file);
+  } catch (const common::ConfigError& e) {
+    throw BagError(file, "line " + std::to_string(e.line()) + ": " + e.key() + ": " + e.problem());
   }
   const YAML::Node info = root.IsMap() ? root["rosbag2_bagfile_information"] : YAML::Node();
   if (!info || !info.IsMap()) {

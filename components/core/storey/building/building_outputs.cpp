@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iomanip>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 
 namespace storey::building {
@@ -29,7 +30,22 @@ std::map<int, FloorMap> renderBuildingFloors(const BuildingGraph& graph, const B
 
 std::size_t writeBuildingOctomap(const std::string& path, const std::map<int, FloorMap>& floors,
                                  const OctomapOptions& options) {
+  if (!(options.resolution > 0.0) || !(options.wall_height > 0.0))
+    throw std::invalid_argument(path + ": OctoMap resolution and wall height must be > 0");
   octomap::OcTree tree(options.resolution);
+  // OcTree keys reach +-32768 voxels from the origin; points beyond are silently dropped.
+  const double reach = 32768.0 * options.resolution;
+  for (const auto& [id, floor] : floors) {
+    const grid::GridFrame& f = floor.grid.frame();
+    const double extent = std::max({std::abs(f.origin_x), std::abs(f.origin_y), std::abs(f.maxX()), std::abs(f.maxY()),
+                                    std::abs(floor.height), std::abs(floor.height + options.wall_height)});
+    if (!(extent < reach)) {
+      std::ostringstream out;
+      out << path << ": floor " << id << " reaches " << extent << " m from the origin, beyond the OctoMap's +-" << reach
+          << " m at " << options.resolution << " m voxels";
+      throw std::runtime_error(out.str());
+    }
+  }
   const int layers = std::max(1, static_cast<int>(std::round(options.wall_height / options.resolution)));
   for (const auto& [id, floor] : floors) {
     const grid::GridFrame& f = floor.grid.frame();

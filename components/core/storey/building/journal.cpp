@@ -1,6 +1,7 @@
 #include "storey/building/journal.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -183,6 +184,23 @@ JournalRecord decodeRecord(const std::uint8_t* data, std::size_t size) {
 }
 
 void checkDelta(const BuildingGraph& building, const FloorGraphDelta& delta) {
+  auto fail = [&](const std::string& why) {
+    throw std::invalid_argument("floor graph " + std::to_string(delta.graph_id) + " (robot " + delta.robot +
+                                "): " + why);
+  };
+  if (!(std::abs(delta.floor_height) <= kMaxFloorHeight)) {
+    std::ostringstream out;
+    out << "floor height " << delta.floor_height << " m is not within +-" << kMaxFloorHeight << " m";
+    fail(out.str());
+  }
+  for (const auto& node : delta.new_nodes)
+    if (!node.pose.isFinite() || !node.odometry.isFinite() || !std::isfinite(node.stamp))
+      fail("node " + std::to_string(node.id) + " has a non-finite pose, odometry or stamp");
+  for (const auto& [id, pose] : delta.poses)
+    if (!pose.isFinite()) fail("node " + std::to_string(id) + " is given a non-finite pose");
+  for (const auto& edge : delta.new_edges)
+    if (!edge.measurement.isFinite() || !edge.information.allFinite())
+      fail("edge " + std::to_string(edge.from) + " -> " + std::to_string(edge.to) + " has non-finite values");
   auto existing = building.floorGraphs().find(delta.graph_id);
   if (existing != building.floorGraphs().end()) floor::requireSameRobot(existing->second, delta.robot);
   std::set<int> known;

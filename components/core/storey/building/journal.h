@@ -32,12 +32,16 @@ struct FloorGraphDelta {
   std::map<int, geometry::Pose2> poses;
 };
 
+// Floor heights a floor graph may have (m): a floor_mapper's initial_height range.
+inline constexpr double kMaxFloorHeight = 1e4;
+
 // Applies a delta to a building graph, in place. Nodes already present are not
 // duplicated (a re-sent update is harmless); a delta with an edge whose nodes are unknown
 // is rejected whole, with an std::invalid_argument naming the graph and the edge, and
 // changes nothing.
 void applyDelta(BuildingGraph& building, const FloorGraphDelta& delta);
-// The check applyDelta makes first: throws as it would, changes nothing.
+// The check applyDelta makes first (also: a floor height within +-kMaxFloorHeight, finite
+// poses, stamps and edges): throws as it would, changes nothing.
 void checkDelta(const BuildingGraph& building, const FloorGraphDelta& delta);
 
 using JournalRecord = std::variant<FloorGraphDelta, InterGraphConstraint, ConstraintRetraction>;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdint>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 
@@ -33,7 +34,7 @@ const char* typeName() {
 
 ConfigError::ConfigError(const std::string& file, int line, const std::string& key,
                          const std::string& problem)
-    : std::runtime_error(formatError(file, line, key, problem)), file_(file), line_(line), key_(key) {}
+    : std::runtime_error(formatError(file, line, key, problem)), file_(file), line_(line), key_(key), problem_(problem) {}
 
 ConfigNode ConfigNode::loadFile(const std::string& path) {
   std::ifstream in(path);
@@ -51,8 +52,37 @@ ConfigNode ConfigNode::loadString(const std::string& text, const std::string& na
     throw ConfigError(name, e.mark.is_null() ? 0 : e.mark.line + 1, "", "malformed YAML: " + e.msg);
   }
   if (!root.IsMap()) throw ConfigError(name, 1, "", "the top level must be a mapping");
+  requireUniqueKeys(root, name);
   return ConfigNode(root, name, "");
 }
+
+namespace {
+
+void requireUniqueKeysAt(const YAML::Node& node, const std::string& file, const std::string& path) {
+  if (node.IsSequence()) {
+    for (std::size_t i = 0; i < node.size(); ++i)
+      requireUniqueKeysAt(node[i], file, path + "[" + std::to_string(i) + "]");
+    return;
+  }
+  if (!node.IsMap()) return;
+  std::map<std::string, int> lines;  // key -> line where it first appears
+  for (const auto& entry : node) {
+    const std::string key = entry.first.IsScalar() ? entry.first.Scalar() : YAML::Dump(entry.first);
+    const int line = entry.first.Mark().is_null() ? 0 : entry.first.Mark().line + 1;
+    const std::string key_path = path.empty() ? key : path + "." + key;
+    const auto [first, inserted] = lines.emplace(key, line);
+    if (!inserted) {
+      throw ConfigError(file, line, key_path,
+                        "duplicate key (also on line " + std::to_string(first->second) +
+                            "): only one value can be meant");
+    }
+    requireUniqueKeysAt(entry.second, file, key_path);
+  }
+}
+
+}  // namespace
+
+void requireUniqueKeys(const YAML::Node& root, const std::string& file) { requireUniqueKeysAt(root, file, ""); }
 
 ConfigNode::ConfigNode(YAML::Node node, std::string file, std::string path)
     : node_(std::move(node)),

@@ -21,11 +21,13 @@ class ConfigError : public std::runtime_error {
   const std::string& file() const { return file_; }
   int line() const { return line_; }
   const std::string& key() const { return key_; }
+  const std::string& problem() const { return problem_; }
 
  private:
   std::string file_;
   int line_;
   std::string key_;
+  std::string problem_;
 };
 
 // A YAML mapping (or sequence element) being read strictly.
@@ -90,6 +92,11 @@ class ConfigNode {
   std::string path_;
   std::shared_ptr<std::set<std::string>> used_;
 };
+
+// Throws ConfigError naming the file, the key path and both lines for a mapping anywhere
+// in `root` that holds the same key twice (YAML parsers keep one of the values silently).
+// loadFile and loadString check it.
+void requireUniqueKeys(const YAML::Node& root, const std::string& file);
 
 // Sets every key of the mapping `overlay` on `base`, descending into mappings present in
 // both; any other value (scalar, sequence, a mapping over a non-mapping) replaces.

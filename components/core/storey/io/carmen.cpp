@@ -10,6 +10,8 @@
 #include <sstream>
 #include <string_view>
 
+#include "storey/common/log.h"
+
 namespace storey::io {
 namespace {
 
@@ -152,6 +154,15 @@ std::size_t CarmenStats::unknownCount() const {
   std::size_t n = 0;
   for (const auto& [type, count] : unknown) n += count;
   return n;
+}
+
+std::string skippedLinesNote(const std::string& path, const CarmenStats& stats) {
+  if (stats.skipped == 0 && stats.unknown.empty()) return "";
+  std::ostringstream out;
+  out << path << ": " << stats.skipped + stats.unknownCount() << " lines skipped (" << stats.skipped
+      << " unreadable, " << stats.unknownCount() << " of unknown types)";
+  if (!stats.first_skipped.empty()) out << "; first unreadable: " << stats.first_skipped;
+  return out.str();
 }
 
 std::string CarmenStats::summary() const {
@@ -483,6 +494,7 @@ bool CarmenReader::next(CarmenRecord* record) {
       if (options_.strict) throw CarmenError(path_, impl_->line_number, problem);
       ++stats_.skipped;
       noteProblem("malformed", problem);
+      if (stats_.first_skipped.empty()) stats_.first_skipped = formatError(path_, impl_->line_number, problem);
       continue;
     }
     ++stats_.records[record->type];
@@ -501,6 +513,8 @@ CarmenLog readCarmenLog(const std::string& path, const CarmenReaderOptions& opti
     else if (record.kind == CarmenRecordKind::kOdometry)
       log.odometry.push_back(record.odometry);
   }
+  log.stats = reader.stats();
+  if (const std::string note = skippedLinesNote(path, log.stats); !note.empty()) common::logWarn(note);
   return log;
 }
 

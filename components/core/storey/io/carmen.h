@@ -107,12 +107,17 @@ struct CarmenStats {
   std::size_t zero_stamps = 0;
   std::size_t out_of_order_stamps = 0;
   std::vector<std::string> problems;  // "file:line: problem", the first few
+  std::string first_skipped;          // "file:line: problem" of the first malformed line skipped
   std::size_t bytes = 0;              // uncompressed bytes read
 
   std::size_t recordCount(const std::string& type) const;
   std::size_t unknownCount() const;
   std::string summary() const;  // one human-readable paragraph
 };
+
+// "FILE: N lines skipped (U unreadable, K of unknown types); first: FILE:LINE: problem",
+// or "" when none were.
+std::string skippedLinesNote(const std::string& path, const CarmenStats& stats);
 
 // Streams the records of one log. Unknown keywords are skipped and counted; PARAM lines
 // are returned and also collected into params(), so later laser lines use them.
@@ -155,7 +160,10 @@ class CarmenReader {
 struct CarmenLog {
   std::vector<CarmenLaser> lasers;
   std::vector<sensor::OdometrySample> odometry;
+  CarmenStats stats;
 };
+// A lenient read that skipped lines (malformed or of unknown types) says so in a warning
+// naming the file, the counts and the first problem: nothing is dropped silently.
 CarmenLog readCarmenLog(const std::string& path, const CarmenReaderOptions& options = {});
 // Its lasers alone.
 std::vector<CarmenLaser> readCarmenLasers(const std::string& path,

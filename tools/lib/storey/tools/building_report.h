@@ -14,6 +14,12 @@
 
 namespace storey::tools {
 
+// What storey map and storey export accept for the outputs (metres): a finer floor map or
+// OctoMap of a building would not fit in memory, a coarser one shows nothing.
+inline constexpr double kMapResolutionRange[2] = {0.005, 5.0};
+inline constexpr double kVoxelRange[2] = {0.01, 5.0};
+inline constexpr double kWallHeightRange[2] = {0.1, 100.0};
+
 struct BuildingOutputOptions {
   grid::OccupancyGridOptions map;
   building::OctomapOptions octomap;

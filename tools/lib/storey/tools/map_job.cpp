@@ -47,6 +47,10 @@ common::ConfigNode componentParameters(const std::string& config_dir, const std:
   return common::ConfigNode(parameters, parameterFilePath(config_dir, kind), "");
 }
 
+// Floor ids and heights (m) a per-floor input may give.
+constexpr int kFloorIds[2] = {-1000, 1000};
+constexpr double kFloorHeights[2] = {-1000.0, 10000.0};
+
 struct PreparedInput {
   std::string recording;  // bag folder or log file
   std::string robot;      // CARMEN logs: the robot name used for it
@@ -89,6 +93,12 @@ MapInput parseMapInput(const std::string& text) {
   } catch (const std::exception&) {
     throw std::invalid_argument("'" + text + "': expected PATH@FLOOR or PATH@FLOOR:HEIGHT");
   }
+  if (*input.floor < kFloorIds[0] || *input.floor > kFloorIds[1])
+    throw std::invalid_argument("'" + text + "': floor " + std::to_string(*input.floor) + " is outside [" +
+                                std::to_string(kFloorIds[0]) + ", " + std::to_string(kFloorIds[1]) + "]");
+  if (input.height && !(*input.height >= kFloorHeights[0] && *input.height <= kFloorHeights[1]))
+    throw std::invalid_argument("'" + text + "': height " + spec.substr(colon + 1) + " is not a number in [" +
+                                common::str(kFloorHeights[0]) + ", " + common::str(kFloorHeights[1]) + "] m");
   return input;
 }
 
@@ -100,8 +110,8 @@ std::vector<MapInput> readMapInputs(const std::string& yaml_path) {
     MapInput input;
     const fs::path path = entry.get<std::string>("path");
     input.path = (path.is_absolute() ? path : fs::path(yaml_path).parent_path() / path).string();
-    input.floor = entry.getInt("floor", -1000, 1000);
-    input.height = entry.getDouble("height", -1000.0, 10000.0);
+    input.floor = entry.getInt("floor", kFloorIds[0], kFloorIds[1]);
+    input.height = entry.getDouble("height", kFloorHeights[0], kFloorHeights[1]);
     input.robot = entry.get<std::string>("robot", "");
     if (!floors.insert(*input.floor).second) entry.fail("floor", "floor listed twice");
     if (!fs::exists(input.path)) entry.fail("path", "no such file or folder: " + input.path);
@@ -317,7 +327,13 @@ MapJobResult runMapJob(const MapJobOptions& options) {
     if (summary.total > 0 && summary.last_stamp > summary.first_stamp)
       result.recording_seconds += summary.last_stamp - summary.first_stamp;
     messages += summary.total;
-    if (summary.skipped) say(p.recording + ": " + std::to_string(summary.skipped) + " records skipped");
+    // Data left out is reported even with --quiet.
+    if (summary.skipped) {
+      const std::string note = source->skippedNote();
+      common::logWarn(!note.empty() ? note
+                                    : p.recording + ": " + std::to_string(summary.skipped) +
+                                          " records skipped (unreadable or of types storey does not use)");
+    }
   }
   result.timings.push_back({"replay + detection + mapping", secondsSince(phase_start)});
   say("replayed " + std::to_string(messages) + " messages (" + std::to_string(result.recording_seconds) +

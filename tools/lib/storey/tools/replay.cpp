@@ -65,7 +65,7 @@ class BagSource : public SensorSource {
 // pose) followed by the scan; ODOM lines between readings are published as odometry too.
 class CarmenSource : public SensorSource {
  public:
-  CarmenSource(const std::string& path, const std::string& robot) : robot_(robot) {
+  CarmenSource(const std::string& path, const std::string& robot) : path_(path), robot_(robot) {
     io::CarmenReaderOptions options;
     options.strict = false;
     reader_ = std::make_unique<io::CarmenReader>(path, options);
@@ -92,9 +92,11 @@ class CarmenSource : public SensorSource {
     return false;
   }
   std::uint64_t skipped() const override { return reader_->stats().skipped + reader_->stats().unknownCount(); }
+  std::string skippedNote() const override { return io::skippedLinesNote(path_, reader_->stats()); }
   std::uint64_t outOfOrder() const override { return out_of_order_; }
 
  private:
+  std::string path_;
   std::string robot_;
   std::unique_ptr<io::CarmenReader> reader_;
   std::optional<runtime::SensorRecord> pending_;

@@ -57,6 +57,8 @@ class SensorSource {
   virtual bool next(runtime::SensorRecord& record) = 0;
   virtual std::uint64_t skipped() const = 0;
   virtual std::uint64_t outOfOrder() const = 0;
+  // What was skipped and why, for a warning ("" when nothing was, or no more is known).
+  virtual std::string skippedNote() const { return ""; }
   // Best-effort estimate of the number of records (for progress), 0 when unknown.
   virtual std::uint64_t expectedCount() const { return 0; }
 };
