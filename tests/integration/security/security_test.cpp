@@ -210,5 +210,46 @@ TEST_F(SecurityTest, ValidIdentityWithoutPermissionReadsAndInjectsNothing) {
   EXPECT_EQ(pub.matchedCount(), 1);
 }
 
+// Tampered security files: the participant is refused, and the error names the option,
+// its file and the check it fails (it said only "cannot create a DomainParticipant").
+TEST_F(SecurityTest, TamperedFilesAreNamedWithTheCheckTheyFail) {
+  struct Case {
+    std::string what;      // the file altered, relative to the talker's folder copy
+    std::string expected;  // in the error
+  };
+  const std::string ours = *root_ + "/ours";
+  auto read = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string{std::istreambuf_iterator<char>(in), {}};
+  };
+  for (const Case& c : {Case{"governance.p7s", "governance " + ours + "-tampered/governance.p7s: its signature"},
+                        Case{"talker/permissions.p7s", "permissions " + ours + "-tampered/talker/permissions.p7s: its signature"},
+                        Case{"talker/cert.pem", "private_key " + ours + "-tampered/talker/key.pem: does not belong"}}) {
+    const std::string copy = ours + "-tampered";
+    fs::remove_all(copy);
+    fs::copy(ours, copy, fs::copy_options::recursive);
+    if (c.what == "talker/cert.pem") {
+      fs::copy_file(ours + "/listener/cert.pem", copy + "/talker/cert.pem", fs::copy_options::overwrite_existing);
+    } else {
+      std::string text = read(copy + "/" + c.what);
+      const auto at = text.find("<domains>") != std::string::npos ? text.find("<domains>") : text.find("<subject_name>");
+      ASSERT_NE(at, std::string::npos) << c.what;
+      text.insert(at, " ");  // one byte more in the signed XML
+      std::ofstream(copy + "/" + c.what, std::ios::binary | std::ios::trunc) << text;
+    }
+    ContextOptions options;
+    options.domain_id = 223;
+    options.participant_name = "talker";
+    options.security = securityFromFolder(copy, "talker");
+    EXPECT_EQ(diagnoseSecurityFiles(securityFromFolder(ours, "talker")), "");
+    try {
+      Context context(options);
+      ADD_FAILURE() << "a participant with a tampered " << c.what << " was created";
+    } catch (const DdsError& e) {
+      EXPECT_NE(std::string(e.what()).find(c.expected), std::string::npos) << e.what();
+    }
+  }
+}
+
 }  // namespace
 }  // namespace storey::runtime

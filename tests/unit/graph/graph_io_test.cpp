@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <utility>
 
 #include "synthetic_graph.h"
 #include "test_support.h"
@@ -51,6 +52,20 @@ TEST(GraphIo, ReadsG2oWithUpperTriangularInformationAndFix) {
   EXPECT_EQ(m(2, 2), 30);
   EXPECT_EQ(g.edges()[0].kind, EdgeKind::kOdometry);
   EXPECT_EQ(g.edges()[1].kind, EdgeKind::kLoopClosure);
+}
+
+// A directory read as a graph gave "cannot optimise an empty graph"; a device or FIFO
+// never ends or blocks. Refused by name before reading.
+TEST(GraphIo, SpecialFilesAreRefusedByName) {
+  for (const auto& [path, kind] : {std::pair<std::string, std::string>{test::makeTempDir("graph_dir"), "a directory"},
+                                   {"/dev/zero", "a character device"}}) {
+    try {
+      readG2o(path);
+      ADD_FAILURE() << path;
+    } catch (const GraphFileError& e) {
+      EXPECT_EQ(std::string(e.what()), path + ": " + kind + ", not a graph file");
+    }
+  }
 }
 
 TEST(GraphIo, ReadsToroInformationOrder) {

@@ -7,6 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "storey/common/file_checks.h"
+
 namespace storey::common {
 namespace {
 
@@ -37,6 +39,11 @@ ConfigError::ConfigError(const std::string& file, int line, const std::string& k
     : std::runtime_error(formatError(file, line, key, problem)), file_(file), line_(line), key_(key), problem_(problem) {}
 
 ConfigNode ConfigNode::loadFile(const std::string& path) {
+  try {
+    requireRegularFile(path, "YAML file", kMaxYamlFileBytes);
+  } catch (const std::runtime_error& e) {
+    throw ConfigError(path, 0, "", std::string(e.what()).substr(path.size() + 2));
+  }
   std::ifstream in(path);
   if (!in) throw ConfigError(path, 0, "", "cannot open file");
   std::stringstream text;

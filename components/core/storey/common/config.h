@@ -5,6 +5,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <set>
@@ -29,6 +30,10 @@ class ConfigError : public std::runtime_error {
   std::string key_;
   std::string problem_;
 };
+
+// Larger YAML files are refused before reading (parameters, buildings, bringups are
+// kilobytes; the parsed tree takes many times the text).
+inline constexpr std::uint64_t kMaxYamlFileBytes = 16ull << 20;
 
 // A YAML mapping (or sequence element) being read strictly.
 class ConfigNode {

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <vector>
 
+#include "storey/common/file_checks.h"
 #include "storey/common/log.h"
 
 namespace storey::graph {
@@ -19,7 +20,7 @@ using common::str;
 using geometry::Pose2;
 
 GraphFileError::GraphFileError(const std::string& file, int line, const std::string& problem)
-    : std::runtime_error(file + ":" + std::to_string(line) + ": " + problem),
+    : std::runtime_error(file + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + problem),
       file_(file),
       line_(line) {}
 
@@ -186,7 +187,15 @@ PoseGraph parseGraph(const std::string& text, GraphFormat format, const std::str
 
 namespace {
 
+// Larger g2o/TORO files than this are refused before reading (the whole text is held).
+constexpr std::uint64_t kMaxGraphFileBytes = 1ull << 30;
+
 std::string readText(const std::string& path) {
+  try {
+    common::requireRegularFile(path, "graph file", kMaxGraphFileBytes);
+  } catch (const std::runtime_error& e) {
+    throw GraphFileError(path, 0, std::string(e.what()).substr(path.size() + 2));
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw GraphFileError(path, 0, "cannot open the file");
   std::ostringstream text;

@@ -148,11 +148,14 @@ Context::Context(const ContextOptions& options) {
   // entities' own listeners.
   participant_ = factory->create_participant(domain_id_, qos, discovery_logger_.get(), fdds::StatusMask::none());
   if (!participant_) {
-    throw DdsError("cannot create a DomainParticipant on domain " + std::to_string(domain_id_) +
-                   (security.enabled()
-                        ? " (security enabled: check the identity, governance and permissions "
-                          "files and that they are signed by the given CAs)"
-                        : ""));
+    std::string why;
+    if (security.enabled()) {
+      why = diagnoseSecurityFiles(security);
+      why = why.empty() ? " (security enabled: check the identity, governance and permissions files and that "
+                          "they are signed by the given CAs)"
+                        : ": security check failed: " + why;
+    }
+    throw DdsError("cannot create a DomainParticipant on domain " + std::to_string(domain_id_) + why);
   }
   fdds::PublisherQos publisher_qos = fdds::PUBLISHER_QOS_DEFAULT;
   fdds::SubscriberQos subscriber_qos = fdds::SUBSCRIBER_QOS_DEFAULT;

@@ -7,6 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "storey/common/file_checks.h"
+
 namespace fs = std::filesystem;
 
 namespace storey::runtime {
@@ -148,6 +150,11 @@ void validateSecurityOptions(const SecurityOptions& options) {
     if (path->empty()) {
       throw std::runtime_error(std::string("security option ") + name +
                                " is empty while others are set (all six are needed)");
+    }
+    try {
+      common::requireRegularFile(*path, "security file");  // a FIFO would block its reader
+    } catch (const std::runtime_error& e) {
+      throw std::runtime_error(std::string("security option ") + name + ": " + e.what());
     }
     if (!std::ifstream(*path).good()) {
       throw std::runtime_error(std::string("security option ") + name + ": cannot read " + *path);

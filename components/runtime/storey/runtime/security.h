@@ -35,6 +35,15 @@ SecurityOptions securityFromFolder(const std::string& folder, const std::string&
 // throws std::runtime_error naming the field and path otherwise.
 void validateSecurityOptions(const SecurityOptions& options);
 
+// Why Fast DDS would refuse these files, found with the openssl program: the first check
+// that fails, naming the option, its file and the check ("governance /s/governance.p7s:
+// its signature does not verify against permissions_ca /s/ca.cert.pem"), or "" when all
+// pass. Checks: the CA files are certificates; the identity certificate verifies against
+// the identity CA and has not expired; the private key belongs to it; governance and
+// permissions verify against the permissions CA; the permissions grant the certificate's
+// subject. Context calls it when a secured participant cannot be created.
+std::string diagnoseSecurityFiles(const SecurityOptions& options, const std::string& openssl = "openssl");
+
 // The DomainParticipant properties that enable the builtin plugins (PKI-DH,
 // Access-Permissions, AES-GCM-GMAC) with these files ("file:" URIs, absolute paths).
 std::vector<std::pair<std::string, std::string>> securityProperties(const SecurityOptions& options);
