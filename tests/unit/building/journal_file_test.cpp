@@ -167,7 +167,7 @@ TEST(JournalFile, SpecialFilesAreRefusedByName) {
   ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
   const std::pair<std::string, std::string> cases[] = {
       {dir, "a directory, not a journal"}, {"/dev/zero", "a character device, not a journal"},
-      {fifo, "a FIFO, not a journal"}, {dir + "/missing", "no such file"}};
+      {fifo, "a FIFO, not a journal"}, {dir + "/missing", "cannot open the journal: no such file"}};
   for (const auto& [path, expected] : cases) {
     const std::string error = messageOf([&] { readJournal(path); });
     EXPECT_NE(error.find(path + ": " + expected), std::string::npos) << error;

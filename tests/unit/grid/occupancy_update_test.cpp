@@ -129,6 +129,31 @@ TEST(OccupancyUpdate, InsertingScansTogetherEqualsOneByOne) {
   EXPECT_LT(together.frame().cellCount(), one_by_one.frame().cellCount() / 4);
 }
 
+// A pose 1e9 m away or a range of 1e30 m would need a grid beyond any memory (it ended in
+// std::bad_alloc): refused, naming the extent and the limit; the grid is unchanged.
+TEST(OccupancyUpdate, AScanOutOfReachIsRefusedNamingTheExtent) {
+  OccupancyGrid grid;
+  grid.insertScan(beams({2.0f, 2.0f, 2.0f}, -0.1, 0.1), geometry::Pose2());
+  const GridFrame before = grid.frame();
+  for (const auto& [scan, pose] :
+       {std::pair{beams({2.0f}, 0.0, 0.1), geometry::Pose2(1e9, 0.0, 0.0)},
+        std::pair{[] {
+                    sensor::LaserScan s = beams({1e30f}, 0.0, 0.1);
+                    s.range_max = 1e31f;
+                    return s;
+                  }(),
+                  geometry::Pose2()}}) {
+    try {
+      grid.insertScan(scan, pose);
+      ADD_FAILURE() << "accepted";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("cells a map may hold"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(grid.frame().width, before.width);
+    EXPECT_EQ(grid.frame().height, before.height);
+  }
+}
+
 TEST(OccupancyGridOptions, GrowthMarginIsReadAndChecked) {
   const auto read = [](const std::string& text) {
     return readOccupancyGridOptions(common::ConfigNode::loadString(text));

@@ -6,6 +6,7 @@
 
 #include "storey/bag/bag_error.h"
 #include "storey/bag/sqlite_db.h"
+#include "storey/common/file_checks.h"
 
 namespace storey::bag {
 
@@ -64,6 +65,11 @@ BagReader::~BagReader() {
 }
 
 void BagReader::openFile(const std::string& file) {
+  try {
+    common::requireRegularFile(file, "bag database");  // sqlite would wait on a FIFO forever
+  } catch (const std::runtime_error& e) {
+    throw BagError(file, std::string(e.what()).substr(file.size() + 2));
+  }
   auto db = std::make_unique<detail::Database>(file, detail::Database::Mode::kReadOnly);
   // The first query reads the header: a garbage file fails here, naming the file.
   bool has_tables = false;

@@ -7,6 +7,7 @@
 
 #include "storey/bag/bag_error.h"
 #include "storey/common/config.h"
+#include "storey/common/file_checks.h"
 
 namespace storey::bag {
 namespace {
@@ -171,6 +172,11 @@ BagMetadata metadataFromYaml(const std::string& text, const std::string& file) {
 }
 
 BagMetadata readMetadataFile(const std::string& path) {
+  try {
+    common::requireRegularFile(path, "bag metadata file", common::kMaxYamlFileBytes);
+  } catch (const std::runtime_error& e) {
+    throw BagError(path, std::string(e.what()).substr(path.size() + 2));
+  }
   std::ifstream in(path);
   if (!in) throw BagError(path, "cannot open metadata file");
   std::stringstream text;

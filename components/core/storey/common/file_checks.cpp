@@ -24,7 +24,7 @@ struct stat statOrThrow(const std::string& path, const std::string& what) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) {
     const int error = errno;
-    if (error == ENOENT) throw std::runtime_error(path + ": no such file (expected a " + what + ")");
+    if (error == ENOENT) throw std::runtime_error(path + ": cannot open the " + what + ": no such file");
     throw std::runtime_error(path + ": cannot read the " + what + ": " + std::strerror(error));
   }
   return st;

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <memory>
+#include <string>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -44,6 +45,17 @@ struct GridFrame {
   double maxX() const { return origin_x + width * resolution; }
   double maxY() const { return origin_y + height * resolution; }
 };
+
+// Most cells a grid built from input (a floor map, a rendered log) may have: 1e8 cells is
+// 500 m x 500 m at 0.05 m, larger than any building mapped so far, and 600 MB with an
+// occupancy grid's bookkeeping. An input that would need more (a pose 1e9 m away, a range
+// of 1e30 m, a resolution of 1e-6 m) is refused instead of exhausting memory.
+inline constexpr double kMaxGridCells = 1e8;
+
+// Throws std::runtime_error when a grid of `width` x `height` cells (computed in double, so
+// a size that overflows int is caught too) would exceed kMaxGridCells; `what` names the
+// grid and where its extent comes from.
+void checkGridSize(double width, double height, double resolution, const std::string& what);
 
 // std::allocator, except that an element made without a value is default-initialised (left as
 // it is for float or int) instead of value-initialised (zeroed). A grid that its builder

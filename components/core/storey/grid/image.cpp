@@ -8,6 +8,9 @@
 #include <iterator>
 #include <stdexcept>
 
+#include "storey/common/file_checks.h"
+#include "storey/grid/grid2.h"
+
 namespace storey::grid {
 namespace {
 
@@ -70,6 +73,7 @@ void writePng(const std::string& path, const Image& image) {
 }
 
 Image readPng(const std::string& path) {
+  common::requireRegularFile(path, "PNG file", 1ull << 30);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error(path + ": cannot open");
   std::vector<std::uint8_t> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -97,6 +101,10 @@ Image readPng(const std::string& path) {
     pos += 12 + length;
   }
   if (image.width <= 0 || image.height <= 0) throw std::runtime_error(path + ": missing PNG header");
+  if (static_cast<double>(image.width) * image.height > kMaxGridCells)
+    throw std::runtime_error(path + ": " + std::to_string(image.width) + " x " + std::to_string(image.height) +
+                             " pixels, more than the " + std::to_string(static_cast<long>(kMaxGridCells)) +
+                             " a picture may have");
   const std::size_t row_bytes = static_cast<std::size_t>(image.width) * image.channels;
   std::vector<std::uint8_t> raw((row_bytes + 1) * image.height);
   uLongf raw_size = static_cast<uLongf>(raw.size());

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <string_view>
 
+#include "storey/common/file_checks.h"
 #include "storey/common/log.h"
 
 namespace storey::io {
@@ -209,6 +210,11 @@ struct CarmenReader::Impl {
 
 CarmenReader::CarmenReader(const std::string& path, const CarmenReaderOptions& options)
     : path_(path), options_(options), impl_(std::make_unique<Impl>()) {
+  try {
+    common::requireRegularFile(path, "CARMEN log");  // gzopen would block on a FIFO
+  } catch (const std::runtime_error& e) {
+    throw CarmenError(path, 0, std::string(e.what()).substr(path.size() + 2));
+  }
   // gzopen reads plain files transparently, so one code path serves both.
   impl_->file = gzopen(path.c_str(), "rb");
   if (!impl_->file)
@@ -256,6 +262,9 @@ bool CarmenReader::readLine() {
     }
     got = true;
     const std::size_t length = std::strlen(result);
+    if (s.line.size() + length > kMaxLineBytes)
+      throw CarmenError(path_, s.line_number + 1,
+                        "line longer than " + std::to_string(kMaxLineBytes) + " bytes (not a CARMEN log?)");
     s.line.append(result, length);
     if (length > 0 && result[length - 1] == '\n') break;
     // Shorter than the buffer without a newline: the last line of a file that does not end in

@@ -44,6 +44,9 @@ class CarmenError : public std::runtime_error {
   std::string problem_;
 };
 
+// Longest line a log may have: a 1081-beam ROBOTLASER1 line with remissions is ~25 kB.
+inline constexpr std::size_t kMaxLineBytes = 4u << 20;
+
 struct CarmenReaderOptions {
   // strict: the first malformed line throws CarmenError, and an empty log is an error.
   // lenient: malformed lines are skipped and counted in stats(); an empty log reads as empty.

@@ -8,6 +8,8 @@
 namespace storey::sim {
 namespace {
 
+constexpr double kMaxPicturePixels = 2.5e7;
+
 struct Frame {
   Eigen::Vector2d min;
   int width = 0, height = 0;
@@ -24,10 +26,12 @@ Frame frameFor(const Building& building, const PictureOptions& options) {
     }
   if (lo.x() > hi.x()) lo = hi = Eigen::Vector2d::Zero();
   Frame frame;
-  frame.resolution = options.resolution;
   frame.min = lo - Eigen::Vector2d::Constant(options.margin);
-  const Eigen::Vector2d size = (hi - lo) / options.resolution +
-                               Eigen::Vector2d::Constant(2.0 * options.margin / options.resolution);
+  const Eigen::Vector2d extent = hi - lo + Eigen::Vector2d::Constant(2.0 * options.margin);
+  // A building too large for the picture at this resolution is drawn coarser (a 2 km wall
+  // at 0.05 m would need 1.6e9 pixels).
+  frame.resolution = std::max(options.resolution, std::sqrt(extent.x() * extent.y() / kMaxPicturePixels));
+  const Eigen::Vector2d size = extent / frame.resolution;
   frame.width = std::max(1, static_cast<int>(std::ceil(size.x())));
   frame.height = std::max(1, static_cast<int>(std::ceil(size.y())));
   return frame;

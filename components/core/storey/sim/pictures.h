@@ -11,7 +11,7 @@
 namespace storey::sim {
 
 struct PictureOptions {
-  double resolution = 0.05;  // metres per pixel
+  double resolution = 0.05;  // metres per pixel (coarser for a building that would need over 2.5e7)
   double margin = 1.0;       // metres around the building
 };
 
