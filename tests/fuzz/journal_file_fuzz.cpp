@@ -24,7 +24,8 @@ constexpr char kMagic[8] = {'S', 'T', 'O', 'R', 'E', 'Y', 'J', '1'};
 // A record framed as RecordFileWriter frames it: magic "JREC", length, payload, zlib's CRC32.
 void frame(std::vector<std::uint8_t>& file, const std::vector<std::uint8_t>& payload) {
   const std::uint32_t magic = 0x4A524543, length = static_cast<std::uint32_t>(payload.size());
-  const auto crc = static_cast<std::uint32_t>(crc32(0L, payload.data(), static_cast<uInt>(payload.size())));
+  const auto crc =
+      static_cast<std::uint32_t>(crc32(0L, payload.data(), static_cast<uInt>(payload.size())));
   const auto put = [&](std::uint32_t v) {
     const auto* p = reinterpret_cast<const std::uint8_t*>(&v);
     file.insert(file.end(), p, p + 4);
@@ -71,8 +72,10 @@ RecordFileScan scan(const std::vector<std::uint8_t>& bytes) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static const std::vector<std::uint8_t> sample = sampleJournal();
   std::vector<std::uint8_t> bytes;
-  if (size > 0 && (data[0] & 1)) bytes = storey::fuzz::patchSample(sample, data + 1, size - 1);
-  else if (size > 0) bytes.assign(data + 1, data + size);
+  if (size > 0 && (data[0] & 1))
+    bytes = storey::fuzz::patchSample(sample, data + 1, size - 1);
+  else if (size > 0)
+    bytes.assign(data + 1, data + size);
   RecordFileScan result;
   try {
     result = scan(bytes);
@@ -80,13 +83,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     return 0;  // not a journal
   }
   if (result.valid_bytes > bytes.size() || result.file_bytes != bytes.size()) __builtin_trap();
-  if (result.end == RecordFileEnd::kIntact && result.valid_bytes != bytes.size() && !bytes.empty()) __builtin_trap();
+  if (result.end == RecordFileEnd::kIntact && result.valid_bytes != bytes.size() && !bytes.empty())
+    __builtin_trap();
   if (result.end == RecordFileEnd::kDamaged && result.next_intact_offset != 0 &&
       result.next_intact_offset <= result.valid_bytes)
     __builtin_trap();
   // The intact prefix is a journal of its own with the same records.
   if (result.valid_bytes >= 8) {
-    const std::vector<std::uint8_t> prefix(bytes.begin(), bytes.begin() + static_cast<long>(result.valid_bytes));
+    const std::vector<std::uint8_t> prefix(bytes.begin(),
+                                           bytes.begin() + static_cast<long>(result.valid_bytes));
     const RecordFileScan again = scan(prefix);
     if (again.end != RecordFileEnd::kIntact || again.records != result.records) __builtin_trap();
   }

@@ -9,18 +9,21 @@
 
 namespace storey::cli {
 
-extern const char* const summary_journal = "check a graph server journal or input log, or salvage its intact records";
+extern const char* const summary_journal =
+    "check a graph server journal or input log, or salvage its intact records";
 
 namespace {
 
-int printScanEnd(const std::string& path, const std::string& what, const common::RecordFileScan& scan) {
+int printScanEnd(const std::string& path, const std::string& what,
+                 const common::RecordFileScan& scan) {
   switch (scan.end) {
     case common::RecordFileEnd::kIntact:
       std::cout << "  end: intact\n";
       return 0;
     case common::RecordFileEnd::kTornTail:
-      std::cout << "  end: torn last record at offset " << scan.valid_bytes << " (" << scan.problem << ", "
-                << scan.file_bytes - scan.valid_bytes << " bytes): dropped when the file is opened\n";
+      std::cout << "  end: torn last record at offset " << scan.valid_bytes << " (" << scan.problem
+                << ", " << scan.file_bytes - scan.valid_bytes
+                << " bytes): dropped when the file is opened\n";
       return 0;
     case common::RecordFileEnd::kDamaged:
       std::cout << "  end: " << common::describeDamage(path, what, scan) << "\n";
@@ -57,8 +60,9 @@ int run_journal(Args& args) {
       return check.scan.end == common::RecordFileEnd::kDamaged ? 1 : 0;
     }
     const common::RecordFileScan scan = mapping::scanInputLog(path);
-    std::cout << path << ": storey input log, " << common::byteCount(scan.file_bytes) << "\n  intact: "
-              << scan.records << " inputs in the first " << scan.valid_bytes << " bytes\n";
+    std::cout << path << ": storey input log, " << common::byteCount(scan.file_bytes)
+              << "\n  intact: " << scan.records << " inputs in the first " << scan.valid_bytes
+              << " bytes\n";
     return printScanEnd(path, what, scan);
   }
   if (action == "salvage") {
@@ -66,12 +70,14 @@ int run_journal(Args& args) {
     if (args.positionals().size() != 3) throw UsageError("salvage takes FILE and NEW");
     const common::RecordFileScan scan =
         journal ? building::salvageJournal(path, out) : mapping::salvageInputLog(path, out);
-    std::cout << out << ": " << scan.records << " records (" << scan.valid_bytes << " bytes) of " << path << "\n";
+    std::cout << out << ": " << scan.records << " records (" << scan.valid_bytes << " bytes) of "
+              << path << "\n";
     if (scan.end != common::RecordFileEnd::kIntact) {
-      std::cout << "  left out: " << scan.file_bytes - scan.valid_bytes << " bytes from offset " << scan.valid_bytes
-                << " (" << scan.problem << ")";
+      std::cout << "  left out: " << scan.file_bytes - scan.valid_bytes << " bytes from offset "
+                << scan.valid_bytes << " (" << scan.problem << ")";
       if (scan.intact_after > 0)
-        std::cout << ", among them " << scan.intact_after << " intact records from offset " << scan.next_intact_offset;
+        std::cout << ", among them " << scan.intact_after << " intact records from offset "
+                  << scan.next_intact_offset;
       std::cout << "\n";
     }
     return 0;

@@ -61,14 +61,15 @@ TEST(RuntimeIsolation, AnIsolatedContextMatchesItselfAndNoOtherParticipant) {
   constexpr int kDomain = 228;
   const std::string dir = storey::test::makeTempDir("runtime_isolation");
   std::ofstream(dir + "/talker.yaml") << "topic: chatter\nrate_hz: 50\n";
-  std::ofstream(dir + "/bringup.yaml") << "processes:\n  - name: talker_process\n    domain_id: " << kDomain
-                                       << "\n    components:\n"
-                                          "      - {kind: test_talker, name: talker, parameters: talker.yaml}\n";
+  std::ofstream(dir + "/bringup.yaml")
+      << "processes:\n  - name: talker_process\n    domain_id: " << kDomain
+      << "\n    components:\n"
+         "      - {kind: test_talker, name: talker, parameters: talker.yaml}\n";
   const pid_t talker = fork();
   ASSERT_GE(talker, 0);
   if (talker == 0) {
-    execl(RUNTIME_TEST_NODE, RUNTIME_TEST_NODE, "--bringup", (dir + "/bringup.yaml").c_str(), "--process",
-          "talker_process", static_cast<char*>(nullptr));
+    execl(RUNTIME_TEST_NODE, RUNTIME_TEST_NODE, "--bringup", (dir + "/bringup.yaml").c_str(),
+          "--process", "talker_process", static_cast<char*>(nullptr));
     _exit(127);
   }
   struct Stop {
@@ -82,12 +83,14 @@ TEST(RuntimeIsolation, AnIsolatedContextMatchesItselfAndNoOtherParticipant) {
   Context open(isolationTestOptions(kDomain, false));
   Tally heard_open;
   EventSub open_sub(open, "chatter", TopicKind::kGraph, [&](const auto& e) { heard_open.take(e); });
-  ASSERT_TRUE(waitUntil([&] { return heard_open.others >= 5; }, 20.0)) << "the talker process was not heard";
+  ASSERT_TRUE(waitUntil([&] { return heard_open.others >= 5; }, 20.0))
+      << "the talker process was not heard";
 
   Context isolated(isolationTestOptions(kDomain, true));
   EXPECT_TRUE(isolated.isolated());
   Tally heard_isolated;
-  EventSub isolated_sub(isolated, "chatter", TopicKind::kGraph, [&](const auto& e) { heard_isolated.take(e); });
+  EventSub isolated_sub(isolated, "chatter", TopicKind::kGraph,
+                        [&](const auto& e) { heard_isolated.take(e); });
   EventPub isolated_pub(isolated, "chatter", TopicKind::kGraph);
   ASSERT_TRUE(isolated_pub.waitForSubscribers(1, 5.0));
   for (int i = 0; i < 20; ++i) {
@@ -120,12 +123,16 @@ TEST(RuntimeIsolation, ASecondWriterOfASensorTopicIsWarned) {
   {
     ScanSub scans(reader, "robot1/scan", TopicKind::kSensor, [](const auto&) {});
     EventSub graphs(reader, "floor_graphs_like", TopicKind::kGraph, [](const auto&) {});
-    Context first(isolationTestOptions(kDomain, false)), second(isolationTestOptions(kDomain, false));
-    ScanPub scan_a(first, "robot1/scan", TopicKind::kSensor), scan_b(second, "robot1/scan", TopicKind::kSensor);
+    Context first(isolationTestOptions(kDomain, false)),
+        second(isolationTestOptions(kDomain, false));
+    ScanPub scan_a(first, "robot1/scan", TopicKind::kSensor),
+        scan_b(second, "robot1/scan", TopicKind::kSensor);
     EventPub graph_a(first, "floor_graphs_like", TopicKind::kGraph),
         graph_b(second, "floor_graphs_like", TopicKind::kGraph);
-    const bool matched = waitUntil([&] { return scans.matchedCount() == 2 && graphs.matchedCount() == 2; }, 10.0);
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the listener logs after the count
+    const bool matched =
+        waitUntil([&] { return scans.matchedCount() == 2 && graphs.matchedCount() == 2; }, 10.0);
+    std::this_thread::sleep_for(
+        std::chrono::milliseconds(200));  // the listener logs after the count
     log = testing::internal::GetCapturedStderr();
     ASSERT_TRUE(matched);
   }

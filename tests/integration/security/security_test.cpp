@@ -211,7 +211,7 @@ TEST_F(SecurityTest, ValidIdentityWithoutPermissionReadsAndInjectsNothing) {
 }
 
 // Tampered security files: the participant is refused, and the error names the option,
-// its file and the check it fails (it said only "cannot create a DomainParticipant").
+// its file and the check it fails (Fast DDS says only that it cannot create the participant).
 TEST_F(SecurityTest, TamperedFilesAreNamedWithTheCheckTheyFail) {
   struct Case {
     std::string what;      // the file altered, relative to the talker's folder copy

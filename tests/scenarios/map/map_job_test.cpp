@@ -137,8 +137,8 @@ TEST(MapJob, AReplayOnTheSameDomainDoesNotChangeTheBuilding) {
 // Floors recorded on their own (the paper's setting), here small2's robot before and after
 // its ride as two CARMEN logs given as A@0:0 and B@1:3.5. Each log's robot maps its own
 // floor from its first scan: one graph each, on its floor. Its mapper starts there (a
-// floor event stamped 0 came after the log's first scan, also stamped 0, which then made
-// a one-node graph on floor 0).
+// floor event would be ordered among the scans by stamp; a first scan stamped no later
+// would make a one-node graph on floor 0).
 TEST(MapJob, FloorsRecordedSeparatelyAreMappedOnTheirOwnFloors) {
   const std::string dir = test::makeTempDir("storey_map_floors");
   const sim::Simulation run = sim::simulate(sim::loadScenario(defaultBuilding(defaultConfigDir())), 1);
@@ -199,7 +199,7 @@ TEST(MapJob, BadInputsAreReportedClearly) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/recording"), std::string::npos);
   }
   EXPECT_THROW(parseMapInput("a.log@x"), std::invalid_argument);
-  // A height or floor with no meaning is refused, naming the input (NaN became height 0).
+  // A height or floor with no meaning is refused, naming the input.
   for (const char* bad : {"a.log@0:nan", "a.log@0:inf", "a.log@1:-inf", "a.log@0:1e300", "a.log@5000"}) {
     try {
       parseMapInput(bad);

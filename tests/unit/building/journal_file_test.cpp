@@ -77,7 +77,8 @@ TEST(JournalFile, ALengthDamagedBeforeTheEndIsAnErrorAndTheFileIsKept) {
   poke(path, offsets[1] + 4, &huge, 4);
   const std::string error = messageOf([&] { readJournal(path); });
   EXPECT_NE(error.find("offset " + std::to_string(offsets[1])), std::string::npos) << error;
-  EXPECT_NE(error.find("2 intact records follow from offset " + std::to_string(offsets[2])), std::string::npos)
+  EXPECT_NE(error.find("2 intact records follow from offset " + std::to_string(offsets[2])),
+            std::string::npos)
       << error;
   EXPECT_THROW(JournalWriter(path, false), common::RecordFileDamaged);
   EXPECT_EQ(fs::file_size(path), size);
@@ -90,7 +91,9 @@ TEST(JournalFile, AChecksumFailingBeforeTheEndIsAnError) {
   const char bad = 0x55;
   poke(path, offsets[2] + 20, &bad, 1);
   const std::string error = messageOf([&] { JournalWriter(path, false); });
-  EXPECT_NE(error.find("offset " + std::to_string(offsets[2]) + " (fails its checksum)"), std::string::npos) << error;
+  EXPECT_NE(error.find("offset " + std::to_string(offsets[2]) + " (fails its checksum)"),
+            std::string::npos)
+      << error;
   EXPECT_NE(error.find("after 2 intact records"), std::string::npos) << error;
 }
 
@@ -166,15 +169,17 @@ TEST(JournalFile, SpecialFilesAreRefusedByName) {
   const std::string fifo = dir + "/fifo";
   ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
   const std::pair<std::string, std::string> cases[] = {
-      {dir, "a directory, not a journal"}, {"/dev/zero", "a character device, not a journal"},
-      {fifo, "a FIFO, not a journal"}, {dir + "/missing", "cannot open the journal: no such file"}};
-  for (const auto& [path, expected] : cases) {
-    const std::string error = messageOf([&] { readJournal(path); });
-    EXPECT_NE(error.find(path + ": " + expected), std::string::npos) << error;
+      {dir, "a directory, not a journal"},
+      {"/dev/zero", "a character device, not a journal"},
+      {fifo, "a FIFO, not a journal"},
+      {dir + "/missing", "cannot open the journal: no such file"}};
+  for (const auto& c : cases) {
+    const std::string error = messageOf([&] { readJournal(c.first); });
+    EXPECT_NE(error.find(c.first + ": " + c.second), std::string::npos) << error;
   }
-  for (const auto& [path, expected] : {cases[0], cases[1], cases[2]}) {
-    const std::string error = messageOf([&] { JournalWriter(path, false); });
-    EXPECT_NE(error.find(path + ": " + expected), std::string::npos) << error;
+  for (const auto& c : {cases[0], cases[1], cases[2]}) {
+    const std::string error = messageOf([&] { JournalWriter(c.first, false); });
+    EXPECT_NE(error.find(c.first + ": " + c.second), std::string::npos) << error;
   }
 }
 

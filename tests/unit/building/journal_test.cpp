@@ -201,7 +201,7 @@ TEST(Journal, DeltaWithUnknownNodeIsRejected) {
 }
 
 // Values with no meaning in a floor graph are refused whole, naming the graph: a floor
-// height of 1e300 m (it gave an empty OctoMap and exit 0), non-finite poses and edges.
+// height of 1e300 m (far beyond any OctoMap), non-finite poses and edges.
 TEST(Journal, DeltasWithValuesOutOfReachAreRejected) {
   auto errorOf = [](const FloorGraphDelta& d) {
     BuildingGraph building;

@@ -69,8 +69,8 @@ TEST(ConfigNode, MalformedYamlNamesLine) {
   EXPECT_THROW(ConfigNode::loadString("- 1\n- 2\n", "list.yaml"), ConfigError);
 }
 
-// YAML parsers keep one of two equal keys silently (yaml-cpp the first, so the second was
-// not even range-checked): refused anywhere in the file, naming both lines.
+// YAML parsers keep one of two equal keys silently (yaml-cpp the first, and the second is
+// never range-checked): refused anywhere in the file, naming both lines.
 TEST(ConfigNode, DuplicateKeysNameBothLines) {
   auto errorOf = [](const std::string& text) {
     try {

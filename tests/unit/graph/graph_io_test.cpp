@@ -54,8 +54,8 @@ TEST(GraphIo, ReadsG2oWithUpperTriangularInformationAndFix) {
   EXPECT_EQ(g.edges()[1].kind, EdgeKind::kLoopClosure);
 }
 
-// A directory read as a graph gave "cannot optimise an empty graph"; a device or FIFO
-// never ends or blocks. Refused by name before reading.
+// A directory read as a graph would be an empty graph; a device never ends, a FIFO blocks.
+// Refused by name before reading.
 TEST(GraphIo, SpecialFilesAreRefusedByName) {
   for (const auto& [path, kind] : {std::pair<std::string, std::string>{test::makeTempDir("graph_dir"), "a directory"},
                                    {"/dev/zero", "a character device"}}) {

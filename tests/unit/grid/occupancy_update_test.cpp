@@ -129,8 +129,8 @@ TEST(OccupancyUpdate, InsertingScansTogetherEqualsOneByOne) {
   EXPECT_LT(together.frame().cellCount(), one_by_one.frame().cellCount() / 4);
 }
 
-// A pose 1e9 m away or a range of 1e30 m would need a grid beyond any memory (it ended in
-// std::bad_alloc): refused, naming the extent and the limit; the grid is unchanged.
+// A pose 1e9 m away or a range of 1e30 m would need a grid beyond any memory: refused,
+// naming the extent and the limit; the grid is unchanged.
 TEST(OccupancyUpdate, AScanOutOfReachIsRefusedNamingTheExtent) {
   OccupancyGrid grid;
   grid.insertScan(beams({2.0f, 2.0f, 2.0f}, -0.1, 0.1), geometry::Pose2());

@@ -309,7 +309,7 @@ TEST(CarmenReader, LenientModeKeepsReadingAfterBadLines) {
 }
 
 // A whole-log read (storey slam's) that skipped lines says so: the front end's own report
-// counts scans, not lines, and read "skipped: 0" for a log with a NaN pose and a cut line.
+// counts scans, not lines.
 TEST(CarmenReader, AWholeLogReadSaysWhatItSkipped) {
   const std::string good = flaserLine(5, 1.0, "0 0 0 0 0 0 1 h 1");
   const std::string nan_pose = flaserLine(5, 1.0, "nan 0 0 0 0 0 2 h 2");

@@ -90,8 +90,8 @@ TEST(ScenarioErrors, DegenerateWall) {
   EXPECT_NE(error.find("floors[0].walls[1].polyline"), std::string::npos) << error;
 }
 
-// A corner that is not a finite number is an error naming its line; it dropped the
-// walls it bounded.
+// A corner that is not a finite number is an error naming its line (drawn, it would drop
+// the walls it bounds).
 TEST(ScenarioErrors, NonFiniteWallCorner) {
   for (const std::string bad : {".nan", ".inf", "-.inf"}) {
     const std::string text = replaceLine("WALL", "        - {polyline: [[8.0, 0.0], [8.0, " + bad + "]]}");
@@ -103,7 +103,7 @@ TEST(ScenarioErrors, NonFiniteWallCorner) {
   EXPECT_NE(errorOf(outer).find("floors[0].walls[1].polyline[0][0]"), std::string::npos) << errorOf(outer);
 }
 
-// yaml-cpp keeps the first of two equal keys: the second is refused, naming both lines.
+// yaml-cpp keeps the first of two equal keys: the file is refused, naming both lines.
 TEST(ScenarioErrors, DuplicateKey) {
   const std::string text = replaceLine("HEIGHT", "      height: 3.0\n      height: 30.0");
   const std::string error = errorOf(text);

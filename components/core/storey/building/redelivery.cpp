@@ -14,7 +14,8 @@ void RedeliveryFilter::noteAccepted(const BuildingGraph& building, const Journal
   }
 }
 
-bool RedeliveryFilter::isRedelivery(const BuildingGraph& building, const JournalRecord& record) const {
+bool RedeliveryFilter::isRedelivery(const BuildingGraph& building,
+                                    const JournalRecord& record) const {
   if (const auto* d = std::get_if<FloorGraphDelta>(&record)) {
     const auto last = last_sequence_.find(d->graph_id);
     if (last == last_sequence_.end() || d->sequence > last->second) return false;
@@ -33,7 +34,8 @@ bool RedeliveryFilter::isRedelivery(const BuildingGraph& building, const Journal
     }
     return true;
   }
-  if (std::holds_alternative<InterGraphConstraint>(record)) return retracted_.count(encodeRecord(record)) > 0;
+  if (std::holds_alternative<InterGraphConstraint>(record))
+    return retracted_.count(encodeRecord(record)) > 0;
   return false;
 }
 

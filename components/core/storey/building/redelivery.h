@@ -29,8 +29,8 @@ class RedeliveryFilter {
   bool isRedelivery(const BuildingGraph& building, const JournalRecord& record) const;
 
  private:
-  std::map<int, std::uint32_t> last_sequence_;         // per floor graph
-  std::set<std::vector<std::uint8_t>> retracted_;      // encoded constraints since retracted
+  std::map<int, std::uint32_t> last_sequence_;     // per floor graph
+  std::set<std::vector<std::uint8_t>> retracted_;  // encoded constraints since retracted
 };
 
 }  // namespace storey::building

@@ -24,7 +24,8 @@ struct stat statOrThrow(const std::string& path, const std::string& what) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) {
     const int error = errno;
-    if (error == ENOENT) throw std::runtime_error(path + ": cannot open the " + what + ": no such file");
+    if (error == ENOENT)
+      throw std::runtime_error(path + ": cannot open the " + what + ": no such file");
     throw std::runtime_error(path + ": cannot read the " + what + ": " + std::strerror(error));
   }
   return st;
@@ -32,20 +33,23 @@ struct stat statOrThrow(const std::string& path, const std::string& what) {
 
 }  // namespace
 
-std::uint64_t requireRegularFile(const std::string& path, const std::string& what, std::uint64_t max_bytes) {
+std::uint64_t requireRegularFile(const std::string& path, const std::string& what,
+                                 std::uint64_t max_bytes) {
   const struct stat st = statOrThrow(path, what);
-  if (!S_ISREG(st.st_mode)) throw std::runtime_error(path + ": " + kindOf(st.st_mode) + ", not a " + what);
+  if (!S_ISREG(st.st_mode))
+    throw std::runtime_error(path + ": " + kindOf(st.st_mode) + ", not a " + what);
   const auto size = static_cast<std::uint64_t>(st.st_size);
   if (max_bytes > 0 && size > max_bytes) {
-    throw std::runtime_error(path + ": " + byteCount(size) + ", more than the " + byteCount(max_bytes) + " a " + what +
-                             " may have");
+    throw std::runtime_error(path + ": " + byteCount(size) + ", more than the " +
+                             byteCount(max_bytes) + " a " + what + " may have");
   }
   return size;
 }
 
 void requireDirectory(const std::string& path, const std::string& what) {
   const struct stat st = statOrThrow(path, what);
-  if (!S_ISDIR(st.st_mode)) throw std::runtime_error(path + ": " + kindOf(st.st_mode) + ", not a " + what);
+  if (!S_ISDIR(st.st_mode))
+    throw std::runtime_error(path + ": " + kindOf(st.st_mode) + ", not a " + what);
 }
 
 std::string fileKind(const std::string& path) {
@@ -56,10 +60,14 @@ std::string fileKind(const std::string& path) {
 
 std::string byteCount(std::uint64_t bytes) {
   char text[64];
-  if (bytes < 10000) std::snprintf(text, sizeof text, "%llu bytes", static_cast<unsigned long long>(bytes));
-  else if (bytes < 10000000) std::snprintf(text, sizeof text, "%.1f kB", bytes / 1e3);
-  else if (bytes < 10000000000ull) std::snprintf(text, sizeof text, "%.1f MB", bytes / 1e6);
-  else std::snprintf(text, sizeof text, "%.1f GB", bytes / 1e9);
+  if (bytes < 10000)
+    std::snprintf(text, sizeof text, "%llu bytes", static_cast<unsigned long long>(bytes));
+  else if (bytes < 10000000)
+    std::snprintf(text, sizeof text, "%.1f kB", bytes / 1e3);
+  else if (bytes < 10000000000ull)
+    std::snprintf(text, sizeof text, "%.1f MB", bytes / 1e6);
+  else
+    std::snprintf(text, sizeof text, "%.1f GB", bytes / 1e9);
   return text;
 }
 

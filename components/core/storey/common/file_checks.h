@@ -12,7 +12,8 @@ namespace storey::common {
 // The path exists and is a regular file (symbolic links followed). `what` names what
 // the file should be ("journal", "CARMEN log"). Returns its size in bytes; a `max_bytes`
 // above 0 bounds it, and the error names the limit.
-std::uint64_t requireRegularFile(const std::string& path, const std::string& what, std::uint64_t max_bytes = 0);
+std::uint64_t requireRegularFile(const std::string& path, const std::string& what,
+                                 std::uint64_t max_bytes = 0);
 
 // The path exists and is a directory.
 void requireDirectory(const std::string& path, const std::string& what);

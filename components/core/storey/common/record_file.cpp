@@ -132,7 +132,6 @@ bool allZero(const ByteSource& source, std::uint64_t from) {
   return true;
 }
 
-
 }  // namespace
 
 void MemoryByteSource::read(std::uint64_t offset, std::uint8_t* out, std::size_t n) const {

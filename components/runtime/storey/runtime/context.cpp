@@ -60,9 +60,9 @@ void isolate(fdds::DomainParticipantQos& qos) {
   qos.wire_protocol().default_unicast_locator_list.clear();
   qos.wire_protocol().default_unicast_locator_list.push_back(loopback);
   qos.wire_protocol().default_multicast_locator_list.clear();
-  builtin.discovery_config.ignoreParticipantFlags = static_cast<rtps::ParticipantFilteringFlags_t>(
-      rtps::ParticipantFilteringFlags_t::FILTER_DIFFERENT_HOST | rtps::ParticipantFilteringFlags_t::FILTER_DIFFERENT_PROCESS |
-      rtps::ParticipantFilteringFlags_t::FILTER_SAME_PROCESS);
+  using Filter = rtps::ParticipantFilteringFlags_t;
+  builtin.discovery_config.ignoreParticipantFlags = static_cast<Filter>(
+      Filter::FILTER_DIFFERENT_HOST | Filter::FILTER_DIFFERENT_PROCESS | Filter::FILTER_SAME_PROCESS);
 }
 
 // A partition no other participant uses: a second guard should one be matched anyway.

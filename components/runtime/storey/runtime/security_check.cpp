@@ -57,39 +57,50 @@ std::string diagnoseSecurityFiles(const SecurityOptions& o, const std::string& o
     return e.what();
   }
   if (run(openssl, {"version"}, false).status != 0) return "";  // no openssl: nothing to say
-  for (const auto& [name, path] : {std::pair<const char*, const std::string*>{"identity_ca", &o.identity_ca},
-                                   {"permissions_ca", &o.permissions_ca},
-                                   {"identity_certificate", &o.identity_certificate}}) {
+  for (const auto& [name, path] :
+       {std::pair<const char*, const std::string*>{"identity_ca", &o.identity_ca},
+        {"permissions_ca", &o.permissions_ca},
+        {"identity_certificate", &o.identity_certificate}}) {
     if (run(openssl, {"x509", "-in", *path, "-noout"}, false).status != 0)
       return std::string(name) + " " + *path + ": not a PEM certificate";
   }
-  const Run verified = run(openssl, {"verify", "-CAfile", o.identity_ca, o.identity_certificate}, true);
+  const Run verified =
+      run(openssl, {"verify", "-CAfile", o.identity_ca, o.identity_certificate}, true);
   if (verified.status != 0)
-    return "identity_certificate " + o.identity_certificate + ": does not verify against identity_ca " +
-           o.identity_ca + " (openssl: " + firstLine(verified.output) + ")";
-  if (run(openssl, {"x509", "-in", o.identity_certificate, "-noout", "-checkend", "0"}, false).status != 0)
+    return "identity_certificate " + o.identity_certificate +
+           ": does not verify against identity_ca " + o.identity_ca +
+           " (openssl: " + firstLine(verified.output) + ")";
+  if (run(openssl, {"x509", "-in", o.identity_certificate, "-noout", "-checkend", "0"}, false)
+          .status != 0)
     return "identity_certificate " + o.identity_certificate + ": has expired";
   const Run key = run(openssl, {"pkey", "-in", o.private_key, "-pubout"}, false);
   if (key.status != 0) return "private_key " + o.private_key + ": not a readable private key";
-  const Run certificate_key = run(openssl, {"x509", "-in", o.identity_certificate, "-noout", "-pubkey"}, false);
+  const Run certificate_key =
+      run(openssl, {"x509", "-in", o.identity_certificate, "-noout", "-pubkey"}, false);
   if (certificate_key.output != key.output)
-    return "private_key " + o.private_key + ": does not belong to identity_certificate " + o.identity_certificate;
+    return "private_key " + o.private_key + ": does not belong to identity_certificate " +
+           o.identity_certificate;
   std::string granted;
-  for (const auto& [name, path] : {std::pair<const char*, const std::string*>{"governance", &o.governance},
-                                   {"permissions", &o.permissions}}) {
-    const Run signed_document = run(openssl, {"smime", "-verify", "-in", *path, "-CAfile", o.permissions_ca}, false);
+  for (const auto& [name, path] :
+       {std::pair<const char*, const std::string*>{"governance", &o.governance},
+        {"permissions", &o.permissions}}) {
+    const Run signed_document =
+        run(openssl, {"smime", "-verify", "-in", *path, "-CAfile", o.permissions_ca}, false);
     if (signed_document.status != 0)
-      return std::string(name) + " " + *path + ": its signature does not verify against permissions_ca " +
-             o.permissions_ca + " (altered after signing, or signed by another CA)";
-    if (std::string(name) == "permissions") granted = between(signed_document.output, "<subject_name>", "</subject_name>");
+      return std::string(name) + " " + *path +
+             ": its signature does not verify against permissions_ca " + o.permissions_ca +
+             " (altered after signing, or signed by another CA)";
+    if (std::string(name) == "permissions")
+      granted = between(signed_document.output, "<subject_name>", "</subject_name>");
   }
-  const Run subject =
-      run(openssl, {"x509", "-in", o.identity_certificate, "-noout", "-subject", "-nameopt", "RFC2253"}, false);
+  const Run subject = run(
+      openssl, {"x509", "-in", o.identity_certificate, "-noout", "-subject", "-nameopt", "RFC2253"},
+      false);
   std::string holder = firstLine(subject.output);
   if (holder.rfind("subject=", 0) == 0) holder = holder.substr(8);
   if (!granted.empty() && !holder.empty() && granted != holder)
-    return "permissions " + o.permissions + ": grants subject '" + granted + "', but identity_certificate " +
-           o.identity_certificate + " is '" + holder + "'";
+    return "permissions " + o.permissions + ": grants subject '" + granted +
+           "', but identity_certificate " + o.identity_certificate + " is '" + holder + "'";
   return "";
 }
 

@@ -237,9 +237,9 @@ MapJobResult runMapJob(const MapJobOptions& options) {
     }
     setup.floor_heights = given.heights;
   }
-  // Floors recorded on their own: each mapper starts on its floor. (A floor event stamped
-  // 0 sent before the replay was ordered after the log's scans stamped 0, which then made
-  // a graph on floor 0.)
+  // Floors recorded on their own: each mapper starts on its floor. (A floor event instead
+  // is ordered by stamp among the log's scans, and a scan stamped no later than the event
+  // would land on the initial floor.)
   for (const auto& robot : robots) {
     const PreparedInput& p = *robot_input[robot];
     if (p.floor) setup.recorded_floor[robot] = {*p.floor, p.height.value_or(0.0)};
@@ -306,7 +306,6 @@ MapJobResult runMapJob(const MapJobOptions& options) {
     }
   }
   for (auto& component : pipeline) component->activate();
-
 
   // 4. Replay every recording. After each message the executor is drained, so every
   // component has seen everything up to that stamp before the next one: as fast as the
