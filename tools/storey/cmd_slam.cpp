@@ -662,10 +662,8 @@ int run_slam(Args& args) {
   report << input.source << "\n"
          << "scans: " << scans.size() << "  nodes: " << st.nodes << "  skipped: " << st.skipped
          << "  rejected: " << st.rejected << "  matched: " << st.matched
-         << "  match failures: " << st.match_failures << " (" << st.matches_against_odometry
-         << " against odometry)  retry matches: " << st.retry_matches
-         << "  wide matches: " << st.wide_matches << " (odometry caught up after "
-         << st.caught_up_matches << "; " << st.wide_matches_unsure << " unsure, not used)"
+         << "  match failures: " << st.match_failures << "  retry matches: " << st.retry_matches
+         << "  odometry disagreed: " << st.disagreeing_matches << " (caught up: " << st.caught_up_matches << ")"
          << "  successor matches: " << st.successor_matches
          << "\nloop closures: " << st.loop_closures << " of " << st.loop_attempts << " attempts ("
          << st.loop_rejected_inconsistent << " rejected as inconsistent, " << st.loop_ambiguous

@@ -1,8 +1,8 @@
 // bench_front_end: the per-floor front end on every log of ../shared/data/carmen under the
 // conditions real robots and recordings produce, seeds 1-3, one table.
 //
-//   bench_front_end [--config FILE] [--seeds 1,2,3] [--jobs N] [--filter TEXT] [--half tuning|checking]
-//                   [--csv FILE] [--maps DIR]
+//   bench_front_end [--config FILE] [--seeds 1,2,3] [--jobs N] [--filter A|B|...] [--half tuning|checking]
+//                   [--csv FILE] [--maps DIR] [--trace DIR]
 //
 // A cell is one log, one condition and one seed. Conditions: the scan spacing (every scan;
 // thinned to 0.5 m / 0.5 rad; 1 m / 1 rad), crossed with either an odometry condition
@@ -181,7 +181,7 @@ double threadCpuSeconds() {
 }
 
 CellResult runCell(const LogData& log, const Condition& c, int seed, const mapping::FloorSlamOptions& options,
-                   const std::string& maps_dir) {
+                   const std::string& maps_dir, const std::string& trace_dir) {
   std::vector<std::size_t> kept;
   if (c.thin_translation > 0.0) kept = mapping::thinnedIndices(log.poses, c.thin_translation, c.thin_rotation);
   else
@@ -222,6 +222,26 @@ CellResult runCell(const LogData& log, const Condition& c, int seed, const mappi
   if (r.rejected > 0) f << " rejected";
   if (r.duration > 0.0 && r.duration / r.cpu_seconds < 50.0) f << " speed";
   r.failures = f.str();
+  if (!trace_dir.empty()) {
+    // Per scan: how it was tracked, and its step's error against the reference.
+    std::string file = r.log + "_" + c.spacing + "_" + c.odometry + "_" + c.laser + "_s" + std::to_string(seed) + ".csv";
+    std::replace(file.begin(), file.end(), '/', '-');
+    std::replace(file.begin(), file.end(), '%', 'p');
+    std::ofstream trace(trace_dir + "/" + file);
+    trace << "scan,status,matched,score,caught_up,odometry_agrees,step_error_m,step_error_deg,odometry_error_m\n";
+    for (std::size_t i = 0; i < run.results.size(); ++i) {
+      const mapping::ScanResult& s = run.results[i];
+      trace << i << ',' << mapping::scanStatusName(s.status) << ',' << s.matched << ',' << s.score << ',' << s.caught_up << ',' << s.odometry_agrees << ',';
+      if (i > 0) {
+        const Pose2 e = reference[i - 1].between(reference[i]).between(estimate[i - 1].between(estimate[i]));
+        const Pose2 o = reference[i - 1].between(reference[i]).between(odometry[i - 1].between(odometry[i]));
+        trace << e.translation().norm() << ',' << std::abs(e.theta()) / kDeg << ',' << o.translation().norm();
+      } else {
+        trace << ",,";
+      }
+      trace << '\n';
+    }
+  }
   if (!maps_dir.empty()) {
     storey::grid::OccupancyGridOptions grid_options;
     grid_options.resolution = 0.1;
@@ -242,6 +262,17 @@ std::vector<int> parseSeeds(const std::string& text) {
   return seeds;
 }
 
+// Whether "log spacing odometry laser" contains any of the '|'-separated parts of `filter`
+// (everything matches an empty filter).
+bool matchesFilter(const std::string& label, const std::string& filter) {
+  if (filter.empty()) return true;
+  std::stringstream in(filter);
+  std::string part;
+  while (std::getline(in, part, '|'))
+    if (!part.empty() && label.find(part) != std::string::npos) return true;
+  return false;
+}
+
 void printRow(std::FILE* out, const CellResult& r) {
   const auto& e = r.errors;
   const std::string rt = r.duration > 0.0 ? std::to_string(static_cast<int>(r.duration / r.cpu_seconds)) : "-";
@@ -257,7 +288,7 @@ void printRow(std::FILE* out, const CellResult& r) {
 int main(int argc, char** argv) {
   std::string config = std::string(STOREY_SOURCE_DIR) + "/config/floor_mapper.yaml";
   std::string data = std::string(STOREY_SOURCE_DIR) + "/../shared/data/carmen";
-  std::string seeds_text = "1,2,3", filter, half, csv_path, maps_dir;
+  std::string seeds_text = "1,2,3", filter, half, csv_path, maps_dir, trace_dir;
   int jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -273,9 +304,10 @@ int main(int argc, char** argv) {
     else if (a == "--half") half = value();
     else if (a == "--csv") csv_path = value();
     else if (a == "--maps") maps_dir = value();
+    else if (a == "--trace") trace_dir = value();
     else {
       std::cerr << "usage: bench_front_end [--config FILE] [--data DIR] [--seeds 1,2,3] [--jobs N] "
-                   "[--filter TEXT] [--half tuning|checking] [--csv FILE] [--maps DIR]\n";
+                   "[--filter A|B|...] [--half tuning|checking] [--csv FILE] [--maps DIR] [--trace DIR]\n";
       return a == "--help" ? 0 : 2;
     }
   }
@@ -285,6 +317,7 @@ int main(int argc, char** argv) {
     return 0;
   }
   if (!maps_dir.empty()) std::filesystem::create_directories(maps_dir);
+  if (!trace_dir.empty()) std::filesystem::create_directories(trace_dir);
   const mapping::FloorSlamOptions options =
       mapping::readFloorSlamOptions(storey::common::ConfigNode::loadFile(config).child("slam"));
   const std::vector<int> seeds = parseSeeds(seeds_text);
@@ -301,7 +334,7 @@ int main(int argc, char** argv) {
     for (const Condition& c : conditions(spec.recorded_odometry))
       for (int seed : seeds) {
         const std::string label = spec.name + " " + c.name();
-        if (!filter.empty() && label.find(filter) == std::string::npos) continue;
+        if (!matchesFilter(label, filter)) continue;
         if (!logs.count(spec.name)) logs.emplace(spec.name, readLog(data, spec));
         // A view no wider than the logged one is the logged laser: not run twice.
         const storey::sensor::LaserScan& first = logs.at(spec.name).scans.front();
@@ -322,7 +355,7 @@ int main(int argc, char** argv) {
   for (int w = 0; w < std::max(1, jobs); ++w)
     workers.emplace_back([&] {
       for (std::size_t k = next++; k < queue.size(); k = next++) {
-        results[k] = runCell(logs.at(queue[k].spec->name), queue[k].condition, queue[k].seed, options, maps_dir);
+        results[k] = runCell(logs.at(queue[k].spec->name), queue[k].condition, queue[k].seed, options, maps_dir, trace_dir);
         std::lock_guard<std::mutex> lock(print_mutex);
         printRow(stdout, results[k]);
         std::fflush(stdout);

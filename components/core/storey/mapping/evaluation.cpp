@@ -121,6 +121,7 @@ OfflineRun runOffline(FloorSlam& slam, const std::vector<sensor::LaserScan>& sca
   for (std::size_t i = 0; i < scans.size(); ++i) {
     const ScanResult r = slam.addScan(scans[i], odometry[i]);
     run.status.push_back(r.status);
+    run.results.push_back(r);
     const auto& nodes = slam.floorGraph().nodes;
     if (nodes.empty()) {
       anchors.emplace_back(-1, r.pose);

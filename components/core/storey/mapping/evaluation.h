@@ -58,6 +58,7 @@ sensor::LaserScan degradeScan(const sensor::LaserScan& scan, const LaserDegradat
 struct OfflineRun {
   std::vector<geometry::Pose2> trajectory;  // per scan, at the final graph's poses
   std::vector<ScanStatus> status;           // per scan
+  std::vector<ScanResult> results;          // per scan, as addScan returned it
   double seconds = 0.0;                     // processing time (wall clock)
 };
 

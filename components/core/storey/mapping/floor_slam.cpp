@@ -176,22 +176,9 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
     n.finish();
   }
   if (node.has("optimizer")) o.optimizer = graph::readOptimizerOptions(node.child("optimizer"));
-  o.max_odometry_step = node.getDouble("max_odometry_step", o.max_odometry_step, 0.0, 1000.0);
-  o.max_odometry_rotation_step =
-      node.getDouble("max_odometry_rotation_step", o.max_odometry_rotation_step, 0.0, 2 * M_PI);
-  o.jump_linear_window = node.getDouble("jump_linear_window", o.jump_linear_window, 0.0, 100.0);
-  o.jump_angular_window = node.getDouble("jump_angular_window", o.jump_angular_window, 0.0, M_PI);
-  o.wide_search_on_failure = node.get<bool>("wide_search_on_failure", o.wide_search_on_failure);
-  o.wide_search_linear_window =
-      node.getDouble("wide_search_linear_window", o.wide_search_linear_window, 0.0, 100.0);
-  o.wide_search_angular_window =
-      node.getDouble("wide_search_angular_window", o.wide_search_angular_window, 0.0, M_PI);
-  o.wide_search_max_translation_stddev = node.getDouble(
-      "wide_search_max_translation_stddev", o.wide_search_max_translation_stddev, 0.0, 100.0);
-  o.wide_search_max_rotation_stddev = node.getDouble("wide_search_max_rotation_stddev",
-                                                     o.wide_search_max_rotation_stddev, 0.0, M_PI);
+  o.max_linear_window = node.getDouble("max_linear_window", o.max_linear_window, 0.0, 100.0);
+  o.max_angular_window = node.getDouble("max_angular_window", o.max_angular_window, 0.0, M_PI);
   o.degenerate_ratio = node.getDouble("degenerate_ratio", o.degenerate_ratio, 0.0, 1e6);
-  o.max_tracking_chi2 = node.getDouble("max_tracking_chi2", o.max_tracking_chi2, 0.0, 1e12);
   o.successor_match_nodes = node.getInt("successor_match_nodes", o.successor_match_nodes, 0, 1000);
   o.successor_match_weight =
       node.getDouble("successor_match_weight", o.successor_match_weight, 1e-6, 1.0);
@@ -222,14 +209,6 @@ const char* loopOutcomeName(LoopOutcome outcome) {
   return "unknown";
 }
 
-Eigen::Matrix3d odometryInformation(const Pose2& delta, const OdometryNoiseModel& m) {
-  const double d = delta.translation().norm();
-  const double st = std::max(m.min_translation_stddev, m.translation_per_meter * d);
-  const double sr = std::max(m.min_rotation_stddev,
-                             m.rotation_per_meter * d + m.rotation_per_radian * std::abs(delta.theta()));
-  return Eigen::Vector3d(1.0 / (st * st), 1.0 / (st * st), 1.0 / (sr * sr)).asDiagonal();
-}
-
 Eigen::Matrix3d rotateCovariance(const Eigen::Matrix3d& covariance, double theta) {
   Eigen::Matrix3d j = Eigen::Matrix3d::Identity();
   const double c = std::cos(theta), s = std::sin(theta);
@@ -242,7 +221,9 @@ Eigen::Matrix3d rotateCovariance(const Eigen::Matrix3d& covariance, double theta
 
 struct FloorSlam::Impl {
   explicit Impl(const FloorSlamOptions& o)
-      : matcher(o.matcher),
+      : tracker(o.odometry, TrackingWindows{o.matcher.linear_window, o.matcher.angular_window, o.max_linear_window,
+                                            o.max_angular_window, o.node.min_translation, o.node.min_rotation}),
+        matcher(o.matcher),
         loop_matcher(o.loop_closure.matcher),
         optimizer(o.optimizer),
         full_weight_optimizer(withoutRobustKernels(o.optimizer)) {
@@ -263,6 +244,7 @@ struct FloorSlam::Impl {
     loop.min_score = 0.05;  // scores are compared with each other, not with a bar
     verify_matcher = ScanMatcher(loop);
   }
+  Tracker tracker;
   ScanMatcher matcher;
   ScanMatcher loop_matcher;
   ScanMatcher polish_matcher;  // the loop matcher's options, refining on points
@@ -285,17 +267,11 @@ struct FloorSlam::Impl {
   } loop_target;
 
   bool have_last = false;
-  bool have_odometry = false;
   double last_stamp = 0.0;
-  Pose2 last_odometry;
   std::size_t beam_count = 0;
-  Pose2 ref_pose, ref_odometry;  // prediction = ref_pose * ref_odometry^-1 * odometry
-  bool jump_since_node = false;
-  // The last node was found by the wide search: its odometry step missed a turn. If that
-  // odometry was only stale, it catches up, and the step from the node before it (the
-  // anchor) predicts the next scan; if it slipped for good, ref_pose's prediction does.
-  bool catch_up_anchor = false;
-  Pose2 anchor_pose, anchor_odometry;
+  // Whether the odometry agreed with the matches at the last node (tracker.h): the odometry
+  // between two such nodes is an edge; a step into or out of a stall is not.
+  bool last_node_odometry_agrees = true;
   std::size_t chain_start = 0;  // first node of the current run of tracked nodes
   std::vector<std::size_t> run_starts;  // every such first node, in order
   std::size_t successors_matched = 0;   // nodes before this one were tried (at finish)
@@ -410,7 +386,6 @@ void FloorSlam::resumeAt(const Pose2& guess) {
   impl_->reloc_have_odometry = false;
   impl_->reloc_attempts = 0;
   impl_->floor_target_valid = false;
-  impl_->have_odometry = false;  // the ride moved the robot: that is no odometry jump
 }
 
 GraphUpdate FloorSlam::takeUpdate() {
@@ -436,7 +411,7 @@ void FloorSlam::optimize() {
   }
   for (auto& node : floor_graph_.nodes) node.pose = pose_graph_.node(node.id).pose;
   const Pose2 correction = floor_graph_.nodes.back().pose * before.inverse();
-  impl_->ref_pose = correction * impl_->ref_pose;
+  impl_->tracker.correct(correction);
   last_pose_ = correction * last_pose_;
   impl_->local_dirty = true;
   impl_->floor_target_valid = false;
@@ -476,176 +451,156 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     common::logWarn(str("floor_slam: scan at ", scan.stamp, " has ", scan.size(), " beams (was ",
                         s.beam_count, "); matching its points as they are"));
   s.beam_count = scan.size();
-
-  // Odometry jumps: do not trust that step; search around the last pose instead.
-  if (s.have_odometry) {
-    const Pose2 step = s.last_odometry.between(odometry);
-    if (step.translation().norm() > options_.max_odometry_step ||
-        std::abs(step.theta()) > options_.max_odometry_rotation_step) {
-      ++stats_.odometry_jumps;
-      common::logWarn(str("floor_slam: odometry jumped by (", step.x(), ", ", step.y(), ", ", step.theta(),
-                          ") before the scan at ", scan.stamp, "; searching a wider window"));
-      // Odometry that stalled while the robot turned catches up in one step: first try that
-      // step as the motion it says (the scans in the stall were skipped, none moved enough).
-      if (options_.wide_search_on_failure && !s.catch_up_anchor) {
-        s.catch_up_anchor = true;
-        s.anchor_pose = s.ref_pose;
-        s.anchor_odometry = s.ref_odometry;
-      }
-      s.ref_pose = last_pose_;
-      s.ref_odometry = odometry;
-      s.jump_since_node = true;
-    }
-  }
   s.have_last = true;
-  s.have_odometry = true;
   s.last_stamp = scan.stamp;
-  s.last_odometry = odometry;
 
   // First scan of the floor: the origin.
   if (floor_graph_.nodes.empty()) {
     appendNode(scan, odometry, Pose2(), /*starts_run=*/true);
+    s.tracker.start(Pose2(), odometry, Eigen::Matrix3d::Zero());
+    s.last_node_odometry_agrees = true;
     covariance_ = Eigen::Matrix3d::Zero();
     result.status = ScanStatus::kNode;
     result.node_id = floor_graph_.nodes.back().id;
     return result;
   }
   if (relocalize_) return relocalizeWith(scan, odometry, points);
+  if (!s.tracker.started()) s.tracker.start(last_pose_, odometry, covariance_);
 
-  const Pose2 prediction = s.ref_pose * s.ref_odometry.between(odometry);
-  const floor::FloorNode& last = floor_graph_.nodes.back();
-  const Pose2 motion = last.pose.between(prediction);
-  const bool moved = motion.translation().norm() >= options_.node.min_translation ||
-                     std::abs(motion.theta()) >= options_.node.min_rotation;
-  if (!moved && !s.jump_since_node) {
-    ++stats_.skipped;
-    last_pose_ = prediction;
-    result.status = ScanStatus::kSkipped;
-    result.pose = prediction;
-    return result;
-  }
-
-  // Match against the recent nodes.
+  // Every scan is tracked against the recent nodes' map, in the window the odometry's
+  // uncertainty since the last tracked scan asks for; while the odometry disagrees with the
+  // scans, also where its motion since it last agreed puts the scan (stale odometry that
+  // caught up).
   if (s.local_dirty) {
     s.local_target = buildLocalTarget(floor_graph_, options_.local_map, s.matcher);
     s.local_dirty = false;
     s.nodes_since_rebuild = 0;
   }
-  bool jumped = s.jump_since_node;
-  MatchResult match;
-  bool caught_up = false;
-  if (s.catch_up_anchor) {
-    match = s.matcher.match(s.local_target, points,
-                            s.anchor_pose * s.anchor_odometry.between(odometry));
-    if (match.success) {
-      // The odometry caught up: its step since the last node holds the missed turn.
+  TrackPrediction prediction = s.tracker.predict(odometry);
+  auto search = [&](const MatchTarget& target, const TrackPrediction& p) {
+    return s.matcher.match(target, points, p.pose, p.linear_window, p.angular_window);
+  };
+  MatchResult match = search(s.local_target, prediction);
+  if (const auto from_anchor = s.tracker.predictFromAnchor(odometry)) {
+    const MatchResult caught_up = search(s.local_target, *from_anchor);
+    if (caught_up.success && (!match.success || caught_up.correlative_score > match.correlative_score)) {
+      match = caught_up;
+      prediction = *from_anchor;
       ++stats_.caught_up_matches;
-      common::logWarn(str("floor_slam: odometry caught up with the scan at ", scan.stamp,
-                          "; that odometry step is not trusted"));
-      caught_up = true;
-      jumped = true;
+      result.caught_up = true;
     }
   }
-  if (!caught_up)
-    match = jumped ? s.matcher.match(s.local_target, points, prediction,
-                                     options_.jump_linear_window, options_.jump_angular_window)
-                   : s.matcher.match(s.local_target, points, prediction);
-  const Eigen::Matrix3d odom_info = odometryInformation(motion, options_.odometry);
   const LocalMapOptions& lm = options_.local_map;
-  if (!match.success && !jumped && lm.retry_nodes > 0 && lm.retry_nodes < lm.max_nodes &&
+  if (!match.success && lm.retry_nodes > 0 && lm.retry_nodes < lm.max_nodes &&
       floor_graph_.nodes.size() > static_cast<std::size_t>(lm.retry_nodes)) {
     const std::size_t n = floor_graph_.nodes.size();
-    const MatchResult retry = s.matcher.match(
-        buildTarget(floor_graph_, n - lm.retry_nodes, n, lm, lm.pyramid_levels, s.matcher), points,
-        prediction);
+    const MatchResult retry =
+        search(buildTarget(floor_graph_, n - lm.retry_nodes, n, lm, lm.pyramid_levels, s.matcher), prediction);
     if (retry.success) {
       ++stats_.retry_matches;
       match = retry;
     }
   }
-  // After a jump too: stale odometry that catches up turns by what it missed and more,
-  // beyond max_odometry_rotation_step, and the turn since the last node can exceed the jump
-  // window.
-  bool wide_matched = false;
-  if (!match.success && options_.wide_search_on_failure) {
-    MatchResult wide =
-        s.matcher.match(s.local_target, points, prediction, options_.wide_search_linear_window,
-                        options_.wide_search_angular_window);
-    // Only a match that knows where it is: along a corridor the wide window holds look-alike
-    // places, and a match there is as unsure as the window (synthetic corridor: 0.26 m, 0.24 rad;
-    // csail's right ones 0.04 m, 0.04 rad at most).
-    const bool certain =
-        largestTranslationStddev(wide.covariance) <= options_.wide_search_max_translation_stddev &&
-        std::sqrt(std::max(0.0, wide.covariance(2, 2))) <= options_.wide_search_max_rotation_stddev;
-    if (wide.success && !certain) ++stats_.wide_matches_unsure;
-    if (wide.success && certain) {
+  // Not where the odometry says: perhaps the odometry is wrong (it jumped, stalled or
+  // slipped). The scan is searched around the last tracked pose in the largest window, and
+  // a match there is used only if it is at least as sure of the pose as the tracking window
+  // assumes odometry to be (3 σ within the smallest window): in a corridor's look-alike
+  // places a match is as unsure as the window.
+  if (!match.success) {
+    TrackPrediction around_last;
+    around_last.pose = s.tracker.pose();
+    around_last.linear_window = options_.max_linear_window;
+    around_last.angular_window = options_.max_angular_window;
+    around_last.covariance = prediction.covariance;
+    MatchResult wide = s.matcher.match(s.local_target, points, around_last.pose, around_last.linear_window,
+                                       around_last.angular_window);
+    const bool sure = wide.success &&
+                      3.0 * largestTranslationStddev(wide.covariance) <= options_.matcher.linear_window &&
+                      3.0 * std::sqrt(std::max(0.0, wide.covariance(2, 2))) <= options_.matcher.angular_window;
+    if (sure) {
       ++stats_.wide_matches;
-      common::logWarn(str("floor_slam: the scan at ", scan.stamp, " matched ",
-                          prediction.between(wide.pose).translation().norm(), " m and ",
-                          std::abs(geometry::angleDiff(wide.pose.theta(), prediction.theta())),
-                          " rad from where odometry put it; that odometry step is not trusted"));
+      result.wide = true;
       match = wide;
-      wide_matched = !jumped;  // after a detected jump, ref_pose is no trusted anchor
-      jumped = true;
+      prediction = around_last;
+      common::logWarn(str("floor_slam: the scan at ", scan.stamp, " matched ",
+                          s.tracker.predict(odometry).pose.between(wide.pose).translation().norm(), " m from where ",
+                          "odometry put it; that odometry step is not trusted"));
     }
   }
-  if (match.success && !jumped && options_.max_tracking_chi2 > 0.0) {
-    const Pose2 matched = last.pose.between(match.pose);
-    const Eigen::Vector3d e(matched.x() - motion.x(), matched.y() - motion.y(),
-                            geometry::angleDiff(matched.theta(), motion.theta()));
-    const Eigen::Matrix3d cov = odom_info.inverse() + rotateCovariance(match.covariance, last.pose.theta());
-    const double chi2 = e.dot(cov.ldlt().solve(e));
-    if (chi2 > options_.max_tracking_chi2) {
-      ++stats_.matches_against_odometry;
-      match.success = false;
-      match.problem = str("disagrees with odometry (chi2 ", chi2, ")");
-    }
+
+  Pose2 pose = prediction.pose;
+  bool odometry_agrees = true;
+  if (match.success) {
+    // Along a direction where the match knows less than the prediction (a bare corridor's
+    // axis), the two fused by their information; elsewhere the match's.
+    pose = options_.degenerate_ratio > 0.0 && !result.wide
+               ? withOdometryWhereDegenerate(match.pose, safeInformation(match.covariance), prediction.pose,
+                                             safeInformation(prediction.step_covariance), options_.degenerate_ratio)
+               : match.pose;
+    // A scan found around the last pose says the odometry failed (no noise to learn from).
+    odometry_agrees = !result.wide && s.tracker.check(odometry, pose, match.covariance, prediction);
+    if (!odometry_agrees) ++stats_.disagreeing_matches;
   }
-  if (!match.success && jumped) {
-    // Neither odometry nor the map can place this scan: keep waiting for one that fits.
-    ++stats_.match_failures;
-    return reject(str("odometry jumped and the scan does not match the local map (", match.problem, ")"));
+  const floor::FloorNode& last = floor_graph_.nodes.back();
+  const Pose2 motion = last.pose.between(pose);
+  const bool moved = motion.translation().norm() >= options_.node.min_translation ||
+                     std::abs(motion.theta()) >= options_.node.min_rotation;
+  if (!match.success) {
+    s.tracker.unmatched(odometry, prediction);
+    common::logDebug(str("floor_slam: scan at ", scan.stamp, " not matched (", match.problem,
+                         "); searching wider next"));
+  } else if (!moved && odometry_agrees && s.tracker.odometryAgrees()) {
+    // A short step the odometry agrees with: its pose is the prediction (over a few
+    // centimetres odometry is more precise than a match), and tracking stays at the node.
+    pose = prediction.pose;
+  } else {
+    // Relative to the map, the pose is known as the match knows it or, where the match knows
+    // less (a corridor's axis), as the odometry's last step does: the map moved with the
+    // estimate that built it, so what came before that step does not count.
+    const Eigen::Matrix3d known =
+        result.wide ? match.covariance
+                    : Eigen::Matrix3d((safeInformation(match.covariance) + safeInformation(prediction.step_covariance))
+                                          .inverse());
+    s.tracker.moveTo(odometry, pose, known, odometry_agrees);
   }
+  last_pose_ = pose;
+  result.pose = pose;
+  result.matched = match.success;
+  result.score = match.success ? match.correlative_score : 0.0;
+  result.odometry_agrees = odometry_agrees;
+  if (!moved) {
+    ++stats_.skipped;
+    result.status = ScanStatus::kSkipped;
+    return result;
+  }
+  if (match.success) ++stats_.matched;
+  else ++stats_.match_failures;
+
+  // A node: its odometry edge when the odometry agreed with the scans at both ends (a stall
+  // or a slip between them would pull the graph its way), its scan-match edge when matched.
   const int from = last.id;
   const Pose2 last_pose = last.pose;
-  Pose2 pose = match.success ? match.pose : prediction;
-  Eigen::Matrix3d rel_cov = Eigen::Matrix3d::Zero(), match_info = Eigen::Matrix3d::Zero();
-  if (match.success) {
-    rel_cov = rotateCovariance(match.covariance, last_pose.theta());
-    match_info = safeInformation(rel_cov);
-    if (!jumped && options_.degenerate_ratio > 0.0)
-      pose = last_pose * withOdometryWhereDegenerate(last_pose.between(match.pose), match_info, motion, odom_info,
-                                                     options_.degenerate_ratio);
-  }
-  if (match.success) {
-    ++stats_.matched;
-    result.matched = true;
-  } else {
-    ++stats_.match_failures;
-    common::logDebug(str("floor_slam: scan at ", scan.stamp, " not matched (", match.problem,
-                         "); using odometry"));
-  }
-  const Pose2 anchor_pose = s.ref_pose, anchor_odometry = s.ref_odometry;
-  appendNode(scan, odometry, pose, /*starts_run=*/jumped);
-  s.catch_up_anchor = wide_matched;
-  if (wide_matched) {
-    s.anchor_pose = anchor_pose;
-    s.anchor_odometry = anchor_odometry;
-  }
+  const Pose2 odometry_step = last.odometry.between(odometry);
+  const Eigen::Matrix3d odometry_covariance = s.tracker.stepCovariance(odometry_step);
+  const bool odometry_edge = !match.success || (odometry_agrees && s.last_node_odometry_agrees);
+  appendNode(scan, odometry, pose, /*starts_run=*/false);
+  s.last_node_odometry_agrees = odometry_agrees;
   const int to = floor_graph_.nodes.back().id;
-  Eigen::Matrix3d step_cov = odom_info.inverse();
-  if (!jumped) appendEdge(from, to, motion, odom_info, floor::EdgeKind::kOdometry);
+  if (odometry_edge)
+    appendEdge(from, to, odometry_step, safeInformation(odometry_covariance), floor::EdgeKind::kOdometry);
+  Eigen::Matrix3d step_covariance = odometry_covariance;
   if (match.success) {
-    appendEdge(from, to, last_pose.between(match.pose), match_info, floor::EdgeKind::kScanMatch);
-    step_cov = jumped ? rel_cov : Eigen::Matrix3d((rel_cov.inverse() + odom_info).inverse());
+    const Eigen::Matrix3d relative = rotateCovariance(match.covariance, last_pose.theta());
+    appendEdge(from, to, last_pose.between(match.pose), safeInformation(relative), floor::EdgeKind::kScanMatch);
+    step_covariance = odometry_edge ? Eigen::Matrix3d((relative.inverse() + odometry_covariance.inverse()).inverse())
+                                    : relative;
   }
-  covariance_ = geometry::composeCovariance(last_pose, covariance_, last_pose.between(pose), step_cov);
+  covariance_ = geometry::composeCovariance(last_pose, covariance_, last_pose.between(pose), step_covariance);
   if (options_.successor_match_nodes > 0 && !options_.successor_match_at_finish &&
       floor_graph_.nodes.size() > static_cast<std::size_t>(options_.successor_match_nodes))
     matchAgainstSuccessors(floor_graph_.nodes.size() - 1 - options_.successor_match_nodes);
   result.status = ScanStatus::kNode;
   result.node_id = to;
-  result.pose = pose;
 
   if (options_.loop_closure.enabled && ++s.nodes_since_attempt >= options_.loop_closure.every_n_nodes) {
     s.nodes_since_attempt = 0;
@@ -671,10 +626,6 @@ void FloorSlam::appendNode(const sensor::LaserScan& scan, const Pose2& odometry,
                       floor_graph_.floor_height);
   floor_graph_.nodes.push_back(std::move(node));
   ++stats_.nodes;
-  s.ref_pose = pose;
-  s.ref_odometry = odometry;
-  s.jump_since_node = false;
-  s.catch_up_anchor = false;
   if (starts_run) {
     s.chain_start = floor_graph_.nodes.size() - 1;
     s.run_starts.push_back(s.chain_start);
@@ -1093,7 +1044,7 @@ bool FloorSlam::addClosures(const std::vector<std::size_t>& members, bool bend_f
   const Pose2 before = floor_graph_.nodes.back().pose;
   for (auto& node : floor_graph_.nodes) node.pose = pose_graph_.node(node.id).pose;
   const Pose2 correction = floor_graph_.nodes.back().pose * before.inverse();
-  s.ref_pose = correction * s.ref_pose;
+  s.tracker.correct(correction);
   last_pose_ = correction * last_pose_;
   s.local_dirty = true;
   s.floor_target_valid = false;
@@ -1205,7 +1156,7 @@ int FloorSlam::resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& s
     ids[j] = floor_graph_.nodes.back().id;
     if (j > 0) {
       const Pose2 motion = scans[keep[j - 1]].odometry.between(scans[keep[j]].odometry);
-      appendEdge(ids[j - 1], ids[j], motion, odometryInformation(motion, options_.odometry),
+      appendEdge(ids[j - 1], ids[j], motion, safeInformation(s.tracker.stepCovariance(motion)),
                  floor::EdgeKind::kOdometry);
     }
     if (placed[j] == Placed::kTied) {
@@ -1226,9 +1177,9 @@ int FloorSlam::resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& s
   relocalize_ = false;
   ++stats_.relocalizations;
   s.have_last = true;
-  s.have_odometry = true;
   s.last_stamp = scans.back().scan.stamp;
-  s.last_odometry = scans.back().odometry;
+  s.tracker.start(floor_graph_.nodes.back().pose, scans.back().odometry, covariance);
+  s.last_node_odometry_agrees = true;
   s.beam_count = scans.back().scan.size();
   s.local_dirty = true;
   s.nodes_since_attempt = 0;
@@ -1281,6 +1232,8 @@ ScanResult FloorSlam::relocalizeWith(const sensor::LaserScan& scan, const Pose2&
   appendEdge(anchor.id, floor_graph_.nodes.back().id, anchor.pose.between(pose), info, floor::EdgeKind::kLoopClosure);
   covariance_ = cov;
   relocalize_ = false;
+  s.tracker.start(pose, odometry, cov);
+  s.last_node_odometry_agrees = true;
   result.status = ScanStatus::kNode;
   result.node_id = floor_graph_.nodes.back().id;
   result.pose = pose;

@@ -29,6 +29,7 @@
 #include "storey/mapping/closure_clusters.h"
 #include "storey/mapping/global_relocalizer.h"
 #include "storey/mapping/scan_matcher.h"
+#include "storey/mapping/tracker.h"
 #include "storey/sensor/laser_scan.h"
 
 namespace storey::mapping {
@@ -55,15 +56,6 @@ struct LocalMapOptions {
   double point_cell_size = 0.05;
   double point_normal_radius = 0.2;  // m, neighbourhood of a point's surface normal
   grid::LikelihoodFieldOptions field;
-};
-
-// Standard deviations of odometry per step, for the odometry edges' information.
-struct OdometryNoiseModel {
-  double translation_per_meter = 0.05;  // m per m travelled
-  double rotation_per_meter = 0.035;    // rad per m travelled
-  double rotation_per_radian = 0.05;    // rad per rad turned
-  double min_translation_stddev = 0.01;
-  double min_rotation_stddev = 0.005;
 };
 
 struct LoopClosureOptions {
@@ -175,25 +167,10 @@ struct FloorSlamOptions {
   LoopClosureOptions loop_closure;
   RelocalizationOptions relocalization;
   graph::OptimizerOptions optimizer;
-  // Odometry steps between consecutive scans beyond these are jumps: not trusted, the
-  // match searches a wider window around the last pose instead.
-  double max_odometry_step = 2.5;          // m
-  double max_odometry_rotation_step = 1.6;  // rad
-  double jump_linear_window = 1.5;          // m
-  double jump_angular_window = 0.8;         // rad
-  // A scan that neither the local map nor the last nodes' map match in the tracking window
-  // is searched again in this wider window around the prediction. Found there, outside the
-  // window the odometry step promised, that step is wrong (stale odometry that catches up
-  // later, a wheel slipping): it is not trusted, as after a jump. The next scan is first
-  // tried where the odometry's step from the node before puts it (stale odometry that caught
-  // up), and so is a scan after an odometry jump (a stall during a turn, caught up in one
-  // step). false: such a scan is placed by odometry, and a jump searched around the last pose.
-  bool wide_search_on_failure = true;
-  double wide_search_linear_window = 1.5;        // m
-  double wide_search_angular_window = M_PI / 2;  // rad: a corridor turned half round fits as well
-  // A wide match is used only when its covariance (from the score surface) is this tight.
-  double wide_search_max_translation_stddev = 0.1;  // m, along the least certain axis
-  double wide_search_max_rotation_stddev = 0.05;    // rad
+  // The tracking window's cap (its floor is the matcher's window; between them 3 σ of the
+  // prediction: tracker.h).
+  double max_linear_window = 1.5;        // m
+  double max_angular_window = M_PI / 2;  // rad: a corridor turned half round fits as well
   // Along a direction where the scan match's information is below degenerate_ratio times
   // the odometry step's (a bare corridor's axis), a new node's position is the two fused
   // by their information, not the match's alone (solution remapping for degenerate
@@ -204,14 +181,6 @@ struct FloorSlamOptions {
   // graph of a floor reached for the first time (FloorSessions; not a relocalisation in
   // a known floor, where the cabin looks like any shaft); false drops them as in transit.
   bool map_arrival_scans = true;
-  // A tracking match that disagrees with the odometry step by more than this χ² (3 dof;
-  // the odometry model's and the match's covariance together) is not used: the node is
-  // placed by odometry, as when no match is found. A scan that fits a wrong part of the
-  // local map confidently (csail: 17° off with σ 0.3°) otherwise bends the graph there.
-  // Only as good as the odometry noise model: with recorded odometry noisier than it
-  // (csail .gfs), right matches are refused and loops stay open. 0: every match is used
-  // (docs/floor_mapper.md, "An odometry gate").
-  double max_tracking_chi2 = 0.0;
   // Once a node has successor_match_nodes tracked nodes after it, its scan is also matched
   // against their map, and the match becomes an edge from the next node back to it. The
   // tracking edge measures a step from the scans before it, this one from the scans
@@ -243,7 +212,12 @@ struct ScanResult {
   std::string reason;
   geometry::Pose2 pose;  // estimated robot pose in the floor frame
   int node_id = -1;
-  bool matched = false;       // the node's scan matched the local map
+  bool matched = false;       // the scan matched the local map
+  double score = 0.0;         // its mean score there (correlative)
+  // Whether it was found where the odometry's motion since it last agreed put it, around
+  // the last tracked pose instead of where odometry put it, and whether the odometry agreed
+  // with the match.
+  bool caught_up = false, wide = false, odometry_agrees = true;
   bool loop_closed = false;   // a loop closure was accepted with this node
   bool relocalized = false;   // resumed a known floor with this scan
 };
@@ -291,14 +265,14 @@ struct LoopClosureAttempt {
 
 struct FloorSlamStats {
   std::size_t scans = 0, nodes = 0, skipped = 0, rejected = 0;
-  std::size_t matched = 0, match_failures = 0, odometry_jumps = 0;
-  std::size_t matches_against_odometry = 0;  // matches refused by max_tracking_chi2
-  std::size_t retry_matches = 0;             // scans matched by the retry on the last nodes' map
-  std::size_t wide_matches = 0;  // scans matched only in the wide window (odometry not trusted)
-  // Scans found where stale odometry caught up (after a wide match or a jump).
+  std::size_t matched = 0, match_failures = 0;
+  std::size_t retry_matches = 0;  // scans matched by the retry on the last nodes' map
+  // Scans found where the odometry's motion since it last agreed with the scans puts them
+  // (stale odometry that caught up).
   std::size_t caught_up_matches = 0;
-  std::size_t wide_matches_unsure = 0;  // wide matches not used: their covariance too wide
-  std::size_t successor_matches = 0;         // edges from matching a node against its successors
+  std::size_t disagreeing_matches = 0;  // matches the odometry since its anchor disagrees with
+  std::size_t wide_matches = 0;  // scans found around the last pose, not where odometry put them
+  std::size_t successor_matches = 0;    // edges from matching a node against its successors
   std::size_t loop_attempts = 0, loop_closures = 0, loop_rejected_inconsistent = 0;
   std::size_t loop_ambiguous = 0;  // attempts whose scan fit as well elsewhere
   std::size_t loop_clusters = 0;   // clusters of agreeing closures accepted together
@@ -397,9 +371,6 @@ class FloorSlam {
   Eigen::Matrix3d covariance_ = Eigen::Matrix3d::Zero();
   bool relocalize_ = false;
 };
-
-// Odometry edge information for a step `delta` under the noise model.
-Eigen::Matrix3d odometryInformation(const geometry::Pose2& delta, const OdometryNoiseModel& model);
 
 // A covariance of a pose in the world frame re-expressed in the frame of a pose with
 // heading `theta` (rotates the translation block).
