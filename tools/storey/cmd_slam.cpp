@@ -25,6 +25,8 @@
 #include "storey/mapping/floor_slam.h"
 #include "storey/mapping/input_sequencer.h"
 #include "storey/runtime/sensor_bag.h"
+#include "storey/tools/map_job.h"
+#include "storey/tools/robot_setup.h"
 
 namespace storey::cli {
 
@@ -583,13 +585,13 @@ int run_slam(Args& args) {
   const long max_scans = args.getInt("max-scans");
   if (args.flagSet("quiet")) common::setLogLevel(common::LogLevel::kWarn);
 
-  mapping::FloorSlamOptions options;
-  mapping::InputSequencerOptions sequencing;  // a bag's: how far a scan's odometry may be
-  if (args.has("config")) {
-    const common::ConfigNode root = common::ConfigNode::loadFile(args.get("config"));
-    options = mapping::readFloorSlamOptions(root.child("slam"));
-    sequencing = mapping::readInputSequencerOptions(root);
-  }
+  // The floor mapper's file: the shipped one unless --config names another.
+  const std::string config_path =
+      args.has("config") ? args.get("config") : tools::parameterFilePath(tools::defaultConfigDir(), "floor_mapper");
+  const common::ConfigNode root = common::ConfigNode::loadFile(config_path);
+  mapping::FloorSlamOptions options = mapping::readFloorSlamOptions(root.child("slam"));
+  // A bag's: how far a scan's odometry may be.
+  const mapping::InputSequencerOptions sequencing = mapping::readInputSequencerOptions(root);
   if (args.flagSet("no-loop-closure")) options.loop_closure.enabled = false;
 
   // A bag is a folder (metadata.yaml and .db3 files) or one .db3 file; a `storey simulate`

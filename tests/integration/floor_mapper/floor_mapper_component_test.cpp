@@ -155,12 +155,12 @@ TEST(FloorMapperComponent, MapsTwoFloorsAndPublishesTheirGraphs) {
 TEST(FloorMapperComponent, BadParametersNameTheKey) {
   runtime::Context context(onDomain(227));
   FloorMapperComponent component(
-      context, common::ConfigNode::loadString("{robot: r, slam: {scan_matcher: {min_score: 7}}}", "p.yaml"), "m");
+      context, common::ConfigNode::loadString("{robot: r, slam: {laser: {range_noise: 7}}}", "p.yaml"), "m");
   try {
     component.configure();
-    FAIL() << "configured with min_score 7";
+    FAIL() << "configured with range_noise 7";
   } catch (const common::ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("min_score"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("range_noise"), std::string::npos) << e.what();
   }
 }
 

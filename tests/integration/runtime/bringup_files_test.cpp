@@ -61,7 +61,7 @@ TEST(SimulationLiveBringup, CarriesEachRobotsSetupAndStarts) {
                                              "floor_mapper_robot3", "floor_matcher", "graph_server"}));
 
   // robot3 starts on F3, the fourth floor: its detector and mapper know it, and its mapper
-  // takes the default robot model's sensor tuning over the shipped file.
+  // takes the default robot model's laser range noise.
   const auto detector = loadParameters(bringup.processes[0].components[2]);
   EXPECT_EQ(detector.yaml()["robot"].as<std::string>(), "robot3");
   EXPECT_EQ(detector.yaml()["detector"]["floors"]["initial_floor"].as<int>(), 3);
@@ -69,9 +69,8 @@ TEST(SimulationLiveBringup, CarriesEachRobotsSetupAndStarts) {
   const auto mapper = loadParameters(bringup.processes[0].components[3]);
   EXPECT_EQ(mapper.yaml()["initial_floor"].as<int>(), 3);
   EXPECT_DOUBLE_EQ(mapper.yaml()["initial_height"].as<double>(), setup.floor_heights[3]);
-  ASSERT_TRUE(setup.mapper_tuning.count("robot3"));
-  EXPECT_DOUBLE_EQ(mapper.yaml()["slam"]["scan_matcher"]["min_point_stddev"].as<double>(),
-                   setup.mapper_tuning.at("robot3").parameters["slam"]["scan_matcher"]["min_point_stddev"].as<double>());
+  ASSERT_TRUE(setup.laser_range_noise.count("robot3"));
+  EXPECT_DOUBLE_EQ(mapper.yaml()["slam"]["laser"]["range_noise"].as<double>(), setup.laser_range_noise.at("robot3"));
   const auto server = loadParameters(bringup.processes[0].components[5]);
   EXPECT_EQ(server.yaml()["journal"].as<std::string>(), std::filesystem::absolute(dir + "/live/journal.bin").string());
 

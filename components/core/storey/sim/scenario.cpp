@@ -157,13 +157,6 @@ RobotModel readRobotModel(const common::ConfigNode& node) {
     o.radius = n.getDouble("radius", 0.05, 2.0);
     n.finish();
   }
-  if (node.has("floor_mapper")) {
-    // Checked by the floor_mapper when it reads its parameters.
-    const auto n = node.child("floor_mapper");
-    n.keys();
-    model.floor_mapper = YAML::Clone(n.yaml());
-    model.floor_mapper_origin = n.file() + ":" + std::to_string(n.line());
-  }
   node.finish();
   return model;
 }

@@ -68,12 +68,6 @@ struct RobotModel {
   BarometerOptions barometer;
   ImuOptions imu;
   MotionOptions motion;
-  // floor_mapper parameters that suit this robot's sensors, set on top of the shipped
-  // floor_mapper.yaml when `storey map` maps a simulation of it (null: none). The
-  // simulated laser is a clean one (white range noise, exact walls): it warrants a
-  // finer scan-match covariance than the real logs the shipped file is tuned on.
-  YAML::Node floor_mapper;  // a mapping, or null
-  std::string floor_mapper_origin;  // "file:line" of that section, for errors
 };
 
 RobotModel readRobotModel(const common::ConfigNode& node);

@@ -255,7 +255,6 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   runtime::ComponentRegistry registry;
   catalog::registerStoreyComponents(registry);
   std::vector<std::unique_ptr<runtime::Component>> pipeline;  // in data-flow order
-  std::map<std::string, std::string> tuned_by;  // component → robot model section it took parameters from
   graph_server::GraphServer* server = nullptr;
   const std::string journal = (fs::path(options.output_dir) / "journal.bin").string();
   fs::remove(journal);
@@ -272,11 +271,6 @@ MapJobResult runMapJob(const MapJobOptions& options) {
                                        common::ConfigNode(floorMapperParameters(config_dir, robot, setup),
                                                           parameterFilePath(config_dir, "floor_mapper"), ""),
                                        "floor_mapper_" + robot));
-    const auto tuning = setup.mapper_tuning.find(robot);
-    if (tuning != setup.mapper_tuning.end()) {
-      tuned_by["floor_mapper_" + robot] = tuning->second.origin;
-      say("floor_mapper of " + robot + ": parameters of its robot model's sensors from " + tuning->second.origin);
-    }
   }
   pipeline.push_back(registry.create("floor_matcher", context,
                                      componentParameters(config_dir, "floor_matcher",
@@ -295,16 +289,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
                                                          [&](YAML::Node& n) { n["journal"] = journal; }),
                                      "graph_server"));
   server = dynamic_cast<graph_server::GraphServer*>(pipeline.back().get());
-  for (auto& component : pipeline) {
-    try {
-      component->configure();
-    } catch (const std::exception& e) {
-      const auto origin = tuned_by.find(component->name());
-      if (origin == tuned_by.end()) throw;
-      throw std::runtime_error(std::string(e.what()) + " (parameters set by the floor_mapper section of " +
-                               origin->second + ")");
-    }
-  }
+  for (auto& component : pipeline) component->configure();
   for (auto& component : pipeline) component->activate();
 
   // 4. Replay every recording. After each message the executor is drained, so every

@@ -12,9 +12,7 @@ namespace fs = std::filesystem;
 
 RobotSetup robotSetup(const sim::Scenario& scenario) {
   RobotSetup setup;
-  for (const auto& robot : scenario.robots)
-    if (robot.model.floor_mapper.IsMap())
-      setup.mapper_tuning[robot.name] = {robot.model.floor_mapper, robot.model.floor_mapper_origin};
+  for (const auto& robot : scenario.robots) setup.laser_range_noise[robot.name] = robot.model.laser.range_sigma;
   if (scenario.robots.size() > 1) {
     for (const auto& f : scenario.building.floors) setup.floor_heights.push_back(f.height);  // by height
     for (const auto& robot : scenario.robots)
@@ -47,8 +45,8 @@ YAML::Node floorDetectorParameters(const std::string& config_dir, const std::str
 
 YAML::Node floorMapperParameters(const std::string& config_dir, const std::string& robot, const RobotSetup& setup) {
   YAML::Node n = parameterFile(config_dir, "floor_mapper");
-  const auto tuning = setup.mapper_tuning.find(robot);
-  if (tuning != setup.mapper_tuning.end()) common::overlayYaml(n, tuning->second.parameters);
+  const auto laser = setup.laser_range_noise.find(robot);
+  if (laser != setup.laser_range_noise.end()) n["slam"]["laser"]["range_noise"] = laser->second;
   n["robot"] = robot;
   const auto start = setup.start_floor.find(robot);
   if (start != setup.start_floor.end()) {
@@ -96,9 +94,8 @@ std::string writeLiveBringup(const std::string& config_dir, const std::vector<st
     const bool fleet = setup.start_floor.count(robot) > 0;
     add("floor_detector", "floor_detector_" + robot, floorDetectorParameters(config_dir, robot, setup),
         fleet ? ", with the building's floor heights and this robot's start floor" : "");
-    const auto tuning = setup.mapper_tuning.find(robot);
     add("floor_mapper", "floor_mapper_" + robot, floorMapperParameters(config_dir, robot, setup),
-        tuning != setup.mapper_tuning.end() ? ", with the floor_mapper section of " + tuning->second.origin : "");
+        setup.laser_range_noise.count(robot) ? ", with the simulated laser's range noise" : "");
   }
   add("floor_matcher", "floor_matcher", parameterFile(config_dir, "floor_matcher"), "");
   YAML::Node server = parameterFile(config_dir, "graph_server");

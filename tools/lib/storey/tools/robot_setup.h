@@ -1,7 +1,8 @@
 // How each robot of a building is mapped, shared by `storey map` (which runs the
 // components itself) and `storey simulate` (which writes a bringup to run them live):
-// a simulated robot model's floor_mapper parameters, tuned to its sensors, and a fleet's
-// floor heights and start floors, so that every robot numbers floors the same way.
+// a simulated robot's laser model (its range noise, which the floor_mapper's noise floors
+// follow), and a fleet's floor heights and start floors, so that every robot numbers floors
+// the same way.
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -15,11 +16,8 @@
 namespace storey::tools {
 
 struct RobotSetup {
-  struct MapperTuning {
-    YAML::Node parameters;  // laid over the floor_mapper parameter file
-    std::string origin;     // "file:line" of the robot model's section, for messages
-  };
-  std::map<std::string, MapperTuning> mapper_tuning;  // by robot name
+  // A simulated robot's laser range noise (m), by robot name: the floor_mapper's laser model.
+  std::map<std::string, double> laser_range_noise;
   // A fleet: the building's floor heights (by index) and each robot's start floor index.
   // Empty for one robot, whose detector numbers floors from where it starts.
   std::vector<double> floor_heights;
