@@ -127,6 +127,7 @@ struct FloorSlam::Impl {
     reloc.min_score = o.relocalization.min_score;
     reloc.translation_penalty = 0.0;
     reloc.rotation_penalty = 0.0;
+    reloc.max_lookups = 0.0;  // a search of the whole floor, made once per arrival
     reloc_matcher = ScanMatcher(reloc);
     ScanMatcherOptions loop = o.loop_closure.matcher;
     loop.min_score = std::min(loop.min_score, o.loop_closure.min_score);
@@ -714,7 +715,7 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
                                      o.single_unique_distance, o.single_unique_ratio * match.correlative_score);
     // A rival the closure's own uncertainty already spans (along a bare corridor's axis) is
     // what it claims; only a closure that claims to know better waits.
-    if (rival.success && pinsAlong(covariance, rival.pose.translation() - match.pose.translation(), o.sigma_factor)) {
+    if (rival.exhausted || (rival.success && pinsAlong(covariance, rival.pose.translation() - match.pose.translation(), o.sigma_factor))) {
       small = false;
       attempt.not_unique = true;
     }
@@ -823,7 +824,7 @@ FloorSlam::ClusterCheck FloorSlam::checkCluster(const std::vector<std::size_t>& 
                                                (elsewhere.pose.translation() - claimed.translation()).norm(), " m")
                                          : std::string("; nothing elsewhere")));
   ClusterCheck check;
-  check.unique = at_cluster.success && !elsewhere.success;
+  check.unique = at_cluster.success && !elsewhere.success && !elsewhere.exhausted;
   if (elsewhere.success && elsewhere.correlative_score > own) {
     // The newest scan alone, refined there: a closure like the others (the joined scans'
     // information would count the chain between them as exact).

@@ -225,8 +225,14 @@ class BranchAndBound {
            o_.rotation_penalty * std::abs(angle_offsets_[c.angle]);
   }
 
-  // Depth first, best bound first, over nodes [begin, end).
+  // Depth first, best bound first, over nodes [begin, end); stops for good once
+  // `max_evaluations` bounds have been computed.
   void search(Candidate* begin, Candidate* end) {
+    if (exhausted_) return;
+    if (max_evaluations_ > 0 && evaluated_ + (end - begin) > max_evaluations_) {
+      exhausted_ = true;
+      return;
+    }
     for (Candidate* n = begin; n != end; ++n) n->bound = bound(*n);
     std::sort(begin, end, [](const Candidate& a, const Candidate& b) { return a.bound > b.bound; });
     for (const Candidate* n = begin; n != end; ++n) {
@@ -251,12 +257,15 @@ class BranchAndBound {
           children[count++] = c;
         }
       search(children, children + count);
+      if (exhausted_) return;
     }
   }
 
   double best_score_ = 0.0;
   Candidate best_;
   bool found_ = false;
+  bool exhausted_ = false;
+  long max_evaluations_ = 0;  // 0: unbounded
   mutable long evaluated_ = 0;
 
  private:
@@ -318,12 +327,19 @@ MatchResult correlative(const ScanMatcherOptions& options, const MatchTarget& ta
 
   BranchAndBound bb(target, rotations, offsets, window, options, excluded);
   bb.best_score_ = min_score;
+  if (options.max_lookups > 0.0)
+    bb.max_evaluations_ = std::max<long>(1, static_cast<long>(options.max_lookups / static_cast<double>(points.size())));
   std::vector<Candidate> nodes;
   for (std::size_t a = 0; a < offsets.size(); ++a)
     for (int y = -window; y <= window; y += top)
       for (int x = -window; x <= window; x += top) nodes.push_back({static_cast<int>(a), x, y, level, 0.0});
   bb.search(nodes.data(), nodes.data() + nodes.size());
   result.candidates_scored = bb.evaluated_;
+  if (bb.exhausted_) {
+    result.exhausted = true;
+    result.problem = common::str("search stopped after ", bb.evaluated_, " candidates (max_lookups)");
+    return result;
+  }
   if (!bb.found_) {
     result.problem = common::str("no candidate scored above ", bb.best_score_);
     return result;

@@ -29,6 +29,11 @@ struct ScanMatcherOptions {
   double min_angular_step = 0.004;  // rad; ...but no finer (the refinement does the rest)
   // Scores below this (mean per-point score in [0, 1]) are no match.
   double min_score = 0.35;
+  // The most point lookups (candidates bounded or scored × the scan's points) one
+  // correlative search may make, so a search costs bounded time however weakly it prunes
+  // (0: unbounded). A search that reaches it stops: no match, and no claim that there is
+  // none elsewhere (MatchResult::exhausted).
+  double max_lookups = 0.0;
   // Small penalties on the distance from the prediction: break ties in featureless
   // directions towards the prediction rather than to an arbitrary end of the window.
   double translation_penalty = 0.02;  // score per metre
@@ -107,6 +112,7 @@ struct MatchResult {
   // the likelihood field).
   double line_weight = -1.0;
   long candidates_scored = 0;  // leaves and bounds evaluated (for speed figures)
+  bool exhausted = false;      // the search stopped at max_lookups before it was complete
 };
 
 // Bilinearly interpolated obstacle distance of the field (capped at its max_distance) and
