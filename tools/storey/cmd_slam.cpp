@@ -541,7 +541,7 @@ int run_slam(Args& args) {
       .option("config", "FILE",
               "front-end options: the 'slam' section of this YAML file (e.g. "
               "config/floor_mapper.yaml) and, for a bag, its max_odometry_gap; default: "
-              "built-in defaults")
+              "the shipped config/floor_mapper.yaml")
       .option("detector-config", "FILE",
               "bag: floor detector options, the 'detector' section of this YAML file (e.g. "
               "config/floor_detector.yaml: the building's storey height, floor heights); "

@@ -61,8 +61,8 @@ BENCHMARK(BM_Refine)->Unit(benchmark::kMicrosecond);
 
 // The whole front end (tracking, loop closure, optimisation) over a ring corridor of 24 m x
 // 16 m driven once and a half with 3 deg/m heading noise, with config/floor_mapper.yaml's
-// options; range(0) = 1 turns on the loop closures' point polish (as config/robots/
-// default.yaml does for the simulated robots; docs/floor_mapper.md, session 18). Figures:
+// options; range(0) = 1 turns on the loop closures' point polish (as the laser model does
+// for a laser finer than half a cell; docs/floor_mapper.md). Figures:
 // scans per second and closures accepted; the ratio of the two runs is the polish's cost.
 void BM_FrontEndRing(benchmark::State& state) {
   const test::World world = test::ringCorridorWorld();

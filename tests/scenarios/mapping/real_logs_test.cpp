@@ -116,9 +116,8 @@ TEST(RealLogs, IntelWithTheShippedConfig) {
   const auto odometry = simulateOdometry(log.poses, OdometryNoise{}, 1);
   const RelationErrors e =
       runAndEvaluate(log, odometry, log.poses, "intel (shipped config)", options).errors;
-  // Achieved (seed 1): nearby 0.0188 m / 0.466°, far 0.193 m / 0.83° (session 4, before the
-  // normal-noise discount: 0.0189 m / 0.478°, 0.203 m / 0.91°, on which these bounds were
-  // set); better than the library defaults' figures above on every count.
+  // Bounds: inside the goal (0.03 m / 0.5° nearby, 0.5 m far) and near the figures
+  // docs/floor_mapper.md gives for intel as shipped, which must not get worse.
   EXPECT_LT(e.nearby.translation_mean, 0.021);
   EXPECT_LT(e.nearby.rotation_mean * 180 / M_PI, 0.53);
   EXPECT_LT(e.far.translation_mean, 0.225);
@@ -167,9 +166,8 @@ TEST(RealLogs, Freiburg101MeetsTheGoalOnEverySeedTried) {
   STOREY_REQUIRE_DATA(path, "carmen/freiburg-101-corrected.log.gz");
   const LogData log = readLog(path);
   ASSERT_EQ(log.scans.size(), 292u);
-  // Achieved (session 32), seeds 1-6: nearby 0.0252-0.0263 m / 0.197-0.211°, far 0.129-0.165 m /
-  // 0.39-0.55°, 30 closures each, none more than 0.1 m off. Seeds 1 and 4 run here (seed 4 has
-  // the largest nearby error).
+  // The goal (0.03 m / 0.5° nearby) on two seeds; seed 4 has the largest nearby error of
+  // seeds 1-6.
   const FloorSlamOptions options = shippedOptions();
   for (const int seed : {1, 4}) {
     const auto odometry = simulateOdometry(log.poses, OdometryNoise{}, seed);
@@ -253,16 +251,12 @@ TEST(RealLogs, InfiniteCorridorClosesItsLoopsWithoutWrongClosures) {
   // Long corridors that look alike for tens of metres, loops of 200-400 m: after a loop the
   // graph is 10-20 m off, and the first closures must move it that far (in clusters of
   // closures that agree) without letting in one of the look-alike places. Before closures
-  // were judged by agreement (session 10) seed 1 accepted one 2.8 m off and refused 89 right
-  // ones; the far error was 14.4 m and the map broken (the long corridor drawn twice).
+  // were judged by agreement, seed 1 accepted one 2.8 m off and the long corridor was drawn twice.
   STOREY_REQUIRE_DATA(path, "carmen/infinite-corridor-corrected.log.gz");
   const CorridorRun run = runInfiniteCorridor(path, 1);
   ASSERT_GT(run.closures, 100u);
-  // Achieved (seed 1): 220 closures, none more than 1 m off; nearby 0.0338 m / 0.352°, far
-  // 1.78 m (session 30; 219, 0.0373 m / 0.48°, 2.3 m in session 12). Until session 12 the last
-  // pass, after a 400 m loop 20 m off, was not closed (160 closures, far 7.1 m): its first right
-  // matches were tied to one old node and refused for lack of spread (docs/floor_mapper.md, "When
-  // the graph is lost").
+  // The last pass comes back 20 m off after a 400 m loop; its first right matches tie one old
+  // node and must still be taken (held closures are tied where they matched).
   EXPECT_LT(run.worst_closure, 1.0);
   EXPECT_LT(run.errors.nearby.translation_mean, 0.04);
   EXPECT_LT(run.errors.nearby.rotation_mean * 180 / M_PI, 0.5);
@@ -323,35 +317,32 @@ TEST_P(InfiniteCorridorSeed, ClosesItsLoopsWithoutWrongClosures) {
   EXPECT_LT(run.errors.far.translation_mean, p.max_far);
 }
 
-// Achieved (session 30): seed 17 218 closures, far 1.47 m; seed 2 222, 1.56 m; seed 9 220,
-// 1.90 m; seed 18 224, 1.55 m; seed 12 223, 1.97 m; none more than 1 m off, nearby rotation
-// 0.34-0.36°.
+// Seeds whose odometry makes one of the corridor's hard cases; each case says what it tests.
 INSTANTIATE_TEST_SUITE_P(
     RealLogs, InfiniteCorridorSeed,
     ::testing::Values(
         CorridorSeed{
             17, 100, 4.0,
-            "before the retry on the last nodes (session 27), 10 failed matches in the narrow "
-            "corridor at scans 1566-1575 left the heading 0.2-0.3 rad off; back in the main "
-            "corridor 4 closures 34 m off went in (far 13.3 m)"},
+            "failed matches in the narrow corridor at scans 1566-1575 can leave the heading "
+            "0.2-0.3 rad off, and back in the main corridor closures 34 m off can then go in"},
         CorridorSeed{
             2, 100, 4.0,
             "after the 400 m western loop the graph is 14 m off along a look-alike stretch; the "
-            "region check (session 11) finds the cluster's scans fit 14 m away better and moves "
-            "its closures there (before: 13 closures 13-15 m off, far 6.5 m)"},
+            "region check must find the cluster's scans fit 14 m away better and move its "
+            "closures there"},
         CorridorSeed{
             9, 100, 4.0,
-            "the session 11 code left the last pass open (far 23.6 m): at the window's cap a lone "
-            "closure now needs a unique place, held closures are tied where they matched, and "
-            "attempts follow a closure the region check relocated"},
+            "the last pass must close: at the window's cap a lone closure needs a unique place, "
+            "held closures are tied where they matched, and attempts follow a closure the "
+            "region check relocated"},
         CorridorSeed{
             18, 200, 2.5,
-            "the 300 m loop off the western corridor at (-160, 25) came back 12-18 m off, beyond a "
-            "10 m window: open (161 closures, far 3.0 m) until the cap went to 20 m (session 30)"},
+            "the 300 m loop off the western corridor at (-160, 25) comes back 12-18 m off, beyond a "
+            "10 m window: the closure window's cap must reach it"},
         CorridorSeed{
             12, 200, 2.5,
-            "with the 20 m cap and the uniqueness check only at the cap, 2 closures went in alone "
-            "11 m off along a corridor (windows 10-20 m); single_unique_window 10 m (session 30)"}),
+            "windows of 10-20 m hold a look-alike 11 m off along a corridor: a closure alone "
+            "there needs a unique place"}),
     [](const ::testing::TestParamInfo<CorridorSeed>& info) {
       return "seed" + std::to_string(info.param.seed);
     });

@@ -185,8 +185,8 @@ TEST(SimulatedFloors, FeaturelessCorridorKeepsItsLength) {
 
 // A robot turning and shuttling in a closed 2 m x 2 m room, as in an elevator cabin: every
 // wall is within 1.4 m, so a match's heading rests on lever arms of a metre. Refined on
-// the likelihood field, loop closures there came out about 1 deg off, all to one side
-// (session 18); the point polish brings them to the noise. The closures' heading error is
+// the likelihood field, loop closures there come out about 1 deg off, all to one side;
+// the point polish brings them to the noise. The closures' heading error is
 // measured against the truth of both nodes.
 TEST(SimulatedFloors, LoopClosuresInAnElevatorCabinKeepTheirHeading) {
   const std::string cabin = R"(

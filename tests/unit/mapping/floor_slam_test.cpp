@@ -528,8 +528,8 @@ TEST(FloorSlam, ALargeDriftIsClosedByClosuresThatAgree) {
   world.addBox(0.05, 3, 0.4, 3.4);
   world.addWall(0.5, 0, 0.5, 0.4);
   const auto truth = pathThrough({{1, 1}, {39, 1}, {39, 13}, {1, 13}, {1, 1}, {10, 1}});
-  // Slip on the first leg: every step there 8 % longer than driven. (Built step by step: until
-  // session 12 each slipped step was undone by the next, so the slip was nearly nil.)
+  // Slip on the first leg: every step there 8 % longer than driven, built step by step so
+  // that each slipped step carries on from the last.
   const std::vector<Pose2> simulated = simulateOdometry(truth, OdometryNoise{}, 5);
   std::vector<Pose2> odometry = {simulated.front()};
   for (std::size_t i = 1; i < truth.size(); ++i) {
@@ -563,9 +563,7 @@ TEST(FloorSlam, ALargeDriftIsClosedByClosuresThatAgree) {
   // Achieved: back at the start 0.78 m with clusters (6 clusters, 12 closures), 2.41 m with
   // closures alone (6 of 23). At the end, 9 m into the bare first leg, 0.75 m and 1.58 m:
   // nothing in that corridor tells its length, so the graph keeps the leg's 8 % stretch
-  // there (0.72 m over 9 m). Until session 12 the slip was nearly nil, by a mistake in
-  // building the odometry (each slipped step was undone by the next), and this test asserted
-  // 0.25 m at the end. With the 3 m of real slip the optimiser spreads the correction by
+  // there (0.72 m over 9 m). With 3 m of slip the optimiser spreads the correction by
   // bending the legs (largest error 2.60 m), the weakness LoopClosureCorrectsDrift notes.
   EXPECT_GE(clustered.stats.loop_clusters, 1u);
   EXPECT_LT(errorAt(clustered, back), 1.0);
