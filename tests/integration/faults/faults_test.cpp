@@ -43,9 +43,8 @@ using Clock = std::chrono::steady_clock;
 
 constexpr double kReplayRate = 10.0;
 // A killed process is restarted after this, 2 s past the 3 s participant lease of
-// reliable_sensors_qos.xml, so the others have dropped the dead participant. (Until
-// session 16 that file's participant profile was not applied: the lease was Fast DDS'
-// 20 s and shared memory was on; docs/reliability.md has what was seen then.)
+// reliable_sensors_qos.xml (its participant profile is named storey_participant, the
+// name the runtime applies), so the others have dropped the dead participant.
 constexpr double kRestartAfter = 5.0;  // s
 constexpr double kSimulatedSeconds = 135.0;  // F0, the elevator to F1, F1's rooms
 // Tolerances for "the same building" (see docs/reliability.md for what was measured).

@@ -136,8 +136,8 @@ TEST(FloorMatcherComponent, PublishesCorrectConstraintsForTwoFloors) {
 }
 
 // A one-floor building (a single log mapped with `storey map`): the pass finds nothing to
-// match, and a flush must see that at once instead of waiting out its timeout (it waited
-// the whole 600 s of storey map's until session 18).
+// match, and a flush must see that at once instead of waiting out its timeout (storey
+// map's is 600 s).
 TEST(FloorMatcherComponent, FlushReturnsWhenOnlyOneFloorGraphExists) {
   const matching::SimulatedFloors floors = small2(5);
   runtime::Context context(onDomain(217));

@@ -321,8 +321,8 @@ TEST(RuntimeContext, MissingQosFileIsNamed) {
 }
 
 // A QoS file's participant profile named storey_participant configures the participant
-// (Fast DDS 2.9 leaves a file's is_default_profile participant unapplied: the fault tests'
-// 3 s lease and UDP-only transport were silently not in effect until session 16).
+// (Fast DDS 2.9 leaves a file's is_default_profile participant unapplied, so a test's 3 s
+// lease and UDP-only transport would silently not be in effect).
 TEST(RuntimeContext, ParticipantProfileOfTheQosFileApplies) {
   const std::string path = test::makeTempDir("qos") + "/participant.xml";
   std::ofstream(path) << R"(<?xml version="1.0" encoding="UTF-8"?>

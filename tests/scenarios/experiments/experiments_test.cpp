@@ -253,9 +253,9 @@ TEST(Experiments, AnyBuildingRunsWithEveryFloorJudged) {
 }
 
 // The fleet building end to end (three robots starting on F0, F0 and F3, all in one
-// recording). Until session 17 every mapper numbered its floors from where its robot
-// started and its floor graphs from 0, so the server merged graphs of different robots and
-// floors: 2 floor graphs, no constraint, floors metres off. 0.004 m / 0.031 deg when written.
+// recording). Floor-graph ids are unique per robot and every detector knows the building's
+// floor heights and its robot's start floor; with ids from 0 per robot the server would
+// merge graphs of different robots and floors. 0.004 m / 0.031 deg when written.
 TEST(Experiments, FleetMapsEveryRobotsFloorsIntoOneBuilding) {
   const auto tables = runExperiments(oneSeed("fleet", 1, 75));
   ASSERT_EQ(tables.size(), 1u);
@@ -298,10 +298,10 @@ void expectGlass3WithinTheGoal(std::uint64_t seed, int domain_id) {
   }
 }
 
-// Seed 2: until session 25 a set's joint alignment stood at the likelihood field's
-// refinement whenever the whole floor's points could not refine it (most of a glass3
-// floor's scans lie on walls the other floors lack): F1 ended 0.37 deg off. Refined on the
-// inliers' own points: every floor within 0.010 m / 0.10 deg when written.
+// Seed 2: most of a glass3 floor's scans lie on walls the other floors lack, so the whole
+// floor's points cannot refine a set's joint alignment; left at the likelihood field's
+// refinement, F1 ends 0.37 deg off. Refined on the inliers' own points: every floor within
+// 0.010 m / 0.10 deg when written.
 TEST(Experiments, Glass3Seed2PlacesEveryFloorWithinTheGoal) { expectGlass3WithinTheGoal(2, 166); }
 
 // Seed 12: F2, short of evidence against F0, was accepted against F1 on 3 candidates
@@ -313,25 +313,23 @@ TEST(Experiments, Glass3Seed12IsNotPlacedAgainstTheRobotsRide) {
 }
 
 // featureless seed 7, end to end: floor B, a bare corridor whose ends and lobby differ,
-// must not be taken for a symmetric floor (session 12's floor graphs made it one of the
-// self-check's near misses: no inter-floor constraint, floor B unplaced, 149 deg off).
+// must not be taken for a symmetric floor (its own sequences find a 180 deg twin that fits
+// the whole floor within the margin; the home sequences that refute the twin decide).
 TEST(Experiments, FeaturelessFloorBIsPlacedOnSeed7) {
   const ExperimentTable table = featurelessRun(7, 79);
   const FloorRow& b = table.floors[1];
   EXPECT_GE(b.constraints.mean, 3.0);
   EXPECT_EQ(b.wrong, 0u);
-  // Placed by its constraints: 0.138 m / 0.06 deg when written (unplaced: 1.17 m / 149 deg;
-  // session 17, with the landing's scans mapped: 0.021 m / 0.003 deg).
+  // Placed by its constraints: 0.021 m / 0.003 deg when written (unplaced it was 1.17 m /
+  // 149 deg off).
   EXPECT_LT(b.translation_with.worst, 0.3);
   EXPECT_LT(b.rotation_with.worst, 0.2 * M_PI / 180.0);
 }
 
-// featureless seed 1, end to end. Session 14: corridor B was mapped 0.8 % short, and the
-// rigid RANSAC set left out the right candidate at its east end (ransac_distortion lets it
-// join, docs/floor_matcher.md). Session 17: with the landing's scans mapped
-// (map_arrival_scans), B's own graph is within 0.1 % and the constraints start in the
-// elevator cabin; the constraints must place B within the goal, better than the floor
-// graphs joined by odometry alone, and leave its corridor as good as they found it.
+// featureless seed 1, end to end. B's own graph is within 0.1 % and the constraints start
+// in the elevator cabin (the landing's scans are mapped); the constraints must place B
+// within the goal and leave its corridor as good as they found it. (A corridor mapped
+// 0.8 % short needs ransac_distortion for its far candidates to join the rigid set.)
 TEST(Experiments, FeaturelessSeed1PlacesFloorBWithinTheGoal) {
   const ExperimentTable table = featurelessRun(1, 77);
   const FloorRow& b = table.floors[1];
@@ -345,8 +343,7 @@ TEST(Experiments, FeaturelessSeed1PlacesFloorBWithinTheGoal) {
   for (const CorridorRow& c : table.corridors) {
     if (c.name != "corridor_B") continue;
     measured = true;
-    // -0.02 % when written, -0.09 % without inter-floor constraints (session 14: -0.27 %
-    // and -0.79 %).
+    // -0.02 % when written, -0.09 % without inter-floor constraints.
     EXPECT_LT(c.abs_error_with.worst, 0.005);
     EXPECT_LT(c.abs_error_with.worst, c.abs_error_without.worst + 0.001);
   }

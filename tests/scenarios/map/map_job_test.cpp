@@ -221,7 +221,7 @@ TEST(MapJob, BadInputsAreReportedClearly) {
 // robot3 on F3). With the robots file every detector knows the floor heights and its
 // robot's start floor, so each pose lands on its true floor and the floors are aligned;
 // without it each robot numbers floors from where it started, and robot3's poses are
-// put on the wrong floors (what storey map did with a recorded fleet until session 20).
+// put on the wrong floors.
 TEST(MapJob, ARecordedFleetTakesItsRobotsFloorsFromTheRobotsFile) {
   const sim::Scenario scenario = sim::loadScenario(test::sourceDir() + "/config/buildings/fleet.yaml");
   const sim::Simulation run = sim::simulate(scenario, 1);

@@ -74,7 +74,7 @@ std::string scenarioSeedName(const ::testing::TestParamInfo<std::tuple<Expectati
   return std::get<0>(info.param).scenario + "_seed" + std::to_string(std::get<1>(info.param));
 }
 
-// symmetric's floors are self-similar; since session 15 (match_self_similar) they are
+// symmetric's floors are self-similar; with match_self_similar they are
 // matched through the sequences that tell them from their 180° twin (those at the
 // elevator door), so they may get constraints, but never a wrong one.
 // glass3's floors share only the elevator core and a 2 m x 4 m corridor: its floors get
@@ -93,7 +93,7 @@ INSTANTIATE_TEST_SUITE_P(
 
 // glass3 seeds 3 and 4 as well: on seed 4 each pass of F2 past the shared corridor gave a
 // forward and a time-reversed sequence that share one end scan; counted as one piece of
-// evidence, F2 had 2 of the 3 it needs and got no constraint until session 13.
+// evidence, F2 would have 2 of the 3 it needs and get no constraint.
 INSTANTIATE_TEST_SUITE_P(
     Glass3MoreSeeds, SimulatedScenario,
     ::testing::Combine(::testing::Values(Expectation{"glass3"}), ::testing::Values(3, 4)),

@@ -185,12 +185,13 @@ struct FloorMatcherOptions {
   double same_floor_see_through = 0.1;
   int same_floor_through_beams = 3;
   // A pair's accepted alignment that puts a robot's floor change, to a graph already placed,
-  // outside these limits is rejected (kContradicted) and the graph tries the others (glass3
-  // seed 12: floor 2 fitted to a look-alike of floor 1 turned 90 degrees). A growth pass
+  // outside these limits is rejected (kContradicted) and the graph tries the others: a floor
+  // that shares only a lift with another can fit a look-alike of it turned about the lift,
+  // which turns the robot's ride against its odometry. A growth pass
   // (GrowthPassConfirmation) holds back what it places outside them, too. Off in the
   // library (its unit tests' synthetic graphs share one robot and overlapping stamps);
-  // config/floor_matcher.yaml sets 15 m and 0.35 rad. Journals written before session 24
-  // carry no raw odometry: set the heading to 0 for them.
+  // config/floor_matcher.yaml sets 15 m and 0.35 rad. A journal whose nodes carry no raw
+  // odometry (odom_x/y/theta all zero) needs the heading check off (0).
   FloorChangeLimits floor_change;  // YAML: floor_change_radius, floor_change_heading
   int threads = 2;
   std::uint64_t seed = 1;

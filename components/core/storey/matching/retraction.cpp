@@ -23,7 +23,8 @@ RetractionOptions readRetractionOptions(const common::ConfigNode& node) {
   o.weak_sigmas = node.getDouble("weak_sigmas", o.weak_sigmas, 0.0, 100.0);
   o.confirm_growth = node.getDouble("confirm_growth", o.confirm_growth, 0.0, 100.0);
   o.confirm_both_sides = node.get<bool>("confirm_both_sides", o.confirm_both_sides);
-  // One setting for the matcher's and the growth pass's floor-change checks since session 28.
+  // The matcher's and the growth pass's floor-change checks share one setting; a file that
+  // still sets the growth pass's own copies is told where they went.
   for (const char* moved : {"confirm_transit_radius", "confirm_transit_heading"})
     if (node.has(moved))
       node.fail(moved,

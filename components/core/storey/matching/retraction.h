@@ -25,9 +25,9 @@ struct RetractionOptions {
   // How far the new pass may place a published constraint's node from where the
   // constraint put it before that constraint is retracted, and how closely an earlier pass
   // must agree to confirm one: the translation by which the scenarios judge a constraint
-  // wrong (0.3 m), half their rotation (1 deg of 2). 0.5 m / 0.1 rad left young graphs'
-  // constraints 2-3 deg off standing (session 20); 2 deg confirmed and kept one 2.01 deg
-  // off (fleet seed 3, session 23; docs/floor_matcher.md).
+  // wrong (0.3 m), half their rotation (1 deg of 2): with the judge's own 2 deg a pass
+  // that placed a pair 1.9 deg from a constraint 2.01 deg off confirmed it and never
+  // withdrew it (docs/decisions/0005-growth-pass-confirmation.md).
   double translation = 0.3;  // m
   double rotation = 0.0175;  // rad
   // Along a constraint's weak direction (a corridor's length) the limit is this many of
