@@ -438,10 +438,10 @@ double wholeFloorFit(const PreparedFloor& map_floor, const floor::FloorGraph& sc
 // Whether a second consistent set makes a pair ambiguous. A rival by count (at least
 // ambiguity_ratio of the largest set, and 2 or more) stands unless the whole floor fits
 // the largest set's alignment better by ambiguity_fit_margin; a smaller second set large
-// enough to be accepted alone stands when the whole floor fits it better (fleet seed 1:
-// robot 2's F2 had 9 sequences 6 m along a periodic row of rooms and 4 at the true
-// place). `fits()` returns the whole floor's fit at the two sets' alignments; it is only
-// called for a rival.
+// enough to be accepted alone stands when the whole floor fits it better (along a
+// periodic row of rooms more sequences may agree on a place a few rooms off than at the
+// true one). `fits()` returns the whole floor's fit at the two sets' alignments; it is
+// only called for a rival.
 bool secondSetStands(std::size_t best, std::size_t second, const FloorMatcherOptions& o,
                      const std::function<std::pair<double, double>()>& fits) {
   const bool rival_by_count =
@@ -991,8 +991,8 @@ void decideConsistentSet(const PreparedFloor& reference, const PreparedFloor& fl
       // the rigid floor is not: it keeps its own measurement, as a reversed one does. The
       // allowance is for a floor stretched (metres per metre), not turned: where its own
       // heading is more than RANSAC's rotation tolerance from the joint's, it takes the
-      // joint's (glass3 seed 6: a weak candidate 3 degrees off, which the joint alignment
-      // refined on the inliers' points no longer placed within the tolerance).
+      // joint's (a weak candidate a few degrees off, which the joint alignment refined on
+      // the inliers' points no longer places within the tolerance, must not turn its node).
       const Pose2& node_pose = g.nodes[c.node_index].pose;
       const bool beyond_joint =
           !c.reversed && o.ransac_distortion > 0.0 &&

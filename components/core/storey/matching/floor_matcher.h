@@ -180,8 +180,8 @@ struct FloorMatcherOptions {
   // periodic row of rooms fits a young graph several rooms along, but there each graph's
   // scans down the corridor see through the other's end walls. Both ways: at the right
   // alignment one graph's scans may see through the other's walls where the two saw the
-  // floor differently (a door open for one robot and shut for the other; fleet seed 1's
-  // right F2 pair: 9-11 % of one graph's scans, none the other way). 1 turns it off.
+  // floor differently (a door open for one robot and shut for the other can leave about a
+  // tenth of one graph's scans seeing through, none the other way). 1 turns it off.
   double same_floor_see_through = 0.1;
   int same_floor_through_beams = 3;
   // A pair's accepted alignment that puts a robot's floor change, to a graph already placed,
