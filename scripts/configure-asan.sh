@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Configures build-asan (once): clang, build type Sanitize, ASan + UBSan on every target,
+# Configures build-asan (once) with the asan preset (CMakePresets.json): clang, build type
+# Sanitize, ASan + UBSan on every target,
 # libFuzzer's coverage instrumentation on the libraries, tests and fuzz targets on,
 # benchmarks off. scripts/sanitize.sh (unit tests) and scripts/fuzz.sh share it.
 set -euo pipefail
@@ -11,7 +12,4 @@ ensure_packages clang cmake ninja-build
 rm -rf build-asan
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
-cmake -S . -B build-asan -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
-  "${launcher[@]}" -DCMAKE_UNITY_BUILD=ON -DCMAKE_BUILD_TYPE=Sanitize -DSTOREY_BUILD_BENCHMARKS=OFF \
-  -DSTOREY_BUILD_FUZZERS=ON "-DSTOREY_SANITIZE=address;undefined" \
-  -DCMAKE_CXX_FLAGS=-fsanitize=fuzzer-no-link >/dev/null
+cmake --preset asan "${launcher[@]}" >/dev/null

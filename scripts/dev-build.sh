@@ -6,7 +6,7 @@ cd "$(dirname "$0")/.."
 exec 9>/tmp/storey-build.lock
 flock 9
 if [ ! -f build/build.ninja ]; then
-  cmake -S . -B build -G Ninja -DCMAKE_CXX_COMPILER_LAUNCHER=ccache >/dev/null
+  cmake --preset dev -DCMAKE_CXX_COMPILER_LAUNCHER=ccache >/dev/null
 fi
 targets=()
 for t in "$@"; do targets+=(--target "$t"); done

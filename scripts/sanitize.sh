@@ -61,8 +61,7 @@ for mode in "${modes[@]}"; do
     tsan)
       ensure_packages g++ cmake ninja-build
       if [ ! -f build-tsan/build.ninja ]; then
-        cmake -S . -B build-tsan -G Ninja -DCMAKE_UNITY_BUILD=ON -DCMAKE_BUILD_TYPE=Sanitize \
-          -DSTOREY_BUILD_BENCHMARKS=OFF -DSTOREY_SANITIZE=thread >/dev/null
+        cmake --preset tsan >/dev/null
       fi
       # Fast DDS, Fast CDR and OpenSSL's libcrypto (DDS Security) are not built with TSan
       # (libcrypto's own locks and atomics then read as races), and libstdc++'s timed mutexes lock

@@ -20,9 +20,8 @@ build_dir=${STOREY_BUILD_DIR:-build}
 if [ ! -f "$build_dir/build.ninja" ]; then
   launcher=()
   command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
-  # A unity build (several sources per compiler run) builds from scratch in about two
-  # thirds of the time; scripts/dev-build.sh's folder stays per file for quick rebuilds.
-  cmake -S . -B "$build_dir" -G Ninja "${launcher[@]}" -DCMAKE_UNITY_BUILD=ON \
-    ${STOREY_CMAKE_ARGS:-}
+  # The release preset (CMakePresets.json): a unity build (several sources per compiler
+  # run) builds from scratch in about two thirds of the time.
+  cmake --preset release -B "$build_dir" "${launcher[@]}" ${STOREY_CMAKE_ARGS:-}
 fi
 cmake --build "$build_dir" --parallel "$(nproc)"

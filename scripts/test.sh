@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Sets up and builds storey (scripts/setup.sh), then runs every test: unit tests (core,
+# Sets up and builds storey (scripts/setup.sh), checks the format of the changed lines
+# (scripts/format-check.sh), then runs every test: unit tests (core,
 # no DDS), integration tests (components over DDS on loopback, several processes, two
 # network namespaces), scenario tests (the whole pipeline on simulated buildings and real
 # logs); then the sanitizer runs (scripts/sanitize.sh: unit tests under ASan + UBSan, the
@@ -12,6 +13,8 @@ start=$SECONDS
 echo "== build: $((SECONDS - start)) s"
 build_dir=${STOREY_BUILD_DIR:-build}
 status=0
+echo "== format"
+./scripts/format-check.sh || status=1
 for label in unit integration scenario; do
   echo "== $label tests"
   phase_start=$SECONDS
