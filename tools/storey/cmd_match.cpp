@@ -1,11 +1,11 @@
 // storey match: inter-floor constraints between floor graphs by global Monte Carlo
 // localisation, printing every candidate's provenance and, where the truth is known
 // (simulated buildings, logs moved by a known offset), each accepted constraint's error.
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <iomanip>
 #include <iostream>
-#include <algorithm>
-#include <filesystem>
 #include <limits>
 #include <map>
 #include <set>
@@ -15,15 +15,15 @@
 #include "storey/building/journal.h"
 #include "storey/common/config.h"
 #include "storey/common/log.h"
+#include "storey/eval/log_floors.h"
 #include "storey/eval/metrics.h"
+#include "storey/eval/simulated_floors.h"
 #include "storey/eval/trajectory.h"
 #include "storey/floor_matcher/floor_matcher_component.h"
 #include "storey/io/carmen.h"
 #include "storey/matching/floor_matcher.h"
 #include "storey/matching/growth_passes.h"
-#include "storey/matching/log_floors.h"
 #include "storey/matching/retraction.h"
-#include "storey/matching/simulated_floors.h"
 #include "storey/sim/scenario.h"
 #include "storey/sim/simulator.h"
 
@@ -59,11 +59,11 @@ bool endsWith(const std::string& s, const std::string& suffix) {
          s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-void printErrors(const matching::MatchResult& result, const matching::SimulatedFloors& floors) {
+void printErrors(const matching::MatchResult& result, const eval::SimulatedFloors& floors) {
   std::cout << "errors against the truth:\n";
   int wrong = 0, off = 0;
   for (const auto& c : result.constraints) {
-    const auto e = matching::judgeConstraint(c, floors);
+    const auto e = eval::judgeConstraint(c, floors);
     wrong += e.wrong;
     off += e.off;
     std::cout << "  graph " << c.graph_id << " node " << c.node_id << " -> graph "
@@ -75,7 +75,7 @@ void printErrors(const matching::MatchResult& result, const matching::SimulatedF
   }
   for (const auto& p : result.pairs) {
     if (!p.accepted) continue;
-    const auto e = matching::alignmentError(p.alignment, p.reference_graph_id, p.graph_id, floors);
+    const auto e = eval::alignmentError(p.alignment, p.reference_graph_id, p.graph_id, floors);
     std::cout << "  alignment of graph " << p.graph_id << " in graph " << p.reference_graph_id
               << ": " << std::fixed << std::setprecision(3) << e.translation << " m, "
               << e.rotation * 180.0 / M_PI << " deg"
@@ -91,8 +91,7 @@ void printErrors(const matching::MatchResult& result, const matching::SimulatedF
 // Every candidate that passed the gate, against the truth, with where its scans were (the
 // true positions of its first and last scans, building frame): shows which sequences
 // found the shared structure and which converged elsewhere.
-void printCandidateTruth(const matching::MatchResult& result,
-                         const matching::SimulatedFloors& floors,
+void printCandidateTruth(const matching::MatchResult& result, const eval::SimulatedFloors& floors,
                          const matching::FloorMatcherOptions& options) {
   std::map<std::size_t, matching::PreparedFloor> prepared;  // maps, for the false ones
   auto indexOf = [&](int id) {
@@ -110,12 +109,12 @@ void printCandidateTruth(const matching::MatchResult& result,
       if (c.status == matching::CandidateStatus::kLowLikelihood ||
           c.status == matching::CandidateStatus::kPoorFit)
         continue;  // (underconstrained ones are shown: what the conditioning gate drops)
-      matching::ConstraintError e;
+      eval::ConstraintError e;
       const std::size_t si = c.reversed ? ri : gi;  // the graph whose scans were localised
       const std::size_t mi = c.reversed ? gi : ri;  // the graph whose map they were localised in
       const auto& nodes = floors.graphs[si].nodes;
-      const Pose2 a = matching::trueNodePose(floors, si, nodes[c.first_index]);
-      const Pose2 b = matching::trueNodePose(floors, si, nodes[c.last_index]);
+      const Pose2 a = eval::trueNodePose(floors, si, nodes[c.first_index]);
+      const Pose2 b = eval::trueNodePose(floors, si, nodes[c.last_index]);
       // Where the candidate puts the sequence's last scan (building frame, via the
       // reference's true frame): for a false one, the place that looked alike.
       Pose2 placed = c.reversed ? floors.frames[gi] * c.alignment.inverse() * nodes[c.last_index].pose
@@ -128,13 +127,13 @@ void printCandidateTruth(const matching::MatchResult& result,
         const Pose2 in_map = (c.reversed ? c.alignment.inverse() : c.alignment) * nodes[c.last_index].pose;
         const floor::FloorGraph& mg = floors.graphs[mi];
         const floor::FloorNode& q = mg.nodes[mg.nearestNodeIndex(in_map.translation())];
-        const Pose2 q_true = matching::trueNodePose(floors, mi, q);
+        const Pose2 q_true = eval::trueNodePose(floors, mi, q);
         placed = q_true * q.pose.between(in_map);
         e.translation = (placed.translation() - b.translation()).norm();
         e.rotation = std::abs(geometry::angleDiff(placed.theta(), b.theta()));
         truth = q.pose * q_true.between(b) * nodes[c.last_index].pose.inverse();
       } else {
-        e = matching::alignmentError(c.alignment, c.reference_graph_id, c.graph_id, floors);
+        e = eval::alignmentError(c.alignment, c.reference_graph_id, c.graph_id, floors);
       }
       const bool bad = e.translation > 0.3 || e.rotation > 2.0 * M_PI / 180.0;
       std::cout << "  graph " << c.graph_id << " in " << c.reference_graph_id << " "
@@ -190,7 +189,7 @@ std::vector<floor::FloorGraph> journalFloorGraphs(const std::string& path) {
 // rigid: constraints and candidates are judged by the true poses of their own nodes; the
 // fitted frame only places a floor as a whole.
 void fitTruth(const std::vector<eval::PoseRow>& truth, const std::string& truth_path,
-              matching::SimulatedFloors* floors) {
+              eval::SimulatedFloors* floors) {
   const std::vector<floor::FloorGraph>& graphs = floors->graphs;
   floors->frames.clear();
   floors->node_truth.assign(graphs.size(), {});
@@ -234,13 +233,14 @@ void fitTruth(const std::vector<eval::PoseRow>& truth, const std::string& truth_
 // before published and it no longer stands behind. With the truth, each published and
 // retracted constraint is judged; "wrong standing" counts wrong constraints a graph server
 // would hold after the pass.
-void matchInStages(const matching::SimulatedFloors& floors, const matching::FloorMatcherOptions& options,
+void matchInStages(const eval::SimulatedFloors& floors,
+                   const matching::FloorMatcherOptions& options,
                    const matching::RetractionOptions& retraction, const std::vector<double>& times,
                    std::size_t min_nodes, bool confirm) {
   const double first = matching::nodeStampSpan(floors.graphs).first;
   const bool judged = floors.frames.size() == floors.graphs.size();
   auto wrong = [&](const matching::InterFloorConstraint& c) {
-    return judged && matching::judgeConstraint(c, floors).wrong;
+    return judged && eval::judgeConstraint(c, floors).wrong;
   };
   std::vector<matching::InterFloorConstraint> published;
   matching::PlacementHistory history;  // the passes' placements (confirm)
@@ -288,7 +288,7 @@ void matchInStages(const matching::SimulatedFloors& floors, const matching::Floo
       ++added;
       if (wrong(c)) {
         ++added_wrong;
-        const matching::ConstraintJudgement j = matching::judgeConstraint(c, floors);
+        const matching::ConstraintJudgement j = eval::judgeConstraint(c, floors);
         std::ostringstream note;
         note << std::fixed << std::setprecision(3) << "published wrong: graph " << c.graph_id << " node "
              << c.node_id << " -> graph " << c.reference_graph_id << " node " << c.reference_node_id << ": "
@@ -373,14 +373,14 @@ int run_match(Args& args) {
   if (args.has("threads") && !args.get("threads").empty())
     options.threads = static_cast<int>(args.getInt("threads"));
 
-  matching::SimulatedFloors floors;
+  eval::SimulatedFloors floors;
   if (inputs.size() == 1 && endsWith(inputs[0], ".yaml")) {
     const sim::Scenario scenario = sim::loadScenario(inputs[0]);
     const sim::Simulation run =
         sim::simulate(scenario, static_cast<std::uint64_t>(args.getInt("sim-seed")));
-    matching::SimulatedFloorsOptions so;
+    eval::SimulatedFloorsOptions so;
     so.seed = static_cast<std::uint64_t>(args.getInt("sim-seed"));
-    floors = matching::floorGraphsFromSimulation(run, so);
+    floors = eval::floorGraphsFromSimulation(run, so);
   } else if (inputs.size() == 1 && endsWith(inputs[0], ".bin")) {
     floors.graphs = journalFloorGraphs(inputs[0]);
     if (args.has("at") && !args.get("at").empty()) {
@@ -404,7 +404,7 @@ int run_match(Args& args) {
     const Pose2 frame(offset[0], offset[1], offset[2] * M_PI / 180.0);
     std::vector<std::vector<io::CarmenLaser>> logs;
     for (const auto& path : inputs) logs.push_back(io::readCarmenLasers(path));
-    matching::LogFloorOptions a, b;
+    eval::LogFloorOptions a, b;
     a.seed = options.seed * 2 + 1;
     b.seed = options.seed * 2 + 2;
     b.graph_id = b.floor_id = 1;
@@ -415,8 +415,8 @@ int run_match(Args& args) {
       a.last = logs[0].size() / 2;
       b.first = logs[0].size() / 2;
     }
-    floors.graphs.push_back(matching::floorGraphFromLasers(logs[0], a));
-    floors.graphs.push_back(matching::floorGraphFromLasers(second, b));
+    floors.graphs.push_back(eval::floorGraphFromLasers(logs[0], a));
+    floors.graphs.push_back(eval::floorGraphFromLasers(second, b));
     floors.frames = {Pose2(), frame};
   }
   std::cout << floors.graphs.size() << " floor graphs:";

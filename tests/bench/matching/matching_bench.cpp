@@ -10,9 +10,9 @@
 #include <string>
 
 #include "storey/common/config.h"
+#include "storey/eval/simulated_floors.h"
+#include "storey/localization/particle_filter.h"
 #include "storey/matching/floor_matcher.h"
-#include "storey/matching/particle_filter.h"
-#include "storey/matching/simulated_floors.h"
 #include "storey/sim/scenario.h"
 #include "storey/sim/simulator.h"
 
@@ -30,13 +30,13 @@ matching::FloorMatcherOptions shippedOptions() {
   return matching::readFloorMatcherOptions(root.child("floor_matcher"));
 }
 
-const matching::SimulatedFloors& floorsOf(const std::string& name) {
-  static std::map<std::string, std::unique_ptr<matching::SimulatedFloors>> cache;
+const eval::SimulatedFloors& floorsOf(const std::string& name) {
+  static std::map<std::string, std::unique_ptr<eval::SimulatedFloors>> cache;
   auto& slot = cache[name];
   if (!slot) {
     const sim::Simulation run = sim::simulate(sim::loadScenario(scenarioPath(name)), 1);
-    slot = std::make_unique<matching::SimulatedFloors>(
-        matching::floorGraphsFromSimulation(run, matching::SimulatedFloorsOptions{}));
+    slot = std::make_unique<eval::SimulatedFloors>(
+        eval::floorGraphsFromSimulation(run, eval::SimulatedFloorsOptions{}));
   }
   return *slot;
 }
@@ -45,12 +45,12 @@ void BM_FilterUpdate(benchmark::State& state) {
   const auto& floors = floorsOf("small2");
   const auto& g = floors.graphs.front();
   const matching::FloorMatcherOptions o = shippedOptions();
-  const matching::LocalizationMap map(floor::renderFloorMap(g, o.map), o.likelihood_field);
-  matching::ParticleFilterOptions fo = o.filter;
+  const localization::LocalizationMap map(floor::renderFloorMap(g, o.map), o.likelihood_field);
+  localization::ParticleFilterOptions fo = o.filter;
   fo.max_particles = static_cast<int>(state.range(0));
   fo.min_particles = fo.max_particles;
   fo.initial_particles_per_m2 = 1e6;  // clamped to max_particles
-  matching::ParticleFilter pf(map, fo, 1);
+  localization::ParticleFilter pf(map, fo, 1);
   pf.initializeUniform();
   std::size_t n = 0;
   for (auto _ : state) {
@@ -78,7 +78,7 @@ void BM_MatchBuilding(benchmark::State& state, const std::string& name) {
   matching::MatchResult result;
   for (auto _ : state) result = matching::matchFloors(floors.graphs, o);
   int wrong = 0;
-  for (const auto& c : result.constraints) wrong += matching::judgeConstraint(c, floors).wrong;
+  for (const auto& c : result.constraints) wrong += eval::judgeConstraint(c, floors).wrong;
   state.counters["floor_graphs"] = static_cast<double>(floors.graphs.size());
   state.counters["constraints"] = static_cast<double>(result.constraints.size());
   state.counters["wrong"] = wrong;

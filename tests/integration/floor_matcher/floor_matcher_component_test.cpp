@@ -11,9 +11,9 @@
 #include <stdexcept>
 #include <thread>
 
+#include "storey/eval/simulated_floors.h"
 #include "storey/floor_matcher/conversions.h"
 #include "storey/graph_server/graph_server.h"
-#include "storey/matching/simulated_floors.h"
 #include "storey/runtime/context.h"
 #include "storey/runtime/graph_conversions.h"
 #include "storey/runtime/publisher.h"
@@ -71,11 +71,11 @@ struct RunningMatcher {
   FloorGraphPublisher graphs;
 };
 
-matching::SimulatedFloors small2(std::uint64_t seed) {
+eval::SimulatedFloors small2(std::uint64_t seed) {
   const auto scenario = sim::loadScenario(test::sourceDir() + "/config/buildings/small2.yaml");
-  matching::SimulatedFloorsOptions so;
+  eval::SimulatedFloorsOptions so;
   so.seed = seed;
-  return matching::floorGraphsFromSimulation(sim::simulate(scenario, seed), so);
+  return eval::floorGraphsFromSimulation(sim::simulate(scenario, seed), so);
 }
 
 // Every message on the constraint topic, as it arrives.
@@ -93,7 +93,7 @@ struct ReceivedConstraints {
 };
 
 TEST(FloorMatcherComponent, PublishesCorrectConstraintsForTwoFloors) {
-  const matching::SimulatedFloors floors = small2(5);
+  const eval::SimulatedFloors floors = small2(5);
   ASSERT_EQ(floors.graphs.size(), 2u);
   runtime::Context context(onDomain(215));
   ReceivedConstraints constraints(context);
@@ -123,7 +123,7 @@ TEST(FloorMatcherComponent, PublishesCorrectConstraintsForTwoFloors) {
   ASSERT_GE(received.size(), 3u);
   EXPECT_EQ(received.size(), matcher.stats().constraints_published);
   for (const auto& m : received) {
-    const auto e = matching::judgeConstraint(constraintFromMessage(m), floors);
+    const auto e = eval::judgeConstraint(constraintFromMessage(m), floors);
     EXPECT_LT(e.translation, 0.3);
     EXPECT_LT(e.rotation, 2.0 * M_PI / 180.0);
     EXPECT_NEAR(std::abs(m.dz()), 3.5, 1e-9);
@@ -139,7 +139,7 @@ TEST(FloorMatcherComponent, PublishesCorrectConstraintsForTwoFloors) {
 // match, and a flush must see that at once instead of waiting out its timeout (storey
 // map's is 600 s).
 TEST(FloorMatcherComponent, FlushReturnsWhenOnlyOneFloorGraphExists) {
-  const matching::SimulatedFloors floors = small2(5);
+  const eval::SimulatedFloors floors = small2(5);
   runtime::Context context(onDomain(217));
   RunningMatcher running(context, "{min_nodes: 10}");
   FloorMatcherComponent& matcher = running.matcher;
@@ -315,7 +315,7 @@ struct GrowingScriptedMatcher {
 // small2 (seed 5) as two floor graphs, graph 1's true placement in graph 0's frame, and a
 // wrong one a room along.
 struct TwoFloors {
-  matching::SimulatedFloors floors = small2(5);
+  eval::SimulatedFloors floors = small2(5);
   geometry::Pose2 truth = floors.frames[0].inverse() * floors.frames[1];
   geometry::Pose2 wrong = geometry::Pose2(4.0, 0.0, 0.0) * truth;
 };
@@ -526,7 +526,7 @@ TEST(FloorMatcherComponent, APassRunningWhenDeactivatedStillPublishes) {
 // places elsewhere.
 TEST(FloorMatcherComponent, ARestartedMatcherWithdrawsWhatItsPredecessorPublished) {
   const TwoFloors two;
-  const matching::SimulatedFloors& floors = two.floors;
+  const eval::SimulatedFloors& floors = two.floors;
   ASSERT_EQ(floors.graphs.size(), 2u);
   const geometry::Pose2& truth = two.truth;
   const geometry::Pose2& wrong = two.wrong;

@@ -8,10 +8,10 @@
 #include <iostream>
 #include <sstream>
 
+#include "storey/eval/log_floors.h"
+#include "storey/eval/simulated_floors.h"
 #include "storey/io/carmen.h"
 #include "storey/matching/floor_matcher.h"
-#include "storey/matching/log_floors.h"
-#include "storey/matching/simulated_floors.h"
 #include "storey/sim/scenario.h"
 #include "storey/sim/simulator.h"
 #include "test_support.h"
@@ -19,6 +19,14 @@
 namespace storey::matching {
 namespace {
 
+// The test beds (simulated and log floor graphs, judged against their truth).
+using eval::alignmentError;
+using eval::ConstraintError;
+using eval::floorGraphFromLasers;
+using eval::floorGraphsFromSimulation;
+using eval::LogFloorOptions;
+using eval::SimulatedFloors;
+using eval::SimulatedFloorsOptions;
 
 FloorMatcherOptions shippedOptions() {
   const auto root = common::ConfigNode::loadFile(test::sourceDir() + "/config/floor_matcher.yaml");

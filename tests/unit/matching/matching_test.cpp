@@ -8,18 +8,27 @@
 #include <sstream>
 
 #include "storey/common/config.h"
+#include "storey/eval/simulated_floors.h"
+#include "storey/localization/particle_filter.h"
 #include "storey/matching/constraint_judgement.h"
 #include "storey/matching/floor_matcher.h"
-#include "storey/matching/particle_filter.h"
 #include "storey/matching/retraction.h"
-#include "storey/matching/simulated_floors.h"
 #include "synthetic_floor.h"
 #include "test_support.h"
 
 namespace storey::matching {
 namespace {
 
+using eval::SimulatedFloors;
+
 using geometry::Pose2;
+using localization::FilterState;
+using localization::LocalizationMap;
+using localization::makeWallModel;
+using localization::ParticleFilter;
+using localization::ParticleFilterOptions;
+using localization::selectBeams;
+using localization::WallModel;
 using test::driveFloor;
 using test::officeFloor;
 using test::officePath;

@@ -61,17 +61,6 @@ double correlation(const std::vector<double>& a, const std::vector<double>& b) {
 
 }  // namespace
 
-const char* transitModeName(TransitMode mode) {
-  switch (mode) {
-    case TransitMode::kElevator:
-      return "elevator";
-    case TransitMode::kStairs:
-      return "stairs";
-    default:
-      return "unknown";
-  }
-}
-
 FloorDetector::FloorDetector(const FloorDetectorOptions& options) : options_(options) {
   if (options_.floors.heights.empty()) {
     floors_.push_back(Floor{0, 0.0, 1, true});

@@ -24,6 +24,13 @@ namespace storey::matching {
 
 using geometry::normalizeAngle;
 using geometry::Pose2;
+using localization::FilterState;
+using localization::LocalizationMap;
+using localization::makeWallModel;
+using localization::ParticleFilter;
+using localization::readParticleFilterOptions;
+using localization::selectBeams;
+using localization::WallModel;
 
 FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
   FloorMatcherOptions o;

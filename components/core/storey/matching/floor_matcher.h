@@ -52,7 +52,7 @@
 #include "storey/grid/likelihood_field.h"
 #include "storey/grid/occupancy_grid.h"
 #include "storey/grid/point_map.h"
-#include "storey/matching/particle_filter.h"
+#include "storey/localization/particle_filter.h"
 
 namespace storey::matching {
 
@@ -68,7 +68,7 @@ struct FloorChangeLimits {
 };
 
 struct FloorMatcherOptions {
-  ParticleFilterOptions filter;
+  localization::ParticleFilterOptions filter;
   grid::OccupancyGridOptions map;                 // rendering each floor graph's map
   grid::LikelihoodFieldOptions likelihood_field;  // its sensor model
   // A sequence z_k..z_m needs at least `min_sequence` scans before convergence counts;
@@ -319,7 +319,7 @@ struct MatchResult {
 // A floor graph made ready for matching: its map, likelihood field, free space, l_min.
 struct PreparedFloor {
   const floor::FloorGraph* graph = nullptr;
-  std::unique_ptr<LocalizationMap> map;
+  std::unique_ptr<localization::LocalizationMap> map;
   double l_min = 0.0;         // learned quantile (before likelihood_scale)
   std::size_t structure = 0;  // occupied cells: how much there is to localise against
   grid::PointMap points;      // its scans' returns per cell (empty: point_cell_size 0)
@@ -329,13 +329,13 @@ struct PreparedFloor {
   // solidWalls() of the map and its WallModel, computed on first use (only pairs that
   // need more evidence use them); safe to call from several threads.
   const std::vector<std::uint8_t>& walls(const FloorMatcherOptions& options) const;
-  const WallModel& wallModel(const FloorMatcherOptions& options) const;
+  const localization::WallModel& wallModel(const FloorMatcherOptions& options) const;
 
  private:
   struct Walls {
     std::once_flag once;
     std::vector<std::uint8_t> cells;
-    WallModel model;
+    localization::WallModel model;
   };
   void computeWalls(const FloorMatcherOptions& options) const;
   std::shared_ptr<Walls> walls_ = std::make_shared<Walls>();

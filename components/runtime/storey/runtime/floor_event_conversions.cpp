@@ -10,23 +10,23 @@ namespace storey::runtime {
 namespace {
 constexpr std::int32_t kFloorUnknown = -1;
 
-std::uint8_t toMode(detection::TransitMode mode) {
+std::uint8_t toMode(floor::TransitMode mode) {
   switch (mode) {
-    case detection::TransitMode::kElevator:
+    case floor::TransitMode::kElevator:
       return storey_msgs::msg::FloorEvent_Constants::MODE_ELEVATOR;
-    case detection::TransitMode::kStairs:
+    case floor::TransitMode::kStairs:
       return storey_msgs::msg::FloorEvent_Constants::MODE_STAIRS;
     default:
       return storey_msgs::msg::FloorEvent_Constants::MODE_UNKNOWN;
   }
 }
 
-std::uint8_t toKind(detection::FloorEventType type) {
+std::uint8_t toKind(floor::FloorEventType type) {
   namespace k = storey_msgs::msg::FloorEvent_Constants;
   switch (type) {
-    case detection::FloorEventType::kTransitStarted:
+    case floor::FloorEventType::kTransitStarted:
       return k::KIND_TRANSIT_STARTED;
-    case detection::FloorEventType::kTransitEnded:
+    case floor::FloorEventType::kTransitEnded:
       return k::KIND_TRANSIT_ENDED;
     default:
       return k::KIND_PROGRESS;
@@ -34,15 +34,15 @@ std::uint8_t toKind(detection::FloorEventType type) {
 }
 }  // namespace
 
-storey_msgs::msg::FloorEvent toMessage(const detection::FloorEvent& event, const std::string& robot) {
+storey_msgs::msg::FloorEvent toMessage(const floor::FloorEvent& event, const std::string& robot) {
   namespace k = storey_msgs::msg::FloorEvent_Constants;
   storey_msgs::msg::FloorEvent m;
   m.robot(robot);
   m.stamp(toTimeMessage(event.stamp));
   m.decided_at(toTimeMessage(event.decided_at));
   m.kind(toKind(event.type));
-  const bool ended = event.type == detection::FloorEventType::kTransitEnded;
-  const bool started = event.type == detection::FloorEventType::kTransitStarted;
+  const bool ended = event.type == floor::FloorEventType::kTransitEnded;
+  const bool started = event.type == floor::FloorEventType::kTransitStarted;
   m.floor_id(ended ? event.floor_id : kFloorUnknown);
   m.new_floor(ended && event.new_floor);
   m.height_change(ended ? event.height_change : 0.0);
@@ -53,23 +53,23 @@ storey_msgs::msg::FloorEvent toMessage(const detection::FloorEvent& event, const
   return m;
 }
 
-detection::FloorEvent fromMessage(const storey_msgs::msg::FloorEvent& m) {
+floor::FloorEvent fromMessage(const storey_msgs::msg::FloorEvent& m) {
   namespace k = storey_msgs::msg::FloorEvent_Constants;
-  detection::FloorEvent e;
+  floor::FloorEvent e;
   switch (m.kind()) {
     case k::KIND_TRANSIT_STARTED:
-      e.type = detection::FloorEventType::kTransitStarted;
+      e.type = floor::FloorEventType::kTransitStarted;
       break;
     case k::KIND_TRANSIT_ENDED:
-      e.type = detection::FloorEventType::kTransitEnded;
+      e.type = floor::FloorEventType::kTransitEnded;
       break;
     case k::KIND_PROGRESS:
-      e.type = detection::FloorEventType::kProgress;
+      e.type = floor::FloorEventType::kProgress;
       break;
     default:
       throw std::invalid_argument("floor event of unknown kind " + std::to_string(m.kind()));
   }
-  const bool ended = e.type == detection::FloorEventType::kTransitEnded;
+  const bool ended = e.type == floor::FloorEventType::kTransitEnded;
   e.stamp = fromTimeMessage(m.stamp());
   const double decided = fromTimeMessage(m.decided_at());
   e.decided_at = decided == 0.0 ? e.stamp : decided;
@@ -84,11 +84,11 @@ detection::FloorEvent fromMessage(const storey_msgs::msg::FloorEvent& m) {
   e.floor_height = m.floor_height();
   if (ended && !std::isfinite(e.floor_height))
     throw std::invalid_argument("floor event with a non-finite floor height");
-  if (e.type == detection::FloorEventType::kTransitStarted) e.from_height = m.floor_height();
+  if (e.type == floor::FloorEventType::kTransitStarted) e.from_height = m.floor_height();
   e.confidence = m.confidence();
-  e.mode = m.mode() == k::MODE_ELEVATOR ? detection::TransitMode::kElevator
-           : m.mode() == k::MODE_STAIRS ? detection::TransitMode::kStairs
-                                        : detection::TransitMode::kUnknown;
+  e.mode = m.mode() == k::MODE_ELEVATOR ? floor::TransitMode::kElevator
+           : m.mode() == k::MODE_STAIRS ? floor::TransitMode::kStairs
+                                        : floor::TransitMode::kUnknown;
   return e;
 }
 

@@ -1,10 +1,10 @@
-// storey_msgs/FloorEvent <-> detection::FloorEvent, converted once at the boundary: the
+// storey_msgs/FloorEvent <-> floor::FloorEvent, converted once at the boundary: the
 // floor_detector sends them, the floor_mapper reads them.
 #pragma once
 
 #include <string>
 
-#include "storey/detection/floor_detector.h"
+#include "storey/floor/floor_event.h"
 #include "storey_msgs/msg/FloorEvent.h"
 
 namespace storey::runtime {
@@ -12,11 +12,11 @@ namespace storey::runtime {
 // TransitStarted carries floor_id FLOOR_UNKNOWN (-1) and the height of the floor left;
 // TransitEnded the floor reached (the floor it left when the ride did not change floor);
 // Progress only decided_at.
-storey_msgs::msg::FloorEvent toMessage(const detection::FloorEvent& event, const std::string& robot);
+storey_msgs::msg::FloorEvent toMessage(const floor::FloorEvent& event, const std::string& robot);
 // The fields the message has; from_floor, start_stamp and floor_changed are not on the
 // wire (floor_changed is left true for TransitEnded). A zero decided_at (a publisher that
 // does not set it) becomes the event's stamp. Throws std::invalid_argument for an unknown
 // kind, a non-finite stamp or a TransitEnded with a non-finite floor height.
-detection::FloorEvent fromMessage(const storey_msgs::msg::FloorEvent& message);
+floor::FloorEvent fromMessage(const storey_msgs::msg::FloorEvent& message);
 
 }  // namespace storey::runtime

@@ -14,7 +14,7 @@
 #include "storey/geometry/pose2.h"
 #include "storey/io/carmen.h"
 
-namespace storey::matching {
+namespace storey::eval {
 
 struct LogFloorOptions {
   double node_distance = 0.3;  // metres between nodes
@@ -36,4 +36,4 @@ struct LogFloorOptions {
 floor::FloorGraph floorGraphFromLasers(const std::vector<io::CarmenLaser>& lasers,
                                        const LogFloorOptions& options);
 
-}  // namespace storey::matching
+}  // namespace storey::eval

@@ -1,10 +1,10 @@
-#include "storey/matching/particle_filter.h"
+#include "storey/localization/particle_filter.h"
 
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 
-namespace storey::matching {
+namespace storey::localization {
 
 using geometry::normalizeAngle;
 using geometry::Pose2;
@@ -403,4 +403,4 @@ FilterState ParticleFilter::state() const {
   return s;
 }
 
-}  // namespace storey::matching
+}  // namespace storey::localization

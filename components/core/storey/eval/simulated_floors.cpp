@@ -1,4 +1,4 @@
-#include "storey/matching/simulated_floors.h"
+#include "storey/eval/simulated_floors.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <utility>
 
-namespace storey::matching {
+namespace storey::eval {
 
 using geometry::Pose2;
 
@@ -104,8 +104,9 @@ SimulatedFloors floorGraphsFromSimulation(const sim::Simulation& simulation,
   return out;
 }
 
-ConstraintJudgement judgeConstraint(const InterFloorConstraint& c, const SimulatedFloors& floors,
-                                    const WrongConstraintLimits& limits) {
+matching::ConstraintJudgement judgeConstraint(const matching::InterFloorConstraint& c,
+                                              const SimulatedFloors& floors,
+                                              const matching::WrongConstraintLimits& limits) {
   std::size_t ri = 0, gi = 0;
   const floor::FloorGraph* ref = findGraph(floors, c.reference_graph_id, &ri);
   const floor::FloorGraph* g = findGraph(floors, c.graph_id, &gi);
@@ -113,10 +114,11 @@ ConstraintJudgement judgeConstraint(const InterFloorConstraint& c, const Simulat
   const floor::FloorNode* k = g->findNode(c.node_id);
   if (!q || !k) throw std::invalid_argument("constraint names a node that does not exist");
   const Pose2 truth = trueNodePose(floors, ri, *q).between(trueNodePose(floors, gi, *k));
-  return judgeConstraint(c.measurement, truth, c.information, limits);
+  return matching::judgeConstraint(c.measurement, truth, c.information, limits);
 }
 
-Pose2 trueNodePose(const SimulatedFloors& floors, std::size_t graph_index, const floor::FloorNode& node) {
+Pose2 trueNodePose(const SimulatedFloors& floors, std::size_t graph_index,
+                   const floor::FloorNode& node) {
   if (graph_index < floors.node_truth.size()) {
     const auto it = floors.node_truth[graph_index].find(node.id);
     if (it != floors.node_truth[graph_index].end()) return it->second;
@@ -139,4 +141,4 @@ ConstraintError alignmentError(const Pose2& alignment, int reference_graph_id, i
           std::abs(geometry::angleDiff(a.theta(), b.theta()))};
 }
 
-}  // namespace storey::matching
+}  // namespace storey::eval

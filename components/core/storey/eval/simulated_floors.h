@@ -17,7 +17,7 @@
 #include "storey/matching/floor_matcher.h"
 #include "storey/sim/simulator.h"
 
-namespace storey::matching {
+namespace storey::eval {
 
 struct SimulatedFloorsOptions {
   double node_distance = 0.3;         // metres of odometry between nodes
@@ -39,7 +39,8 @@ struct SimulatedFloors {
 
 // The true pose of node `node` of graph `graph_index` in the building frame: from
 // node_truth when it has the node, else the graph's true frame times the node's pose.
-geometry::Pose2 trueNodePose(const SimulatedFloors& floors, std::size_t graph_index, const floor::FloorNode& node);
+geometry::Pose2 trueNodePose(const SimulatedFloors& floors, std::size_t graph_index,
+                             const floor::FloorNode& node);
 
 SimulatedFloors floorGraphsFromSimulation(const sim::Simulation& simulation,
                                           const SimulatedFloorsOptions& options);
@@ -47,9 +48,9 @@ SimulatedFloors floorGraphsFromSimulation(const sim::Simulation& simulation,
 // How far an accepted constraint is from the truth, and whether that is wrong for what
 // its information claims: node k as the constraint places it in the frame of node q,
 // against their true poses (trueNodePose).
-ConstraintJudgement judgeConstraint(const InterFloorConstraint& constraint,
-                                    const SimulatedFloors& floors,
-                                    const WrongConstraintLimits& limits = {});
+matching::ConstraintJudgement judgeConstraint(const matching::InterFloorConstraint& constraint,
+                                              const SimulatedFloors& floors,
+                                              const matching::WrongConstraintLimits& limits = {});
 
 // How far an alignment of graph `graph_id` in graph `reference_graph_id` is from the
 // truth, at the centroid of the graph's nodes.
@@ -60,4 +61,4 @@ struct ConstraintError {
 ConstraintError alignmentError(const geometry::Pose2& alignment, int reference_graph_id,
                                int graph_id, const SimulatedFloors& floors);
 
-}  // namespace storey::matching
+}  // namespace storey::eval

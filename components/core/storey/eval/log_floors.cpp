@@ -1,4 +1,4 @@
-#include "storey/matching/log_floors.h"
+#include "storey/eval/log_floors.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 #include <random>
 #include <string>
 
-namespace storey::matching {
+namespace storey::eval {
 
 using geometry::Pose2;
 
@@ -61,4 +61,4 @@ floor::FloorGraph floorGraphFromLasers(const std::vector<io::CarmenLaser>& laser
   return g;
 }
 
-}  // namespace storey::matching
+}  // namespace storey::eval
