@@ -74,7 +74,7 @@ void FloorMapperComponent::onConfigure() {
           if (input_log_) input_log_->appendScan(scan, odometry);
           addScan(scan, odometry);
         },
-        [this](const detection::FloorEvent& event) {
+        [this](const floor::FloorEvent& event) {
           if (input_log_) input_log_->appendFloorEvent(event);
           applyFloorEvent(event);
         },
@@ -191,7 +191,7 @@ void FloorMapperComponent::addScan(const sensor::LaserScan& scan, const geometry
 // Taken in any state: the topic is transient local, and history that arrives between
 // configure and activate is part of the input.
 void FloorMapperComponent::onFloorEvent(const storey_msgs::msg::FloorEvent& message) {
-  detection::FloorEvent event;
+  floor::FloorEvent event;
   try {
     event = runtime::fromMessage(message);
   } catch (const std::invalid_argument& e) {
@@ -202,8 +202,8 @@ void FloorMapperComponent::onFloorEvent(const storey_msgs::msg::FloorEvent& mess
   if (sequencer_) sequencer_->addFloorEvent(event);
 }
 
-void FloorMapperComponent::applyFloorEvent(const detection::FloorEvent& event) {
-  if (event.type == detection::FloorEventType::kTransitStarted) {
+void FloorMapperComponent::applyFloorEvent(const floor::FloorEvent& event) {
+  if (event.type == floor::FloorEventType::kTransitStarted) {
     sessions_->beginTransit();
   } else {
     sessions_->endTransit(event.floor_id, event.floor_height, event.stamp);

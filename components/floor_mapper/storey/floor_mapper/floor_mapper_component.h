@@ -16,10 +16,11 @@
 
 #include "nav_msgs/msg/OdometryPubSubTypes.h"
 #include "sensor_msgs/msg/LaserScanPubSubTypes.h"
+#include "storey/floor/floor_event.h"
 #include "storey/mapping/floor_sessions.h"
-#include "storey/runtime/component.h"
 #include "storey/mapping/input_log.h"
 #include "storey/mapping/input_sequencer.h"
+#include "storey/runtime/component.h"
 #include "storey_msgs/msg/FloorEventPubSubTypes.h"
 #include "storey_msgs/msg/FloorGraphUpdatePubSubTypes.h"
 #include "tf2_msgs/msg/TFMessagePubSubTypes.h"
@@ -76,7 +77,7 @@ class FloorMapperComponent : public runtime::Component {
   void publishUpdates();  // with mutex_ held
   // In stamp order, from the sequencer, with mutex_ held.
   void addScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry);
-  void applyFloorEvent(const detection::FloorEvent& event);
+  void applyFloorEvent(const floor::FloorEvent& event);
   void passMountedScans(bool all);  // with mutex_ held
 
   FloorMapperComponentOptions options_;
