@@ -18,6 +18,11 @@ std::string sharedDataPath(const std::string& relative);
 // A fresh, empty temporary directory (removed at process exit is not guaranteed).
 std::string makeTempDir(const std::string& prefix = "storey_test");
 
+// The whole file as it is ("" when it cannot be read).
+std::string readFile(const std::string& path);
+// Writes `text` as the whole file at `path`, creating its folder when missing.
+void writeFile(const std::string& path, const std::string& text);
+
 // A shell command's exit status (-1 when it did not exit normally) and its stdout and
 // stderr, joined: for tests that run the storey executable.
 struct CommandResult {

@@ -80,16 +80,6 @@ Outcome run(const std::vector<std::string>& argv, const std::vector<std::string>
   return o;
 }
 
-void write(const std::string& path, const std::string& text) {
-  fs::create_directories(fs::path(path).parent_path());
-  std::ofstream(path, std::ios::binary) << text;
-}
-std::string readText(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 void fifo(const std::string& path) {
   fs::create_directories(fs::path(path).parent_path());
   ASSERT_EQ(mkfifo(path.c_str(), 0600), 0) << path;
@@ -142,12 +132,13 @@ std::string flaser(double x, double stamp) {
 
 // A building file beside a copy of the shipped robot model, as `storey simulate` expects.
 std::string building(const std::string& dir, const std::string& outer_wall, const std::string& extra = "") {
-  std::string text = readText(test::sourceDir() + "/config/buildings/small2.yaml");
+  std::string text = test::readFile(test::sourceDir() + "/config/buildings/small2.yaml");
   const std::string wall = "{id: outer, rect: [[0.0, 0.0], [20.0, 12.0]]}";
   text.replace(text.find(wall), wall.size(), outer_wall);
   text.replace(text.find("name: small2\n"), 13, "name: small2\n" + extra);
-  write(dir + "/robots/default.yaml", readText(test::sourceDir() + "/config/robots/default.yaml"));
-  write(dir + "/buildings/b.yaml", text);
+  test::writeFile(dir + "/robots/default.yaml",
+                  test::readFile(test::sourceDir() + "/config/robots/default.yaml"));
+  test::writeFile(dir + "/buildings/b.yaml", text);
   return dir + "/buildings/b.yaml";
 }
 
@@ -166,13 +157,28 @@ std::vector<Row> rows() {
   using Args = std::vector<std::string>;
   return {
       // Graph server journals (storey export, storey journal).
-      {"JournalIsADirectory", [](const std::string& d) { fs::create_directories(d + "/j"); return Args{"export", d + "/j", d + "/out"}; },
+      {"JournalIsADirectory",
+       [](const std::string& d) {
+         fs::create_directories(d + "/j");
+         return Args{"export", d + "/j", d + "/out"};
+       },
        kFailure, "/j: a directory, not a journal"},
-      {"JournalIsADevice", [](const std::string& d) { return Args{"export", "/dev/zero", d + "/out"}; }, kFailure,
-       "/dev/zero: a character device, not a journal"},
-      {"JournalIsAFifo", [](const std::string& d) { fifo(d + "/j.bin"); return Args{"journal", "check", d + "/j.bin"}; },
+      {"JournalIsADevice",
+       [](const std::string& d) {
+         return Args{"export", "/dev/zero", d + "/out"};
+       },
+       kFailure, "/dev/zero: a character device, not a journal"},
+      {"JournalIsAFifo",
+       [](const std::string& d) {
+         fifo(d + "/j.bin");
+         return Args{"journal", "check", d + "/j.bin"};
+       },
        kFailure, "j.bin: a FIFO, not a journal or input log"},
-      {"JournalIsText", [](const std::string& d) { write(d + "/j.bin", "STOREYJ? hello"); return Args{"export", d + "/j.bin", d + "/out"}; },
+      {"JournalIsText",
+       [](const std::string& d) {
+         test::writeFile(d + "/j.bin", "STOREYJ? hello");
+         return Args{"export", d + "/j.bin", d + "/out"};
+       },
        kFailure, "not a storey journal"},
       {"JournalLengthDamagedInTheMiddle",
        [](const std::string& d) {
@@ -200,104 +206,189 @@ std::vector<Row> rows() {
          return Args{"export", d + "/j.bin", d + "/out"};
        },
        kSuccess, "torn",
-       [](const std::string& d) { EXPECT_NE(readText(d + "/out/graph.g2o").find("VERTEX_SE2"), std::string::npos); }},
+       [](const std::string& d) {
+         EXPECT_NE(test::readFile(d + "/out/graph.g2o").find("VERTEX_SE2"), std::string::npos);
+       }},
       {"JournalFloorHeightOutOfReach",
-       [](const std::string& d) { journal(d + "/j.bin", 4, 1e300); return Args{"export", d + "/j.bin", d + "/out"}; },
+       [](const std::string& d) {
+         journal(d + "/j.bin", 4, 1e300);
+         return Args{"export", d + "/j.bin", d + "/out"};
+       },
        kFailure, "floor height 1e+300 m is not within"},
       {"JournalFloorBeyondTheOctoMap",
-       [](const std::string& d) { journal(d + "/j.bin", 3, 5000.0); return Args{"export", d + "/j.bin", d + "/out"}; },
-       kFailure, "reaches 5002.5 m from the origin, beyond the OctoMap's +-3276.8 m at 0.1 m voxels"},
+       [](const std::string& d) {
+         journal(d + "/j.bin", 3, 5000.0);
+         return Args{"export", d + "/j.bin", d + "/out"};
+       },
+       kFailure,
+       "reaches 5002.5 m from the origin, beyond the OctoMap's +-3276.8 m at 0.1 m voxels"},
       {"JournalVoxelZero",
-       [](const std::string& d) { journal(d + "/j.bin", 3); return Args{"export", d + "/j.bin", d + "/out", "--voxel", "0"}; },
+       [](const std::string& d) {
+         journal(d + "/j.bin", 3);
+         return Args{"export", d + "/j.bin", d + "/out", "--voxel", "0"};
+       },
        kUsage, "--voxel must lie in [0.01, 5], got 0"},
       {"InputLogTorn",
        [](const std::string& d) {
          std::string log = "STOREYM1";
          const std::uint32_t frame[2] = {0x4A524543, 100};  // record magic, length
          log.append(reinterpret_cast<const char*>(frame), sizeof frame);
-         write(d + "/in.log", log + std::string(20, '\x01'));  // 20 of its 100 bytes
+         test::writeFile(d + "/in.log", log + std::string(20, '\x01'));  // 20 of its 100 bytes
          return Args{"journal", "check", d + "/in.log"};
        },
        kSuccess, "end: torn last record at offset 8 (incomplete: 28 of 112 bytes written"},
       // g2o / TORO graphs (storey optimize).
-      {"GraphIsADirectory", [](const std::string& d) { fs::create_directories(d + "/g"); return Args{"optimize", d + "/g", d + "/o.g2o"}; },
+      {"GraphIsADirectory",
+       [](const std::string& d) {
+         fs::create_directories(d + "/g");
+         return Args{"optimize", d + "/g", d + "/o.g2o"};
+       },
        kFailure, "/g: a directory, not a graph file"},
-      {"GraphIsAFifo", [](const std::string& d) { fifo(d + "/g.g2o"); return Args{"optimize", d + "/g.g2o", d + "/o.g2o"}; },
+      {"GraphIsAFifo",
+       [](const std::string& d) {
+         fifo(d + "/g.g2o");
+         return Args{"optimize", d + "/g.g2o", d + "/o.g2o"};
+       },
        kFailure, "g.g2o: a FIFO, not a graph file"},
       {"GraphMalformedLine",
-       [](const std::string& d) { write(d + "/g.g2o", "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0\n"); return Args{"optimize", d + "/g.g2o", d + "/o.g2o"}; },
+       [](const std::string& d) {
+         test::writeFile(d + "/g.g2o", "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0\n");
+         return Args{"optimize", d + "/g.g2o", d + "/o.g2o"};
+       },
        kFailure, "g.g2o:2:"},
       {"GraphNanVertex",
-       [](const std::string& d) { write(d + "/g.g2o", "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 nan 0 0\n"); return Args{"optimize", d + "/g.g2o", d + "/o.g2o"}; },
+       [](const std::string& d) {
+         test::writeFile(d + "/g.g2o", "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 nan 0 0\n");
+         return Args{"optimize", d + "/g.g2o", d + "/o.g2o"};
+       },
        kFailure, "g.g2o:2:"},
       // CARMEN logs (storey render, storey map).
-      {"CarmenIsAFifo", [](const std::string& d) { fifo(d + "/a.log"); return Args{"render", d + "/a.log", d + "/a.png"}; },
+      {"CarmenIsAFifo",
+       [](const std::string& d) {
+         fifo(d + "/a.log");
+         return Args{"render", d + "/a.log", d + "/a.png"};
+       },
        kFailure, "a.log: a FIFO, not a CARMEN log"},
       {"CarmenPoseFarAway",
-       [](const std::string& d) { write(d + "/a.log", flaser(0, 1) + flaser(1e9, 2)); return Args{"render", d + "/a.log", d + "/a.png"}; },
+       [](const std::string& d) {
+         test::writeFile(d + "/a.log", flaser(0, 1) + flaser(1e9, 2));
+         return Args{"render", d + "/a.log", d + "/a.png"};
+       },
        kFailure, "more than the 1e+08 cells a map may hold"},
       {"CarmenLineWithoutEnd",
-       [](const std::string& d) { write(d + "/a.log", kFlaser + std::string(5u << 20, '7')); return Args{"render", d + "/a.log", d + "/a.png"}; },
+       [](const std::string& d) {
+         test::writeFile(d + "/a.log", kFlaser + std::string(5u << 20, '7'));
+         return Args{"render", d + "/a.log", d + "/a.png"};
+       },
        kFailure, "a.log:2: line longer than"},
       {"CarmenNanHeightOnTheCommandLine",
-       [](const std::string& d) { write(d + "/a.log", kFlaser); return Args{"map", d + "/a.log@0:nan", "--output", d + "/out"}; },
+       [](const std::string& d) {
+         test::writeFile(d + "/a.log", kFlaser);
+         return Args{"map", d + "/a.log@0:nan", "--output", d + "/out"};
+       },
        kFailure, "a.log@0:nan': height nan is not a number"},
       {"CarmenSkippedLinesAreReported",
        [](const std::string& d) {
          std::string log;
          for (int i = 0; i < 30; ++i) log += flaser(0.02 * i, 1 + 0.1 * i);
          log += "FLASER 5 1.0 1.1 1.2 1.3 1.4 nan 0 0 0 0 0 9 h 9\nODOM 1 2\n";  // a NaN pose, a cut line
-         write(d + "/a.log", log);
+         test::writeFile(d + "/a.log", log);
          return Args{"map", d + "/a.log@0:0", "--output", d + "/out", "--quiet"};
        },
        kSuccess, "a.log: 2 lines skipped (2 unreadable, 0 of unknown types); first unreadable: ",
        [](const std::string& d) { EXPECT_TRUE(fs::exists(d + "/out/building.yaml")); }},
       // Building files (storey simulate).
       {"BuildingDuplicateKey",
-       [](const std::string& d) { return Args{"simulate", building(d, "{id: outer, rect: [[0.0, 0.0], [20.0, 12.0]], rect: [[0, 0], [1, 1]]}"), "--output", d + "/sim"}; },
+       [](const std::string& d) {
+         return Args{
+             "simulate",
+             building(d, "{id: outer, rect: [[0.0, 0.0], [20.0, 12.0]], rect: [[0, 0], [1, 1]]}"),
+             "--output", d + "/sim"};
+       },
        kFailure, "duplicate key (also on line"},
       {"BuildingNanCorner",
-       [](const std::string& d) { return Args{"simulate", building(d, "{id: outer, polyline: [[0.0, 0.0], [20.0, .nan], [20.0, 12.0]]}"), "--output", d + "/sim"}; },
+       [](const std::string& d) {
+         return Args{"simulate",
+                     building(d, "{id: outer, polyline: [[0.0, 0.0], [20.0, .nan], [20.0, 12.0]]}"),
+                     "--output", d + "/sim"};
+       },
        kFailure, "expected a finite number, got '.nan'"},
       {"BuildingTwoKilometresWide",
-       [](const std::string& d) { return Args{"simulate", building(d, "{id: outer, rect: [[0.0, 0.0], [2000.0, 2000.0]]}"), "--output", d + "/sim"}; },
+       [](const std::string& d) {
+         return Args{"simulate", building(d, "{id: outer, rect: [[0.0, 0.0], [2000.0, 2000.0]]}"),
+                     "--output", d + "/sim"};
+       },
        kSuccess, "",
        [](const std::string& d) { EXPECT_TRUE(fs::exists(d + "/sim/pictures/overlay_all.png")); }},
-      {"BuildingIsADirectory", [](const std::string& d) { fs::create_directories(d + "/b.yaml"); return Args{"simulate", d + "/b.yaml", "--output", d + "/sim"}; },
+      {"BuildingIsADirectory",
+       [](const std::string& d) {
+         fs::create_directories(d + "/b.yaml");
+         return Args{"simulate", d + "/b.yaml", "--output", d + "/sim"};
+       },
        kFailure, "b.yaml: a directory, not a YAML file"},
       // Per-floor input lists and robots files (storey map).
       {"FloorsFileDuplicateKey",
-       [](const std::string& d) { write(d + "/a.log", kFlaser); write(d + "/floors.yaml", "floors:\n  - {path: a.log, floor: 0, floor: 1, height: 0}\n"); return Args{"map", "--floors", d + "/floors.yaml", "--output", d + "/out"}; },
+       [](const std::string& d) {
+         test::writeFile(d + "/a.log", kFlaser);
+         test::writeFile(d + "/floors.yaml",
+                         "floors:\n  - {path: a.log, floor: 0, floor: 1, height: 0}\n");
+         return Args{"map", "--floors", d + "/floors.yaml", "--output", d + "/out"};
+       },
        kFailure, "floors.yaml:2: floors[0].floor: duplicate key (also on line 2)"},
       {"RobotsFileInfiniteHeight",
-       [](const std::string& d) { write(d + "/robots.yaml", "floor_heights: [0, .inf]\nrobots:\n  r: {start_floor: 0}\n"); return Args{"map", d + "/missing_bag", "--robots", d + "/robots.yaml", "--output", d + "/out"}; },
+       [](const std::string& d) {
+         test::writeFile(d + "/robots.yaml",
+                         "floor_heights: [0, .inf]\nrobots:\n  r: {start_floor: 0}\n");
+         return Args{"map",      d + "/missing_bag", "--robots", d + "/robots.yaml",
+                     "--output", d + "/out"};
+       },
        kFailure, "robots.yaml:1: floor_heights[1]: expected a finite number"},
       // Bags (storey bag info).
-      {"BagDatabaseIsAFifo", [](const std::string& d) { fifo(d + "/bag/x.db3"); return Args{"bag", "info", d + "/bag"}; },
+      {"BagDatabaseIsAFifo",
+       [](const std::string& d) {
+         fifo(d + "/bag/x.db3");
+         return Args{"bag", "info", d + "/bag"};
+       },
        kFailure, "x.db3: a FIFO, not a bag database"},
-      {"BagDatabaseIsGarbage", [](const std::string& d) { write(d + "/bag/x.db3", std::string(4096, 'x')); return Args{"bag", "info", d + "/bag"}; },
+      {"BagDatabaseIsGarbage",
+       [](const std::string& d) {
+         test::writeFile(d + "/bag/x.db3", std::string(4096, 'x'));
+         return Args{"bag", "info", d + "/bag"};
+       },
        kFailure, "x.db3"},
       {"BagMetadataDuplicateKey",
        [](const std::string& d) {
-         write(d + "/bag/metadata.yaml", "rosbag2_bagfile_information:\n  version: 5\n  version: 4\n");
+         test::writeFile(d + "/bag/metadata.yaml",
+                         "rosbag2_bagfile_information:\n  version: 5\n  version: 4\n");
          return Args{"bag", "info", d + "/bag"};
        },
-       kFailure, "metadata.yaml: line 3: rosbag2_bagfile_information.version: duplicate key (also on line 2)"},
+       kFailure,
+       "metadata.yaml: line 3: rosbag2_bagfile_information.version: duplicate key (also on line "
+       "2)"},
       // Component parameter files (storey component, strict options).
       {"ParametersDuplicateKey",
-       [](const std::string& d) { write(d + "/gs.yaml", "optimize_min_period: 0.5\noptimize_min_period: -3\n"); return Args{"component", "--kind", "graph_server", "--name", "g", "--parameters", d + "/gs.yaml", "--domain", "225", "--duration", "1"}; },
+       [](const std::string& d) {
+         test::writeFile(d + "/gs.yaml", "optimize_min_period: 0.5\noptimize_min_period: -3\n");
+         return Args{"component",    "--kind",   "graph_server", "--name",     "g", "--parameters",
+                     d + "/gs.yaml", "--domain", "225",          "--duration", "1"};
+       },
        kFailure, "gs.yaml:2: optimize_min_period: duplicate key (also on line 1)"},
       // Ground truth (storey evaluate).
       {"TrajectoryBadCell",
        [](const std::string& d) {
-         write(d + "/result/trajectory.csv", "stamp,robot,floor,x,y,theta,z\n1,r,0,nan,0,0,0\n");
-         write(d + "/truth/trajectory.csv", "stamp,robot,floor,x,y,theta,z\n1,r,0,0,0,0,0\n");
+         test::writeFile(d + "/result/trajectory.csv",
+                         "stamp,robot,floor,x,y,theta,z\n1,r,0,nan,0,0,0\n");
+         test::writeFile(d + "/truth/trajectory.csv",
+                         "stamp,robot,floor,x,y,theta,z\n1,r,0,0,0,0,0\n");
          return Args{"evaluate", d + "/result", d + "/truth"};
        },
        kFailure, "trajectory.csv"},
       // Command-line numbers.
-      {"ResolutionNan", [](const std::string& d) { return Args{"map", "--resolution", "nan", "--output", d + "/out"}; }, kUsage,
-       "--resolution expects a finite number, got 'nan'"},
+      {"ResolutionNan",
+       [](const std::string& d) {
+         return Args{"map", "--resolution", "nan", "--output", d + "/out"};
+       },
+       kUsage, "--resolution expects a finite number, got 'nan'"},
   };
 }
 

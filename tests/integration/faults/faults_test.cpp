@@ -92,13 +92,6 @@ int waitFor(pid_t pid, double timeout_s) {
   return status;
 }
 
-std::string readText(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 std::size_t countOf(const std::string& text, const std::string& what) {
   std::size_t n = 0;
   for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
@@ -120,7 +113,7 @@ std::string simulate(const std::string& dir) {
                            std::to_string(kSimulatedSeconds)},
                           log);
   const int status = waitFor(pid, 60);
-  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << readText(log);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << test::readFile(log);
   return out + "/bag";
 }
 
@@ -244,14 +237,16 @@ class Deployment {
     // Both mappers wait for a silent detector up to 300 s of scans, not 30: at 10x that is
     // 30 s, not 3 s, of wall time, and a detector restarted under load took longer than 3 s
     // to catch up on the sensor history (the mapper then mapped on without its floor events).
-    const std::string mapper_parameters = replaceAll(readText(config + "floor_mapper.yaml"),
-                                                     "max_floor_detector_lag: 30.0", "max_floor_detector_lag: 300.0");
+    const std::string mapper_parameters =
+        replaceAll(test::readFile(config + "floor_mapper.yaml"), "max_floor_detector_lag: 30.0",
+                   "max_floor_detector_lag: 300.0");
     // The mapper under test logs its input, so that a restart resumes its graphs.
     write("floor_mapper.yaml",
           replaceAll(mapper_parameters, "input_log: \"\"", "input_log: " + mapperInputLog()));
     // The witness: the shipped parameters on witness topics.
-    write("witness_floor_detector.yaml", replaceAll(readText(config + "floor_detector.yaml"),
-                                                    "events_topic: floor_events", "events_topic: witness_floor_events"));
+    write("witness_floor_detector.yaml",
+          replaceAll(test::readFile(config + "floor_detector.yaml"), "events_topic: floor_events",
+                     "events_topic: witness_floor_events"));
     write("witness_floor_mapper.yaml",
           replaceAll(replaceAll(mapper_parameters, "events_topic: floor_events", "events_topic: witness_floor_events"),
                      "floor_graph_topic: storey/floor_graphs", "floor_graph_topic: witness/floor_graphs"));
@@ -262,8 +257,8 @@ class Deployment {
     // mapper stalls for 2 s now and then, and a matching in a stall depends on its timing.
     // Matching only after the replay (not while graphs grow): a matching of growing graphs
     // depends on which state it catches, and its constraints stay.
-    const std::string matcher_parameters =
-        readText(config + "floor_matcher.yaml") + "match_after_idle: 5.0\nmatch_while_growing: false\n";
+    const std::string matcher_parameters = test::readFile(config + "floor_matcher.yaml") +
+                                           "match_after_idle: 5.0\nmatch_while_growing: false\n";
     write("floor_matcher.yaml", matcher_parameters);
     // The witness matcher reads its own server's state: a matcher adopts the constraints
     // the server whose state it reads holds (what a restarted matcher's predecessor published).
@@ -356,7 +351,7 @@ class Deployment {
     const std::size_t main_before = matchings("] floor_matcher: matched");
     const std::size_t witness_before = matchings("witness_matcher: matched");
     const int status = waitFor(replay_, 120);
-    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << readText(log("replay"));
+    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << test::readFile(log("replay"));
     const auto end = Clock::now() + std::chrono::seconds(60);
     auto witnessDone = [&] { return !witness_matches_ || matchings("witness_matcher: matched") > witness_before; };
     while ((matchings("] floor_matcher: matched") <= main_before || !witnessDone()) && Clock::now() < end)
@@ -382,23 +377,25 @@ class Deployment {
     for (auto& [name, pid] : pids_) {
       const int status = waitFor(pid, 20);
       EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
-          << "process " << name << " status " << status << "\n" << readText(log(name));
+          << "process " << name << " status " << status << "\n"
+          << test::readFile(log(name));
     }
     pids_.clear();
   }
   std::string log(const std::string& name) const { return dir_ + "/" + name + ".log"; }
   // Processes that logged "running N component(s)", restarted ones included.
   std::size_t running() const {
-    std::size_t n = countOf(readText(log("launch")), "] running ");
-    for (const auto& p : processes_) n += countOf(readText(log(p)), "] running ");
+    std::size_t n = countOf(test::readFile(log("launch")), "] running ");
+    for (const auto& p : processes_) n += countOf(test::readFile(log(p)), "] running ");
     return n;
   }
   bool replayPublishedAll() const {
-    return readText(log("replay")).find("messages published") != std::string::npos;
+    return test::readFile(log("replay")).find("messages published") != std::string::npos;
   }
   std::size_t matchings(const std::string& line) const {
     std::size_t n = 0;
-    for (const auto& name : {"launch", "matcher", "server", "witness"}) n += countOf(readText(log(name)), line);
+    for (const auto& name : {"launch", "matcher", "server", "witness"})
+      n += countOf(test::readFile(log(name)), line);
     return n;
   }
   // Every process's log without its DDS discovery lines first (a CI log keeps the head
@@ -409,12 +406,13 @@ class Deployment {
     for (const auto& name : names) {
       if (!fs::exists(log(name))) continue;
       all += std::string("---- ") + name + " (without dds: lines)\n";
-      std::istringstream in(readText(log(name)));
+      std::istringstream in(test::readFile(log(name)));
       for (std::string line; std::getline(in, line);)
         if (line.find("] dds: ") == std::string::npos) all += line + "\n";
     }
     for (const auto& name : names)
-      if (fs::exists(log(name))) all += std::string("---- ") + name + "\n" + readText(log(name));
+      if (fs::exists(log(name)))
+        all += std::string("---- ") + name + "\n" + test::readFile(log(name));
     return all;
   }
 
@@ -466,7 +464,8 @@ class FaultsTest : public ::testing::Test {
     d.finish();
     // The server rebuilt what it had from its journal, the mapper from its input log.
     if (process == "server" || process == "mapper") {
-      EXPECT_NE(readText(d.log(process)).find(": resumed "), std::string::npos) << readText(d.log(process));
+      EXPECT_NE(test::readFile(d.log(process)).find(": resumed "), std::string::npos)
+          << test::readFile(d.log(process));
     }
     return {rebuild(d.journal()), rebuild(d.witnessJournal())};
   }
@@ -502,7 +501,9 @@ TEST_F(FaultsTest, GraphServerKilledFiveTimesJournalsEveryRecordOnce) {
   for (int kill = 1; kill <= 5; ++kill) {
     // Running (and, after a restart, resumed), then 1.5 s of updates.
     const auto end = Clock::now() + std::chrono::seconds(30);
-    while (countOf(readText(d.log("server")), "] running ") < static_cast<std::size_t>(kill) && Clock::now() < end)
+    while (countOf(test::readFile(d.log("server")), "] running ") <
+               static_cast<std::size_t>(kill) &&
+           Clock::now() < end)
       sleepFor(0.05);
     sleepFor(1.5);
     ASSERT_FALSE(d.replayPublishedAll()) << "the replay ended before kill " << kill;
@@ -511,7 +512,8 @@ TEST_F(FaultsTest, GraphServerKilledFiveTimesJournalsEveryRecordOnce) {
     d.start("server");
   }
   d.finish();
-  EXPECT_EQ(countOf(readText(d.log("server")), ": resumed "), 5u) << readText(d.log("server"));
+  EXPECT_EQ(countOf(test::readFile(d.log("server")), ": resumed "), 5u)
+      << test::readFile(d.log("server"));
   std::map<std::vector<std::uint8_t>, int> records, witness_records;
   for (const auto& r : building::readJournal(d.journal()).records) ++records[building::encodeRecord(r)];
   for (const auto& r : building::readJournal(d.witnessJournal()).records) ++witness_records[building::encodeRecord(r)];

@@ -64,19 +64,10 @@ constexpr const char* kUdpOnlyProfile = R"(<?xml version="1.0" encoding="UTF-8"?
 
 void sleepFor(double seconds) { std::this_thread::sleep_for(std::chrono::duration<double>(seconds)); }
 
-std::string readText(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 std::string tail(const std::string& path, std::size_t chars = 3000) {
-  const std::string text = readText(path);
+  const std::string text = test::readFile(path);
   return text.size() > chars ? "..." + text.substr(text.size() - chars) : text;
 }
-
-void writeText(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
 
 std::uintmax_t sizeOf(const std::string& path) {
   std::error_code ec;
@@ -191,7 +182,7 @@ class NetnsPair {
     };
     for (const auto& step : steps) {
       if (run(step, log_ + ".step") != 0) {
-        error_ = join(step) + ": " + readText(log_ + ".step");
+        error_ = join(step) + ": " + test::readFile(log_ + ".step");
         return;
       }
     }
@@ -213,7 +204,7 @@ class NetnsPair {
       steps.push_back({"ip", "-n", kServerNs, "route", "replace", "224.0.0.0/4", "dev", kServerIf});
     }
     for (const auto& step : steps)
-      if (run(step, log_ + ".step") != 0) return join(step) + ": " + readText(log_ + ".step");
+      if (run(step, log_ + ".step") != 0) return join(step) + ": " + test::readFile(log_ + ".step");
     return "";
   }
 
@@ -223,7 +214,7 @@ class NetnsPair {
     run({"ip", "netns", "exec", kServerNs, "cat",
          std::string("/sys/class/net/") + kServerIf + "/statistics/rx_bytes"},
         out);
-    return std::strtoull(readText(out).c_str(), nullptr, 10);
+    return std::strtoull(test::readFile(out).c_str(), nullptr, 10);
   }
 
  private:
@@ -274,14 +265,14 @@ TEST(LinkCut, ServerBuildingAfterRecoveryEqualsTheUndisturbedOne) {
   // robot host also runs the witness (the same graph server, journal of its own).
   const std::string server_journal = dir + "/server.journal";
   const std::string witness_journal = dir + "/witness.journal";
-  const std::string graph_server = readText(config + "graph_server.yaml");
-  writeText(dir + "/graph_server.yaml", withKey(graph_server, "journal", server_journal));
-  writeText(dir + "/witness.yaml",
-            withKey(withKey(withKey(graph_server, "journal", witness_journal), "building_state_topic",
-                            "witness/building_state"),
-                    "publish_maps", "false"));
-  std::string server_bringup = readText(test::sourceDir() + "/bringup/server.yaml");
-  std::string robot_bringup = readText(test::sourceDir() + "/bringup/robot.yaml");
+  const std::string graph_server = test::readFile(config + "graph_server.yaml");
+  test::writeFile(dir + "/graph_server.yaml", withKey(graph_server, "journal", server_journal));
+  test::writeFile(dir + "/witness.yaml",
+                  withKey(withKey(withKey(graph_server, "journal", witness_journal),
+                                  "building_state_topic", "witness/building_state"),
+                          "publish_maps", "false"));
+  std::string server_bringup = test::readFile(test::sourceDir() + "/bringup/server.yaml");
+  std::string robot_bringup = test::readFile(test::sourceDir() + "/bringup/robot.yaml");
   const auto replaceAll = [](std::string text, const std::string& from, const std::string& to) {
     for (std::size_t at = 0; (at = text.find(from, at)) != std::string::npos; at += to.size())
       text.replace(at, from.size(), to);
@@ -295,9 +286,9 @@ TEST(LinkCut, ServerBuildingAfterRecoveryEqualsTheUndisturbedOne) {
                   "    components:\n"
                   "      - {kind: graph_server, name: witness, parameters: " +
                   dir + "/witness.yaml}\n";
-  writeText(dir + "/server_bringup.yaml", server_bringup);
-  writeText(dir + "/robot_bringup.yaml", robot_bringup);
-  writeText(dir + "/udp_only.xml", kUdpOnlyProfile);
+  test::writeFile(dir + "/server_bringup.yaml", server_bringup);
+  test::writeFile(dir + "/robot_bringup.yaml", robot_bringup);
+  test::writeFile(dir + "/udp_only.xml", kUdpOnlyProfile);
 
   const std::vector<std::string> env = {"ROS_DOMAIN_ID=" + std::to_string(kDomain),
                                         "FASTRTPS_DEFAULT_PROFILES_FILE=" + dir + "/udp_only.xml"};
@@ -380,9 +371,9 @@ TEST(LinkCut, ServerBuildingAfterRecoveryEqualsTheUndisturbedOne) {
   ASSERT_EQ(run({storey, "export", witness_journal, dir + "/witness_out"}, dir + "/export_witness.log"), 0)
       << tail(dir + "/export_witness.log");
   for (const char* file : {"building.yaml", "trajectory.csv", "graph.g2o"}) {
-    const std::string a = readText(dir + "/server_out/" + file);
+    const std::string a = test::readFile(dir + "/server_out/" + file);
     EXPECT_FALSE(a.empty()) << file;
-    EXPECT_EQ(a, readText(dir + "/witness_out/" + file)) << file;
+    EXPECT_EQ(a, test::readFile(dir + "/witness_out/" + file)) << file;
   }
   if (!HasFailure()) {
     std::error_code ec;

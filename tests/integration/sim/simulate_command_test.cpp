@@ -25,13 +25,6 @@ void runSimulate(const std::string& out, int seed) {
   ASSERT_EQ(std::system(command.c_str()), 0) << command;
 }
 
-std::string readFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 // Every message of a bag as topic name, stamp and bytes, in bag order.
 std::vector<std::tuple<std::string, std::int64_t, std::vector<std::uint8_t>>> messages(
     const std::string& bag_path) {
@@ -49,9 +42,9 @@ TEST(SimulateCommand, SameSeedSameBytesInBagAndGroundTruth) {
   runSimulate(dir + "/b", 5);
   runSimulate(dir + "/c", 6);
   for (const char* file : {"trajectory.csv", "floors.yaml", "transits.csv", "corridors.yaml"}) {
-    const std::string a = readFile(dir + "/a/ground_truth/" + file);
+    const std::string a = test::readFile(dir + "/a/ground_truth/" + file);
     EXPECT_FALSE(a.empty()) << file;
-    EXPECT_EQ(a, readFile(dir + "/b/ground_truth/" + file)) << file;
+    EXPECT_EQ(a, test::readFile(dir + "/b/ground_truth/" + file)) << file;
   }
   const auto a = messages(dir + "/a/bag");
   const auto b = messages(dir + "/b/bag");
@@ -112,8 +105,8 @@ TEST(EvaluateCommand, TruthScoresZeroAndDeadReckoningDoesNot) {
   const auto evaluate = [&](const std::string& result, const std::string& json) {
     const std::string command = std::string(STOREY_EXECUTABLE) + " evaluate " + result + " " + dir +
                                 "/out --json " + json + " > " + json + ".txt 2>&1";
-    EXPECT_EQ(std::system(command.c_str()), 0) << readFile(json + ".txt");
-    return readFile(json);
+    EXPECT_EQ(std::system(command.c_str()), 0) << test::readFile(json + ".txt");
+    return test::readFile(json);
   };
   const std::string truth = evaluate(dir + "/out/ground_truth", dir + "/truth.json");
   EXPECT_NE(truth.find("\"ate_rmse\": 0,"), std::string::npos) << truth;
@@ -121,19 +114,19 @@ TEST(EvaluateCommand, TruthScoresZeroAndDeadReckoningDoesNot) {
   const std::string baseline = evaluate(dir + "/out/baseline_odometry", dir + "/odom.json");
   EXPECT_EQ(baseline.find("\"ate_rmse\": 0,"), std::string::npos) << baseline;
   EXPECT_NE(baseline.find("\"matched\": 579"), std::string::npos) << baseline;
-  EXPECT_NE(readFile(dir + "/odom.json.txt").find("relations"), std::string::npos);
+  EXPECT_NE(test::readFile(dir + "/odom.json.txt").find("relations"), std::string::npos);
   // A malformed result names its file and line.
   std::ofstream(dir + "/bad.csv") << "stamp,robot,floor,x,y,theta,z\n0,robot1,F0,1,2,x,0\n";
   const std::string command = std::string(STOREY_EXECUTABLE) + " evaluate " + dir + "/bad.csv " +
                               dir + "/out > " + dir + "/bad.txt 2>&1";
   EXPECT_NE(std::system(command.c_str()), 0);
-  EXPECT_NE(readFile(dir + "/bad.txt").find("bad.csv:2: theta"), std::string::npos)
-      << readFile(dir + "/bad.txt");
+  EXPECT_NE(test::readFile(dir + "/bad.txt").find("bad.csv:2: theta"), std::string::npos)
+      << test::readFile(dir + "/bad.txt");
 }
 
 TEST(SimulateCommand, ImpossibleMissionFailsWithTheLine) {
   const std::string dir = test::makeTempDir("sim_bad");
-  std::string text = readFile(small2());
+  std::string text = test::readFile(small2());
   const std::string good = "      - {go: [10.5, 2.5]}";
   const auto at = text.find(good);
   ASSERT_NE(at, std::string::npos);
@@ -146,7 +139,7 @@ TEST(SimulateCommand, ImpossibleMissionFailsWithTheLine) {
   const std::string command = std::string(STOREY_EXECUTABLE) + " simulate " + dir +
                               "/buildings/bad.yaml --output " + dir + "/out > " + dir + "/log 2>&1";
   EXPECT_EQ(WEXITSTATUS(std::system(command.c_str())), 1);
-  const std::string log = readFile(dir + "/log");
+  const std::string log = test::readFile(dir + "/log");
   EXPECT_NE(log.find("bad.yaml:"), std::string::npos) << log;
   EXPECT_NE(log.find("waypoint (13, 2.5)"), std::string::npos) << log;
 }

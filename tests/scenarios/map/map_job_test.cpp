@@ -34,13 +34,6 @@ namespace storey::tools {
 namespace {
 namespace fs = std::filesystem;
 
-std::string readFile(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 MapJobOptions bundled(int domain, const std::string& out) {
   MapJobOptions options;
   options.domain_id = domain;
@@ -88,8 +81,8 @@ TEST(MapJob, SameSeedGivesTheSameBuilding) {
   const std::string a = test::makeTempDir("storey_map_a"), b = test::makeTempDir("storey_map_b");
   runMapJob(bundled(211, a));
   runMapJob(bundled(212, b));
-  EXPECT_EQ(readFile(a + "/building.yaml"), readFile(b + "/building.yaml"));
-  EXPECT_EQ(readFile(a + "/trajectory.csv"), readFile(b + "/trajectory.csv"));
+  EXPECT_EQ(test::readFile(a + "/building.yaml"), test::readFile(b + "/building.yaml"));
+  EXPECT_EQ(test::readFile(a + "/trajectory.csv"), test::readFile(b + "/trajectory.csv"));
 }
 
 // An offline job beside a live replay on the same DDS domain: the replay publishes another
@@ -131,7 +124,8 @@ TEST(MapJob, AReplayOnTheSameDomainDoesNotChangeTheBuilding) {
   ASSERT_GT(scans, during) << "the replay ended before the job";
 
   for (const char* file : {"building.yaml", "trajectory.csv", "graph.g2o", "floor_0.pgm", "floor_1.pgm"})
-    EXPECT_TRUE(readFile(dir + "/alone/" + file) == readFile(dir + "/beside/" + file)) << file << " differs";
+    EXPECT_TRUE(test::readFile(dir + "/alone/" + file) == test::readFile(dir + "/beside/" + file))
+        << file << " differs";
 }
 
 // Floors recorded on their own (the paper's setting), here small2's robot before and after
