@@ -24,14 +24,7 @@ set(storey_levels
 
 # Includes and links against the order that stay until the files that make them are
 # changed: "<path from SOURCE_DIR>:<module included>" and "<module>:<module linked>".
-# The mapping module still takes the particle filter through its old header in
-# `matching` and FloorEvent through `detection`.
-set(storey_allowed
-  "components/core/storey/mapping/global_relocalizer.h:matching"
-  "components/core/storey/mapping/input_log.h:detection"
-  "components/core/storey/mapping/input_sequencer.h:detection"
-  "mapping:matching"
-  "mapping:detection")
+set(storey_allowed)
 
 # Modules a component (components/<name>, above core) must not include: the shipped
 # components run on robots and servers and carry no simulator, log reader or evaluation.

@@ -29,8 +29,8 @@ TEST(InputLog, ReplaysWhatWasAppendedInOrder) {
   {
     InputLog log(path, [](const LoggedInput&) { FAIL() << "a new log has no inputs"; });
     log.appendScan(scanAt(1.0), geometry::Pose2(1.0, 2.0, 0.3));
-    detection::FloorEvent e;
-    e.type = detection::FloorEventType::kTransitEnded;
+    floor::FloorEvent e;
+    e.type = floor::FloorEventType::kTransitEnded;
     e.stamp = 1.5;
     e.decided_at = 2.0;
     e.floor_id = 2;
@@ -49,7 +49,7 @@ TEST(InputLog, ReplaysWhatWasAppendedInOrder) {
   EXPECT_DOUBLE_EQ(back[0].scan.sensor_offset.theta(), 0.01);
   EXPECT_DOUBLE_EQ(back[0].odometry.y(), 2.0);
   EXPECT_FALSE(back[1].is_scan);
-  EXPECT_EQ(back[1].event.type, detection::FloorEventType::kTransitEnded);
+  EXPECT_EQ(back[1].event.type, floor::FloorEventType::kTransitEnded);
   EXPECT_EQ(back[1].event.floor_id, 2);
   EXPECT_DOUBLE_EQ(back[1].event.floor_height, 7.0);
   EXPECT_DOUBLE_EQ(back[1].event.decided_at, 2.0);

@@ -12,8 +12,8 @@
 namespace storey::mapping {
 namespace {
 
-using detection::FloorEvent;
-using detection::FloorEventType;
+using floor::FloorEvent;
+using floor::FloorEventType;
 
 // One input on one of the three topics.
 struct Input {

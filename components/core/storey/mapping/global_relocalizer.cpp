@@ -20,7 +20,7 @@ constexpr int kSectors = 4;       // the whole-map search splits headings into s
 
 GlobalRelocalizationOptions readGlobalRelocalizationOptions(const common::ConfigNode& node) {
   GlobalRelocalizationOptions o;
-  if (node.has("filter")) o.filter = matching::readParticleFilterOptions(node.child("filter"));
+  if (node.has("filter")) o.filter = localization::readParticleFilterOptions(node.child("filter"));
   if (node.has("likelihood_field"))
     o.likelihood_field = grid::readLikelihoodFieldOptions(node.child("likelihood_field"));
   o.map_resolution = node.getDouble("map_resolution", o.map_resolution, 0.01, 1.0);
@@ -59,8 +59,8 @@ struct GlobalRelocalizer::Impl {
     m.angular_step = 0.01;        // the whole-map search only compares modes
     searcher = ScanMatcher(m);
   }
-  matching::LocalizationMap map;
-  matching::ParticleFilter filter;
+  localization::LocalizationMap map;
+  localization::ParticleFilter filter;
   MatchTarget target;
   ScanMatcher refiner, searcher;
   int fed_since_start = 0;
@@ -102,7 +102,7 @@ RelocalizationStatus GlobalRelocalizer::add(const sensor::LaserScan& scan, const
   fed_.push_back(buffer_.size() - 1);
   ++s.fed_since_start;
   s.filter.update(scan);
-  const matching::FilterState state = s.filter.state();
+  const localization::FilterState state = s.filter.state();
   common::logDebug(str("global_relocalizer: scan ", buffer_.size(), " run ", result_.filter_runs, " fed ",
                        s.fed_since_start, ": ", state.particles, " particles, mass ", state.mass_within, " at (",
                        state.mean.x(), ", ", state.mean.y(), ", ", state.mean.theta(), ")"));

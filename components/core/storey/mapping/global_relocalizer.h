@@ -3,10 +3,10 @@
 // uses, with dz = 0").
 //
 // The arriving scans are buffered and fed, whenever the robot has moved enough, to the
-// floor matcher's particle filter (matching::ParticleFilter: KLD-sampling MCL over the
-// whole floor's free space, odometry motion model, likelihood-field sensor model). A
-// filter that has not converged after `max_sequence` fed scans is restarted from uniform
-// particles (the robot may arrive in a place the floor map does not show, e.g. inside a
+// particle filter the floor matcher uses too (localization::ParticleFilter: KLD-sampling
+// MCL over the whole floor's free space, odometry motion model, likelihood-field sensor
+// model). A filter that has not converged after `max_sequence` fed scans is restarted from
+// uniform particles (the robot may arrive in a place the floor map does not show, e.g. inside a
 // stairwell, where no particle stands). When it converges, the estimate is checked before
 // anything is tied to the old graph:
 //   1. refinement: the last `refine_scans` fed scans, placed by odometry relative to the
@@ -39,14 +39,14 @@
 #include "storey/floor/floor_graph.h"
 #include "storey/geometry/pose2.h"
 #include "storey/grid/likelihood_field.h"
-#include "storey/matching/particle_filter.h"
+#include "storey/localization/particle_filter.h"
 #include "storey/mapping/scan_matcher.h"
 #include "storey/sensor/laser_scan.h"
 
 namespace storey::mapping {
 
 struct GlobalRelocalizationOptions {
-  matching::ParticleFilterOptions filter;
+  localization::ParticleFilterOptions filter;
   grid::LikelihoodFieldOptions likelihood_field;  // the filter's sensor model
   double map_resolution = 0.05;  // m, the floor map the filter and the check use
   // A scan is fed to the filter when the robot moved or turned this much since the last

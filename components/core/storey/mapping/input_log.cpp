@@ -40,7 +40,7 @@ void encodeScan(common::ByteEncoder& e, const sensor::LaserScan& s, const geomet
   for (float r : s.ranges) e.put(r);
 }
 
-void encodeEvent(common::ByteEncoder& e, const detection::FloorEvent& ev) {
+void encodeEvent(common::ByteEncoder& e, const floor::FloorEvent& ev) {
   e.put<std::uint8_t>(kFloorEvent);
   e.put<std::uint8_t>(static_cast<std::uint8_t>(ev.type));
   e.put(ev.stamp);
@@ -75,11 +75,11 @@ LoggedInput decodeLoggedInput(const std::uint8_t* data, std::size_t size) {
     if (!std::isfinite(s.stamp)) throw std::runtime_error("scan with a non-finite stamp");
   } else if (type == kFloorEvent) {
     input.is_scan = false;
-    detection::FloorEvent& ev = input.event;
+    floor::FloorEvent& ev = input.event;
     const auto kind = d.get<std::uint8_t>();
-    if (kind > static_cast<std::uint8_t>(detection::FloorEventType::kTransitEnded))
+    if (kind > static_cast<std::uint8_t>(floor::FloorEventType::kTransitEnded))
       throw std::runtime_error("unknown floor event type " + std::to_string(kind));
-    ev.type = static_cast<detection::FloorEventType>(kind);
+    ev.type = static_cast<floor::FloorEventType>(kind);
     ev.stamp = d.get<double>();
     ev.decided_at = d.get<double>();
     ev.floor_id = d.get<std::int32_t>();
@@ -127,7 +127,7 @@ void InputLog::appendScan(const sensor::LaserScan& scan, const geometry::Pose2& 
   file_->append(e.bytes);
 }
 
-void InputLog::appendFloorEvent(const detection::FloorEvent& event) {
+void InputLog::appendFloorEvent(const floor::FloorEvent& event) {
   common::ByteEncoder e;
   encodeEvent(e, event);
   file_->append(e.bytes);

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "storey/common/record_file.h"
-#include "storey/detection/floor_detector.h"
+#include "storey/floor/floor_event.h"
 #include "storey/geometry/pose2.h"
 #include "storey/sensor/laser_scan.h"
 
@@ -24,7 +24,7 @@ struct LoggedInput {
   bool is_scan = true;
   sensor::LaserScan scan;     // is_scan
   geometry::Pose2 odometry;   // is_scan: odometry at the scan's stamp
-  detection::FloorEvent event;  // !is_scan: TransitStarted or TransitEnded
+  floor::FloorEvent event;  // !is_scan: TransitStarted or TransitEnded
 };
 
 class InputLog {
@@ -35,7 +35,7 @@ class InputLog {
   InputLog(const std::string& path, const std::function<void(const LoggedInput&)>& on_existing);
 
   void appendScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry);
-  void appendFloorEvent(const detection::FloorEvent& event);
+  void appendFloorEvent(const floor::FloorEvent& event);
 
   std::size_t existingInputs() const { return file_->existingRecords(); }
   // Of the inputs read at opening (-inf when there were none).

@@ -47,10 +47,10 @@ void InputSequencer::addScan(sensor::LaserScan scan) {
   process(false);
 }
 
-void InputSequencer::addFloorEvent(const detection::FloorEvent& event) {
+void InputSequencer::addFloorEvent(const floor::FloorEvent& event) {
   if (!std::isfinite(event.decided_at)) return;
   detector_progress_ = std::max(detector_progress_, event.decided_at);
-  if (event.type != detection::FloorEventType::kProgress) {
+  if (event.type != floor::FloorEventType::kProgress) {
     // The detector decides events in order; one decided no later than the last taken was
     // taken already (sent again by a restarted detector, or logged before a restart).
     const int type = static_cast<int>(event.type);
@@ -95,7 +95,7 @@ void InputSequencer::passOn(bool all) {
       const double decided = events_.front().decided_at;
       const bool earlier_scans_done = scans_.empty() || scans_.front().stamp > decided;
       if (earlier_scans_done && (all || newest_scan_ > decided)) {
-        const detection::FloorEvent event = events_.front();
+        const floor::FloorEvent event = events_.front();
         events_.pop_front();
         ++stats_.floor_events;
         on_event_(event);
@@ -179,7 +179,7 @@ std::vector<std::optional<geometry::Pose2>> odometryAtScans(
         while (next < scans.size() && scans[next].stamp < scan.stamp) ++next;
         if (next < scans.size()) paired[next++] = pose;
       },
-      [](const detection::FloorEvent&) {}, "odometryAtScans");
+      [](const floor::FloorEvent&) {}, "odometryAtScans");
   // Fed merged by stamp, as they would arrive live (odometry first at equal stamps).
   std::size_t o = 0;
   for (const auto& scan : scans) {

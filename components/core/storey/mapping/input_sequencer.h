@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "storey/common/config.h"
-#include "storey/detection/floor_detector.h"
+#include "storey/floor/floor_event.h"
 #include "storey/geometry/pose2.h"
 #include "storey/sensor/laser_scan.h"
 
@@ -48,7 +48,7 @@ struct InputSequencerStats {
 class InputSequencer {
  public:
   using ScanHandler = std::function<void(const sensor::LaserScan&, const geometry::Pose2& odometry)>;
-  using EventHandler = std::function<void(const detection::FloorEvent&)>;
+  using EventHandler = std::function<void(const floor::FloorEvent&)>;
 
   InputSequencer(InputSequencerOptions options, ScanHandler on_scan, EventHandler on_event,
                  std::string name = "floor_mapper");
@@ -58,7 +58,7 @@ class InputSequencer {
   void addOdometry(const sensor::OdometrySample& sample);
   void addScan(sensor::LaserScan scan);
   // TransitStarted, TransitEnded or Progress (which only moves the detector's clock).
-  void addFloorEvent(const detection::FloorEvent& event);
+  void addFloorEvent(const floor::FloorEvent& event);
   // End of input: everything still waiting is passed on in the same order.
   void flush();
   // While paused, inputs are only queued (a component not yet active); unpausing passes
@@ -86,7 +86,7 @@ class InputSequencer {
   std::string name_;
   std::deque<sensor::OdometrySample> odometry_;
   std::deque<sensor::LaserScan> scans_;
-  std::deque<detection::FloorEvent> events_;
+  std::deque<floor::FloorEvent> events_;
   double detector_progress_ = -1e300;  // the detector has decided everything up to here
   double newest_scan_ = -1e300;        // stamp of the newest scan received
   double resume_scan_ = -1e300;        // scans up to here were mapped already
