@@ -21,9 +21,12 @@ int run_export(Args& args) {
   const std::string journal_path = args.positional(0, "JOURNAL");
   const std::string out = args.positional(1, "OUTDIR");
   tools::BuildingOutputOptions options;
-  options.map.resolution = args.getDouble("resolution", tools::kMapResolutionRange[0], tools::kMapResolutionRange[1]);
-  options.octomap.resolution = args.getDouble("voxel", tools::kVoxelRange[0], tools::kVoxelRange[1]);
-  options.octomap.wall_height = args.getDouble("wall-height", tools::kWallHeightRange[0], tools::kWallHeightRange[1]);
+  options.map.resolution =
+      args.getDouble("resolution", tools::kMapResolutionRange[0], tools::kMapResolutionRange[1]);
+  options.octomap.resolution =
+      args.getDouble("voxel", tools::kVoxelRange[0], tools::kVoxelRange[1]);
+  options.octomap.wall_height =
+      args.getDouble("wall-height", tools::kWallHeightRange[0], tools::kWallHeightRange[1]);
   building::JournalBuilding journal = building::rebuildFromJournal(journal_path);
   building::printJournalProblems(std::cerr, journal_path, journal);
   building::BuildingGraph& graph = journal.graph;

@@ -12,24 +12,28 @@ namespace storey::cli {
 extern const char* const summary_map = "map a building from a recording or a simulated building (the main job)";
 
 int run_map(Args& args) {
-  args.usage("[INPUT...] [--output DIR]",
-             "Maps a building. INPUT is a simulator building file (config/buildings/*.yaml: it is\n"
-             "simulated first), a rosbag2 bag, or a CARMEN log; with no INPUT the bundled simulated\n"
-             "building is mapped. Floors recorded separately are given one per input as\n"
-             "PATH@FLOOR or PATH@FLOOR:HEIGHT, or listed in a file with --floors FILE.yaml.\n"
-             "The recording is replayed through floor_detector, floor_mapper, floor_matcher and\n"
-             "graph_server in this process over DDS, on a participant that discovers no other and\n"
-             "that no other discovers (a replay or robot on the same domain cannot disturb it).\n"
-             "The building is written to DIR: floor_<id>.pgm/.yaml/.png (building frame),\n"
-             "building.yaml, graph.g2o, trajectory.csv, building.bt, report.html, journal.bin (and\n"
-             "recording/ for a simulated building).")
+  args.usage(
+          "[INPUT...] [--output DIR]",
+          "Maps a building. INPUT is a simulator building file (config/buildings/*.yaml: it is\n"
+          "simulated first), a rosbag2 bag, or a CARMEN log; with no INPUT the bundled simulated\n"
+          "building is mapped. Floors recorded separately are given one per input as\n"
+          "PATH@FLOOR or PATH@FLOOR:HEIGHT, or listed in a file with --floors FILE.yaml.\n"
+          "The recording is replayed through floor_detector, floor_mapper, floor_matcher and\n"
+          "graph_server in this process over DDS, on a participant that discovers no other and\n"
+          "that no other discovers (a replay or robot on the same domain cannot disturb it).\n"
+          "The building is written to DIR: floor_<id>.pgm/.yaml/.png (building frame),\n"
+          "building.yaml, graph.g2o, trajectory.csv, building.bt, report.html, journal.bin (and\n"
+          "recording/ for a simulated building).")
       .option("output", "DIR", "output folder", "out/<input name>")
       .option("floors", "FILE", "YAML list of per-floor inputs: floors: [{path, floor, height}]")
-      .option("robots", "FILE",
-              "a recorded fleet's floors: floor_heights: [...] and robots: {NAME: {start_floor: K}}")
+      .option(
+          "robots", "FILE",
+          "a recorded fleet's floors: floor_heights: [...] and robots: {NAME: {start_floor: K}}")
       .option("seed", "N", "seed of the simulator and of every random choice", "1")
-      .option("config", "DIR", "component parameter files (floor_detector.yaml, ...)", "the shipped config/")
-      .option("domain", "ID", "DDS domain id of the job's private participant (default: ROS_DOMAIN_ID, else 0)",
+      .option("config", "DIR", "component parameter files (floor_detector.yaml, ...)",
+              "the shipped config/")
+      .option("domain", "ID",
+              "DDS domain id of the job's private participant (default: ROS_DOMAIN_ID, else 0)",
               "-1")
       .option("resolution", "M", "resolution of the floor maps", "0.05")
       .option("voxel", "M", "OctoMap resolution", "0.1")
@@ -49,7 +53,8 @@ int run_map(Args& args) {
   if (args.has("config")) options.config_dir = args.get("config");
   options.outputs.map.resolution =
       args.getDouble("resolution", tools::kMapResolutionRange[0], tools::kMapResolutionRange[1]);
-  options.outputs.octomap.resolution = args.getDouble("voxel", tools::kVoxelRange[0], tools::kVoxelRange[1]);
+  options.outputs.octomap.resolution =
+      args.getDouble("voxel", tools::kVoxelRange[0], tools::kVoxelRange[1]);
   options.quiet = args.flagSet("quiet");
   if (args.has("output")) {
     options.output_dir = args.get("output");

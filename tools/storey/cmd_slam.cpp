@@ -587,7 +587,8 @@ int run_slam(Args& args) {
 
   // The floor mapper's file: the shipped one unless --config names another.
   const std::string config_path =
-      args.has("config") ? args.get("config") : tools::parameterFilePath(tools::defaultConfigDir(), "floor_mapper");
+      args.has("config") ? args.get("config")
+                         : tools::parameterFilePath(tools::defaultConfigDir(), "floor_mapper");
   const common::ConfigNode root = common::ConfigNode::loadFile(config_path);
   mapping::FloorSlamOptions options = mapping::readFloorSlamOptions(root.child("slam"));
   // A bag's: how far a scan's odometry may be.
@@ -665,7 +666,8 @@ int run_slam(Args& args) {
          << "scans: " << scans.size() << "  nodes: " << st.nodes << "  skipped: " << st.skipped
          << "  rejected: " << st.rejected << "  matched: " << st.matched
          << "  match failures: " << st.match_failures << "  retry matches: " << st.retry_matches
-         << "  odometry disagreed: " << st.disagreeing_matches << " (caught up: " << st.caught_up_matches << ")"
+         << "  odometry disagreed: " << st.disagreeing_matches
+         << " (caught up: " << st.caught_up_matches << ")"
          << "  successor matches: " << st.successor_matches
          << "\nloop closures: " << st.loop_closures << " of " << st.loop_attempts << " attempts ("
          << st.loop_rejected_inconsistent << " rejected as inconsistent, " << st.loop_ambiguous

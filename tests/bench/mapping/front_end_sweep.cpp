@@ -1,7 +1,8 @@
 // bench_front_end: the per-floor front end on every log of ../shared/data/carmen under the
 // conditions real robots and recordings produce, seeds 1-3, one table.
 //
-//   bench_front_end [--config FILE] [--seeds 1,2,3] [--jobs N] [--filter A|B|...] [--half tuning|checking]
+//   bench_front_end [--config FILE] [--seeds 1,2,3] [--jobs N] [--filter A|B|...] [--half
+//   tuning|checking]
 //                   [--csv FILE] [--maps DIR] [--trace DIR]
 //
 // A cell is one log, one condition and one seed. Conditions: the scan spacing (every scan;
@@ -88,7 +89,9 @@ std::vector<Condition> conditions(bool recorded_odometry) {
     return n;
   };
   std::vector<std::pair<std::string, mapping::OdometryNoise>> odometry = {
-      {"odo2%/1", noise(0.02, 1.0, 0.01)}, {"odo5%/2", noise(0.05, 2.0, 0.02)}, {"odo10%/5", noise(0.10, 5.0, 0.05)}};
+      {"odo2%/1", noise(0.02, 1.0, 0.01)},
+      {"odo5%/2", noise(0.05, 2.0, 0.02)},
+      {"odo10%/5", noise(0.10, 5.0, 0.05)}};
   mapping::OdometryNoise systematic = noise(0.02, 1.0, 0.01);
   systematic.scale = 1.03;
   systematic.heading_drift_per_meter = 1.0 * kDeg;
@@ -107,15 +110,19 @@ std::vector<Condition> conditions(bool recorded_odometry) {
     return d;
   };
   const std::vector<std::pair<std::string, mapping::LaserDegradation>> lasers = {
-      {"range3.5", laser(3.5, 1, 0, 0)}, {"range8", laser(8.0, 1, 0, 0)}, {"half-beams", laser(0, 2, 0, 0)},
-      {"noise3cm", laser(0, 1, 0.03, 0)}, {"fov180", laser(0, 1, 0, M_PI)}};
+      {"range3.5", laser(3.5, 1, 0, 0)},
+      {"range8", laser(8.0, 1, 0, 0)},
+      {"half-beams", laser(0, 2, 0, 0)},
+      {"noise3cm", laser(0, 1, 0.03, 0)},
+      {"fov180", laser(0, 1, 0, M_PI)}};
   std::vector<Condition> out;
   for (const Spacing& s : spacings) {
     const std::string base_odometry = recorded_odometry ? "recorded" : "odo5%/2";
     if (recorded_odometry) {
       out.push_back({s.name, base_odometry, "logged", s.t, s.r, {}, {}});
     } else {
-      for (const auto& [name, n] : odometry) out.push_back({s.name, name, "logged", s.t, s.r, n, {}});
+      for (const auto& [name, n] : odometry)
+        out.push_back({s.name, name, "logged", s.t, s.r, n, {}});
     }
     for (const auto& [name, d] : lasers)
       out.push_back({s.name, base_odometry, name, s.t, s.r, noise(0.05, 2.0, 0.02), d});
@@ -126,8 +133,8 @@ std::vector<Condition> conditions(bool recorded_odometry) {
 struct LogData {
   const LogSpec* spec = nullptr;
   std::vector<storey::sensor::LaserScan> scans;
-  std::vector<Pose2> poses;       // the reference
-  std::vector<Pose2> recorded;    // the log's own poses (recorded odometry for the .gfs)
+  std::vector<Pose2> poses;        // the reference
+  std::vector<Pose2> recorded;     // the log's own poses (recorded odometry for the .gfs)
   std::vector<bool> contradicted;  // reference poses their own scans contradict
   double duration = 0.0;           // s; 0 when the stamps do not tell
 };
@@ -146,14 +153,17 @@ LogData readLog(const std::string& dir, const LogSpec& spec) {
   log.spec = &spec;
   for (const auto& l : lasers) log.scans.push_back(l.scan);
   log.recorded = posesOf(lasers);
-  log.poses = spec.reference.empty() ? log.recorded : posesOf(storey::io::readCarmenLasers(dir + "/" + spec.reference, options));
+  log.poses = spec.reference.empty()
+                  ? log.recorded
+                  : posesOf(storey::io::readCarmenLasers(dir + "/" + spec.reference, options));
   if (log.poses.size() < log.scans.size())
     throw std::runtime_error(spec.name + ": the reference has fewer scans than the log");
   log.poses.resize(log.scans.size());
   // Stamps: a few repeat or go backwards in some logs (made monotone), others are unusable
   // (the scan index instead, and no duration).
   std::size_t backwards = 0;
-  for (std::size_t i = 1; i < log.scans.size(); ++i) backwards += !(log.scans[i].stamp > log.scans[i - 1].stamp);
+  for (std::size_t i = 1; i < log.scans.size(); ++i)
+    backwards += !(log.scans[i].stamp > log.scans[i - 1].stamp);
   if (backwards * 20 < log.scans.size()) {
     for (std::size_t i = 1; i < log.scans.size(); ++i)
       log.scans[i].stamp = std::max(log.scans[i].stamp, log.scans[i - 1].stamp);
@@ -161,7 +171,8 @@ LogData readLog(const std::string& dir, const LogSpec& spec) {
   } else {
     for (std::size_t i = 0; i < log.scans.size(); ++i) log.scans[i].stamp = static_cast<double>(i);
   }
-  for (const auto& check : mapping::checkReferencePoses(log.scans, log.poses)) log.contradicted.push_back(check.contradicted);
+  for (const auto& check : mapping::checkReferencePoses(log.scans, log.poses))
+    log.contradicted.push_back(check.contradicted);
   return log;
 }
 
@@ -180,10 +191,12 @@ double threadCpuSeconds() {
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
-CellResult runCell(const LogData& log, const Condition& c, int seed, const mapping::FloorSlamOptions& options,
-                   const std::string& maps_dir, const std::string& trace_dir) {
+CellResult runCell(const LogData& log, const Condition& c, int seed,
+                   const mapping::FloorSlamOptions& options, const std::string& maps_dir,
+                   const std::string& trace_dir) {
   std::vector<std::size_t> kept;
-  if (c.thin_translation > 0.0) kept = mapping::thinnedIndices(log.poses, c.thin_translation, c.thin_rotation);
+  if (c.thin_translation > 0.0)
+    kept = mapping::thinnedIndices(log.poses, c.thin_translation, c.thin_rotation);
   else
     for (std::size_t i = 0; i < log.scans.size(); ++i) kept.push_back(i);
   std::vector<storey::sensor::LaserScan> scans;
@@ -197,7 +210,9 @@ CellResult runCell(const LogData& log, const Condition& c, int seed, const mappi
     left_out.push_back(log.contradicted[i]);
   }
   const std::vector<Pose2> odometry =
-      log.spec->recorded_odometry ? recorded : mapping::simulateOdometry(reference, c.noise, static_cast<std::uint64_t>(seed));
+      log.spec->recorded_odometry
+          ? recorded
+          : mapping::simulateOdometry(reference, c.noise, static_cast<std::uint64_t>(seed));
   CellResult r;
   r.log = log.spec->name;
   r.half = log.spec->half;
@@ -224,18 +239,24 @@ CellResult runCell(const LogData& log, const Condition& c, int seed, const mappi
   r.failures = f.str();
   if (!trace_dir.empty()) {
     // Per scan: how it was tracked, and its step's error against the reference.
-    std::string file = r.log + "_" + c.spacing + "_" + c.odometry + "_" + c.laser + "_s" + std::to_string(seed) + ".csv";
+    std::string file = r.log + "_" + c.spacing + "_" + c.odometry + "_" + c.laser + "_s" +
+                       std::to_string(seed) + ".csv";
     std::replace(file.begin(), file.end(), '/', '-');
     std::replace(file.begin(), file.end(), '%', 'p');
     std::ofstream trace(trace_dir + "/" + file);
-    trace << "scan,status,matched,score,caught_up,odometry_agrees,step_error_m,step_error_deg,odometry_error_m\n";
+    trace << "scan,status,matched,score,caught_up,odometry_agrees,step_error_m,step_error_deg,"
+             "odometry_error_m\n";
     for (std::size_t i = 0; i < run.results.size(); ++i) {
       const mapping::ScanResult& s = run.results[i];
-      trace << i << ',' << mapping::scanStatusName(s.status) << ',' << s.matched << ',' << s.score << ',' << s.caught_up << ',' << s.odometry_agrees << ',';
+      trace << i << ',' << mapping::scanStatusName(s.status) << ',' << s.matched << ',' << s.score
+            << ',' << s.caught_up << ',' << s.odometry_agrees << ',';
       if (i > 0) {
-        const Pose2 e = reference[i - 1].between(reference[i]).between(estimate[i - 1].between(estimate[i]));
-        const Pose2 o = reference[i - 1].between(reference[i]).between(odometry[i - 1].between(odometry[i]));
-        trace << e.translation().norm() << ',' << std::abs(e.theta()) / kDeg << ',' << o.translation().norm();
+        const Pose2 e =
+            reference[i - 1].between(reference[i]).between(estimate[i - 1].between(estimate[i]));
+        const Pose2 o =
+            reference[i - 1].between(reference[i]).between(odometry[i - 1].between(odometry[i]));
+        trace << e.translation().norm() << ',' << std::abs(e.theta()) / kDeg << ','
+              << o.translation().norm();
       } else {
         trace << ",,";
       }
@@ -245,11 +266,13 @@ CellResult runCell(const LogData& log, const Condition& c, int seed, const mappi
   if (!maps_dir.empty()) {
     storey::grid::OccupancyGridOptions grid_options;
     grid_options.resolution = 0.1;
-    std::string file = r.log + "_" + c.spacing + "_" + c.odometry + "_" + c.laser + "_s" + std::to_string(seed) + ".png";
+    std::string file = r.log + "_" + c.spacing + "_" + c.odometry + "_" + c.laser + "_s" +
+                       std::to_string(seed) + ".png";
     std::replace(file.begin(), file.end(), '/', '-');
     std::replace(file.begin(), file.end(), '%', 'p');
-    storey::grid::writePng(maps_dir + "/" + file,
-                           storey::grid::renderGrey(storey::floor::renderFloorMap(slam.floorGraph(), grid_options)));
+    storey::grid::writePng(
+        maps_dir + "/" + file,
+        storey::grid::renderGrey(storey::floor::renderFloorMap(slam.floorGraph(), grid_options)));
   }
   return r;
 }
@@ -275,12 +298,14 @@ bool matchesFilter(const std::string& label, const std::string& filter) {
 
 void printRow(std::FILE* out, const CellResult& r) {
   const auto& e = r.errors;
-  const std::string rt = r.duration > 0.0 ? std::to_string(static_cast<int>(r.duration / r.cpu_seconds)) : "-";
-  std::fprintf(out, "%-18s %-8s %-30s %4d %5zu %5zu %4zu %4zu  %.4f %6.3f %7.3f  %7.2f %5s %6.0f  %s\n",
-               r.log.c_str(), r.half.c_str(), r.condition.c_str(), r.seed, r.scans, r.nodes, r.rejected, r.closures,
-               e.nearby.translation_mean, e.nearby.rotation_mean / kDeg, e.far.translation_mean, r.cpu_seconds,
-               rt.c_str(), static_cast<double>(r.scans) / std::max(1e-9, r.cpu_seconds),
-               r.failures.empty() ? "ok" : r.failures.c_str());
+  const std::string rt =
+      r.duration > 0.0 ? std::to_string(static_cast<int>(r.duration / r.cpu_seconds)) : "-";
+  std::fprintf(
+      out, "%-18s %-8s %-30s %4d %5zu %5zu %4zu %4zu  %.4f %6.3f %7.3f  %7.2f %5s %6.0f  %s\n",
+      r.log.c_str(), r.half.c_str(), r.condition.c_str(), r.seed, r.scans, r.nodes, r.rejected,
+      r.closures, e.nearby.translation_mean, e.nearby.rotation_mean / kDeg, e.far.translation_mean,
+      r.cpu_seconds, rt.c_str(), static_cast<double>(r.scans) / std::max(1e-9, r.cpu_seconds),
+      r.failures.empty() ? "ok" : r.failures.c_str());
 }
 
 }  // namespace
@@ -296,18 +321,28 @@ int main(int argc, char** argv) {
       if (i + 1 >= argc) throw std::runtime_error(a + " needs a value");
       return argv[++i];
     };
-    if (a == "--config") config = value();
-    else if (a == "--data") data = value();
-    else if (a == "--seeds") seeds_text = value();
-    else if (a == "--jobs") jobs = std::stoi(value());
-    else if (a == "--filter") filter = value();
-    else if (a == "--half") half = value();
-    else if (a == "--csv") csv_path = value();
-    else if (a == "--maps") maps_dir = value();
-    else if (a == "--trace") trace_dir = value();
+    if (a == "--config")
+      config = value();
+    else if (a == "--data")
+      data = value();
+    else if (a == "--seeds")
+      seeds_text = value();
+    else if (a == "--jobs")
+      jobs = std::stoi(value());
+    else if (a == "--filter")
+      filter = value();
+    else if (a == "--half")
+      half = value();
+    else if (a == "--csv")
+      csv_path = value();
+    else if (a == "--maps")
+      maps_dir = value();
+    else if (a == "--trace")
+      trace_dir = value();
     else {
       std::cerr << "usage: bench_front_end [--config FILE] [--data DIR] [--seeds 1,2,3] [--jobs N] "
-                   "[--filter A|B|...] [--half tuning|checking] [--csv FILE] [--maps DIR] [--trace DIR]\n";
+                   "[--filter A|B|...] [--half tuning|checking] [--csv FILE] [--maps DIR] [--trace "
+                   "DIR]\n";
       return a == "--help" ? 0 : 2;
     }
   }
@@ -339,15 +374,17 @@ int main(int argc, char** argv) {
         // A view no wider than the logged one is the logged laser: not run twice.
         const storey::sensor::LaserScan& first = logs.at(spec.name).scans.front();
         const double fov = first.angle_increment * static_cast<double>(first.size() - 1);
-        if (c.degradation.field_of_view > 0.0 && fov <= c.degradation.field_of_view + 1e-6) continue;
+        if (c.degradation.field_of_view > 0.0 && fov <= c.degradation.field_of_view + 1e-6)
+          continue;
         queue.push_back({&spec, c, seed});
       }
   }
 
-  std::printf("bench_front_end: %zu cells, %d jobs, config %s\n", queue.size(), jobs, config.c_str());
-  std::printf("%-18s %-8s %-30s %4s %5s %5s %4s %4s  %-6s %6s %7s  %7s %5s %6s  %s\n", "log", "half",
-              "spacing odometry laser", "seed", "scans", "nodes", "rej", "clos", "near_m", "near_d", "far_m",
-              "cpu_s", "rt_x", "scan/s", "goals missed");
+  std::printf("bench_front_end: %zu cells, %d jobs, config %s\n", queue.size(), jobs,
+              config.c_str());
+  std::printf("%-18s %-8s %-30s %4s %5s %5s %4s %4s  %-6s %6s %7s  %7s %5s %6s  %s\n", "log",
+              "half", "spacing odometry laser", "seed", "scans", "nodes", "rej", "clos", "near_m",
+              "near_d", "far_m", "cpu_s", "rt_x", "scan/s", "goals missed");
   std::vector<CellResult> results(queue.size());
   std::atomic<std::size_t> next{0};
   std::mutex print_mutex;
@@ -355,7 +392,8 @@ int main(int argc, char** argv) {
   for (int w = 0; w < std::max(1, jobs); ++w)
     workers.emplace_back([&] {
       for (std::size_t k = next++; k < queue.size(); k = next++) {
-        results[k] = runCell(logs.at(queue[k].spec->name), queue[k].condition, queue[k].seed, options, maps_dir, trace_dir);
+        results[k] = runCell(logs.at(queue[k].spec->name), queue[k].condition, queue[k].seed,
+                             options, maps_dir, trace_dir);
         std::lock_guard<std::mutex> lock(print_mutex);
         printRow(stdout, results[k]);
         std::fflush(stdout);
@@ -365,16 +403,18 @@ int main(int argc, char** argv) {
 
   if (!csv_path.empty()) {
     std::ofstream csv(csv_path);
-    csv << "log,half,spacing,odometry,laser,seed,scans,nodes,rejected,closures,nearby_m,nearby_deg,far_m,far_deg,"
+    csv << "log,half,spacing,odometry,laser,seed,scans,nodes,rejected,closures,nearby_m,nearby_deg,"
+           "far_m,far_deg,"
            "cpu_s,duration_s,failures\n";
     for (std::size_t k = 0; k < results.size(); ++k) {
       const CellResult& r = results[k];
       const Condition& c = queue[k].condition;
-      csv << r.log << ',' << r.half << ',' << c.spacing << ',' << c.odometry << ',' << c.laser << ',' << r.seed << ','
-          << r.scans << ',' << r.nodes << ',' << r.rejected << ',' << r.closures << ','
-          << r.errors.nearby.translation_mean << ',' << r.errors.nearby.rotation_mean / kDeg << ','
-          << r.errors.far.translation_mean << ',' << r.errors.far.rotation_mean / kDeg << ',' << r.cpu_seconds << ','
-          << r.duration << ',' << r.failures << '\n';
+      csv << r.log << ',' << r.half << ',' << c.spacing << ',' << c.odometry << ',' << c.laser
+          << ',' << r.seed << ',' << r.scans << ',' << r.nodes << ',' << r.rejected << ','
+          << r.closures << ',' << r.errors.nearby.translation_mean << ','
+          << r.errors.nearby.rotation_mean / kDeg << ',' << r.errors.far.translation_mean << ','
+          << r.errors.far.rotation_mean / kDeg << ',' << r.cpu_seconds << ',' << r.duration << ','
+          << r.failures << '\n';
     }
   }
   // Summary per half: cells meeting every goal, and the cells that do not.
@@ -388,8 +428,8 @@ int main(int argc, char** argv) {
         worst_far = std::max(worst_far, r.errors.far.translation_mean);
       }
     if (total == 0) continue;
-    std::printf("\n%s half: %zu of %zu cells meet every goal (worst far error %.2f m)\n", h.c_str(), met, total,
-                worst_far);
+    std::printf("\n%s half: %zu of %zu cells meet every goal (worst far error %.2f m)\n", h.c_str(),
+                met, total, worst_far);
     for (const CellResult& r : results)
       if (r.half == h && !r.failures.empty()) printRow(stdout, r);
   }

@@ -28,8 +28,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr double kTimeout = 60.0;                    // s
-constexpr long kMaxResidentKb = 1024L * 1024L;       // 1 GiB
+constexpr double kTimeout = 60.0;               // s
+constexpr long kMaxResidentKb = 1024L * 1024L;  // 1 GiB
 constexpr int kFailure = 1, kUsage = 2, kSuccess = 0;
 
 struct Outcome {
@@ -41,7 +41,8 @@ struct Outcome {
 };
 
 // Runs argv (no shell: the peak memory measured is the command's own) with `env` set.
-Outcome run(const std::vector<std::string>& argv, const std::vector<std::string>& env, const std::string& log) {
+Outcome run(const std::vector<std::string>& argv, const std::vector<std::string>& env,
+            const std::string& log) {
   Outcome o;
   const auto start = std::chrono::steady_clock::now();
   const pid_t pid = fork();
@@ -126,12 +127,14 @@ std::vector<std::uint64_t> journal(const std::string& path, int count, double he
 const char* const kFlaser = "FLASER 5 1.0 1.1 1.2 1.3 1.4 0 0 0 0 0 0 1 h 1\n";
 std::string flaser(double x, double stamp) {
   std::ostringstream out;
-  out << "FLASER 5 1.0 1.1 1.2 1.3 1.4 " << x << " 0 0 " << x << " 0 0 " << stamp << " h " << stamp << "\n";
+  out << "FLASER 5 1.0 1.1 1.2 1.3 1.4 " << x << " 0 0 " << x << " 0 0 " << stamp << " h " << stamp
+      << "\n";
   return out.str();
 }
 
 // A building file beside a copy of the shipped robot model, as `storey simulate` expects.
-std::string building(const std::string& dir, const std::string& outer_wall, const std::string& extra = "") {
+std::string building(const std::string& dir, const std::string& outer_wall,
+                     const std::string& extra = "") {
   std::string text = test::readFile(test::sourceDir() + "/config/buildings/small2.yaml");
   const std::string wall = "{id: outer, rect: [[0.0, 0.0], [20.0, 12.0]]}";
   text.replace(text.find(wall), wall.size(), outer_wall);
@@ -291,7 +294,8 @@ std::vector<Row> rows() {
        [](const std::string& d) {
          std::string log;
          for (int i = 0; i < 30; ++i) log += flaser(0.02 * i, 1 + 0.1 * i);
-         log += "FLASER 5 1.0 1.1 1.2 1.3 1.4 nan 0 0 0 0 0 9 h 9\nODOM 1 2\n";  // a NaN pose, a cut line
+         log += "FLASER 5 1.0 1.1 1.2 1.3 1.4 nan 0 0 0 0 0 9 h 9\nODOM 1 2\n";  // a NaN pose, a
+                                                                                 // cut line
          test::writeFile(d + "/a.log", log);
          return Args{"map", d + "/a.log@0:0", "--output", d + "/out", "--quiet"};
        },
@@ -402,10 +406,13 @@ TEST_P(BadInput, IsRefusedClearlyWithinBounds) {
   std::vector<std::string> argv{STOREY_EXECUTABLE};
   argv.insert(argv.end(), args.begin(), args.end());
   const Outcome o = run(argv, row.env, dir + "/output.log");
-  std::printf("%s: exit %d, %.2f s, peak %ld MB\n", row.name.c_str(), o.status, o.seconds, o.max_resident_kb / 1024);
+  std::printf("%s: exit %d, %.2f s, peak %ld MB\n", row.name.c_str(), o.status, o.seconds,
+              o.max_resident_kb / 1024);
   ASSERT_TRUE(o.exited) << "did not exit by itself (status " << o.status << "): " << o.output;
   EXPECT_EQ(o.status, row.status) << o.output;
-  EXPECT_NE(o.output.find(row.expected), std::string::npos) << "expected '" << row.expected << "' in:\n" << o.output;
+  EXPECT_NE(o.output.find(row.expected), std::string::npos)
+      << "expected '" << row.expected << "' in:\n"
+      << o.output;
   EXPECT_LT(o.max_resident_kb, kMaxResidentKb);
   if (row.check && o.status == kSuccess) row.check(dir);
 }

@@ -327,15 +327,16 @@ class Deployment {
     const auto end = Clock::now() + std::chrono::seconds(30);
     while (running() < processes_.size() && Clock::now() < end) sleepFor(0.05);
     ASSERT_EQ(running(), processes_.size()) << logs();
-    replay_ = spawn({kStorey, "replay", bag, "--rate", std::to_string(rate), "--domain",
-                     std::to_string(domain_), "--subscribers", std::to_string(subscribers_), "--wait", "0.5",
-                     // Every reliable subscriber, a restarted one catching up on the
-                     // history included, gets every sample before the replay (the only
-                     // writer) exits. A restarted detector caught up 2.6 s after the last
-                     // message here, 6.6 s beside a busy loop; the replay leaves as soon
-                     // as all have acknowledged, so the bound costs nothing when they do.
-                     "--ack-wait", "30", "--quiet"},
-                    log("replay"));
+    replay_ = spawn(
+        {kStorey, "replay", bag, "--rate", std::to_string(rate), "--domain",
+         std::to_string(domain_), "--subscribers", std::to_string(subscribers_), "--wait", "0.5",
+         // Every reliable subscriber, a restarted one catching up on the
+         // history included, gets every sample before the replay (the only
+         // writer) exits. A restarted detector caught up 2.6 s after the last
+         // message here, 6.6 s beside a busy loop; the replay leaves as soon
+         // as all have acknowledged, so the bound costs nothing when they do.
+         "--ack-wait", "30", "--quiet"},
+        log("replay"));
     replay_start_ = Clock::now();
   }
   double sinceReplayStart() const { return std::chrono::duration<double>(Clock::now() - replay_start_).count(); }
@@ -346,8 +347,7 @@ class Deployment {
     // subscriber's acknowledgments (seconds for a restarted one catching up on the
     // history), and the matchers' idle rule may fire while it waits.
     const auto published_by = Clock::now() + std::chrono::seconds(120);
-    while (!replayPublishedAll() && Clock::now() < published_by)
-      sleepFor(0.05);
+    while (!replayPublishedAll() && Clock::now() < published_by) sleepFor(0.05);
     const std::size_t main_before = matchings("] floor_matcher: matched");
     const std::size_t witness_before = matchings("witness_matcher: matched");
     const int status = waitFor(replay_, 120);
@@ -495,7 +495,8 @@ TEST_F(FaultsTest, GraphServerKilledAndRestartedGivesTheSameBuilding) {
 // very records of the witness server's, which runs undisturbed on the same topics, each
 // once, and gives the same building.
 TEST_F(FaultsTest, GraphServerKilledFiveTimesJournalsEveryRecordOnce) {
-  Deployment d(dir_ + "/server5", 145, Deployment::Layout::kOnePerComponent, Deployment::Witness::kServer);
+  Deployment d(dir_ + "/server5", 145, Deployment::Layout::kOnePerComponent,
+               Deployment::Witness::kServer);
   d.startAll();
   d.startReplay(bag_, 3.0);
   for (int kill = 1; kill <= 5; ++kill) {
@@ -515,10 +516,14 @@ TEST_F(FaultsTest, GraphServerKilledFiveTimesJournalsEveryRecordOnce) {
   EXPECT_EQ(countOf(test::readFile(d.log("server")), ": resumed "), 5u)
       << test::readFile(d.log("server"));
   std::map<std::vector<std::uint8_t>, int> records, witness_records;
-  for (const auto& r : building::readJournal(d.journal()).records) ++records[building::encodeRecord(r)];
-  for (const auto& r : building::readJournal(d.witnessJournal()).records) ++witness_records[building::encodeRecord(r)];
-  for (const auto& [bytes, count] : records) EXPECT_EQ(count, 1) << "a record journalled " << count << " times";
-  EXPECT_TRUE(records == witness_records) << records.size() << " distinct records, the witness " << witness_records.size();
+  for (const auto& r : building::readJournal(d.journal()).records)
+    ++records[building::encodeRecord(r)];
+  for (const auto& r : building::readJournal(d.witnessJournal()).records)
+    ++witness_records[building::encodeRecord(r)];
+  for (const auto& [bytes, count] : records)
+    EXPECT_EQ(count, 1) << "a record journalled " << count << " times";
+  EXPECT_TRUE(records == witness_records)
+      << records.size() << " distinct records, the witness " << witness_records.size();
   EXPECT_EQ(building::checkJournal(d.journal()).repeated_updates, 0u);
   expectSameBuilding(compare(rebuild(d.witnessJournal()), rebuild(d.journal())));
 }

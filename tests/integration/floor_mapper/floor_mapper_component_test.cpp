@@ -155,7 +155,8 @@ TEST(FloorMapperComponent, MapsTwoFloorsAndPublishesTheirGraphs) {
 TEST(FloorMapperComponent, BadParametersNameTheKey) {
   runtime::Context context(onDomain(227));
   FloorMapperComponent component(
-      context, common::ConfigNode::loadString("{robot: r, slam: {laser: {range_noise: 7}}}", "p.yaml"), "m");
+      context,
+      common::ConfigNode::loadString("{robot: r, slam: {laser: {range_noise: 7}}}", "p.yaml"), "m");
   try {
     component.configure();
     FAIL() << "configured with range_noise 7";

@@ -503,7 +503,8 @@ TEST(FloorMatcherComponent, APassRunningWhenDeactivatedStillPublishes) {
   isolated.isolated = true;
   runtime::Context context(isolated);
   ReceivedConstraints received(context);
-  SlowScriptedMatcher matcher(context, "{min_nodes: 10, match_while_growing: false, match_after_idle: 0.2}",
+  SlowScriptedMatcher matcher(context,
+                              "{min_nodes: 10, match_while_growing: false, match_after_idle: 0.2}",
                               {two.truth}, 1.0);
   matcher.configure();
   matcher.activate();

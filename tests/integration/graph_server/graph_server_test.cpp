@@ -230,7 +230,8 @@ TEST_F(GraphServerTest, ARetractionDropsAConstraintStillWaitingForItsGraphs) {
 // be the one before the restart.
 TEST_F(GraphServerTest, AHistoryDeliveredAgainAfterARestartIsNotJournalledAgain) {
   const std::string journal = test::makeTempDir() + "/graph.journal";
-  const std::string params = "{optimize_min_period: 0.05, journal: '" + journal + "', publish_maps: false}";
+  const std::string params =
+      "{optimize_min_period: 0.05, journal: '" + journal + "', publish_maps: false}";
   std::vector<storey_msgs::msg::FloorGraphUpdate> history;
   for (int graph : {0, 1}) {
     const auto full = makeUpdate(graph, graph, 3.0 * graph);
@@ -260,9 +261,11 @@ TEST_F(GraphServerTest, AHistoryDeliveredAgainAfterARestartIsNotJournalledAgain)
   constraints.back().reason("test");
 
   auto deliver = [&](GraphServer& server, runtime::Context& context) {
-    runtime::Publisher<storey_msgs::msg::FloorGraphUpdate, storey_msgs::msg::FloorGraphUpdatePubSubType> graphs(
-        context, "storey/floor_graphs", runtime::TopicKind::kGraph);
-    runtime::Publisher<storey_msgs::msg::InterFloorConstraint, storey_msgs::msg::InterFloorConstraintPubSubType>
+    runtime::Publisher<storey_msgs::msg::FloorGraphUpdate,
+                       storey_msgs::msg::FloorGraphUpdatePubSubType>
+        graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
+    runtime::Publisher<storey_msgs::msg::InterFloorConstraint,
+                       storey_msgs::msg::InterFloorConstraintPubSubType>
         constraint_pub(context, "storey/inter_floor_constraints", runtime::TopicKind::kGraph);
     ASSERT_TRUE(graphs.waitForSubscribers(1, 5.0));
     ASSERT_TRUE(constraint_pub.waitForSubscribers(1, 5.0));
@@ -272,7 +275,8 @@ TEST_F(GraphServerTest, AHistoryDeliveredAgainAfterARestartIsNotJournalledAgain)
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
     auto handled = [&] {
       const GraphServerStats s = server.stats();
-      return s.updates_accepted + s.constraints_accepted + s.constraints_retracted + s.duplicates_ignored + s.rejected;
+      return s.updates_accepted + s.constraints_accepted + s.constraints_retracted +
+             s.duplicates_ignored + s.rejected;
     };
     while (std::chrono::steady_clock::now() < deadline && handled() < expected)
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -307,7 +311,8 @@ TEST_F(GraphServerTest, AHistoryDeliveredAgainAfterARestartIsNotJournalledAgain)
     const auto& again = after.floorGraphs().at(id);
     ASSERT_EQ(again.nodes.size(), graph.nodes.size());
     for (std::size_t i = 0; i < graph.nodes.size(); ++i)
-      EXPECT_EQ(again.nodes[i].pose.x(), graph.nodes[i].pose.x()) << "graph " << id << " node " << i;
+      EXPECT_EQ(again.nodes[i].pose.x(), graph.nodes[i].pose.x())
+          << "graph " << id << " node " << i;
     EXPECT_EQ(again.edges.size(), graph.edges.size());
   }
   EXPECT_EQ(after.constraints().size(), before.constraints().size());

@@ -70,7 +70,8 @@ TEST(SimulationLiveBringup, CarriesEachRobotsSetupAndStarts) {
   EXPECT_EQ(mapper.yaml()["initial_floor"].as<int>(), 3);
   EXPECT_DOUBLE_EQ(mapper.yaml()["initial_height"].as<double>(), setup.floor_heights[3]);
   ASSERT_TRUE(setup.laser_range_noise.count("robot3"));
-  EXPECT_DOUBLE_EQ(mapper.yaml()["slam"]["laser"]["range_noise"].as<double>(), setup.laser_range_noise.at("robot3"));
+  EXPECT_DOUBLE_EQ(mapper.yaml()["slam"]["laser"]["range_noise"].as<double>(),
+                   setup.laser_range_noise.at("robot3"));
   const auto server = loadParameters(bringup.processes[0].components[5]);
   EXPECT_EQ(server.yaml()["journal"].as<std::string>(), std::filesystem::absolute(dir + "/live/journal.bin").string());
 

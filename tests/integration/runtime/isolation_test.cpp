@@ -1,7 +1,7 @@
 // Isolated contexts (ContextOptions::isolated, what offline jobs run on) and the warning
 // for a second writer of a robot's sensor topic.
-#include <gtest/gtest.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -137,13 +137,19 @@ TEST(RuntimeIsolation, ASecondWriterOfASensorTopicIsWarned) {
     Context reader(isolationTestOptions(kDomain, false));
     ScanSub scans(reader, "robot1/scan", TopicKind::kSensor, [](const auto&) {});
     EventSub graphs(reader, "floor_graphs_like", TopicKind::kGraph, [](const auto&) {});
-    Context first(isolationTestOptions(kDomain, false)), second(isolationTestOptions(kDomain, false));
-    ScanPub scan_a(first, "robot1/scan", TopicKind::kSensor), scan_b(second, "robot1/scan", TopicKind::kSensor);
+    Context first(isolationTestOptions(kDomain, false)),
+        second(isolationTestOptions(kDomain, false));
+    ScanPub scan_a(first, "robot1/scan", TopicKind::kSensor),
+        scan_b(second, "robot1/scan", TopicKind::kSensor);
     EventPub graph_a(first, "floor_graphs_like", TopicKind::kGraph),
         graph_b(second, "floor_graphs_like", TopicKind::kGraph);
-    matched = waitUntil([&] { return scans.matchedCount() == 2 && graphs.matchedCount() == 2; }, 10.0);
-    warned = waitUntil([&] { return logged().find("sensor topic robot1/scan has 2 writers") != std::string::npos; },
-                       10.0);
+    matched =
+        waitUntil([&] { return scans.matchedCount() == 2 && graphs.matchedCount() == 2; }, 10.0);
+    warned = waitUntil(
+        [&] {
+          return logged().find("sensor topic robot1/scan has 2 writers") != std::string::npos;
+        },
+        10.0);
   }
   dup2(saved, 2);
   close(saved);

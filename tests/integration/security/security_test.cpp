@@ -222,17 +222,22 @@ TEST_F(SecurityTest, TamperedFilesAreNamedWithTheCheckTheyFail) {
     std::ifstream in(path, std::ios::binary);
     return std::string{std::istreambuf_iterator<char>(in), {}};
   };
-  for (const Case& c : {Case{"governance.p7s", "governance " + ours + "-tampered/governance.p7s: its signature"},
-                        Case{"talker/permissions.p7s", "permissions " + ours + "-tampered/talker/permissions.p7s: its signature"},
-                        Case{"talker/cert.pem", "private_key " + ours + "-tampered/talker/key.pem: does not belong"}}) {
+  for (const Case& c :
+       {Case{"governance.p7s", "governance " + ours + "-tampered/governance.p7s: its signature"},
+        Case{"talker/permissions.p7s",
+             "permissions " + ours + "-tampered/talker/permissions.p7s: its signature"},
+        Case{"talker/cert.pem",
+             "private_key " + ours + "-tampered/talker/key.pem: does not belong"}}) {
     const std::string copy = ours + "-tampered";
     fs::remove_all(copy);
     fs::copy(ours, copy, fs::copy_options::recursive);
     if (c.what == "talker/cert.pem") {
-      fs::copy_file(ours + "/listener/cert.pem", copy + "/talker/cert.pem", fs::copy_options::overwrite_existing);
+      fs::copy_file(ours + "/listener/cert.pem", copy + "/talker/cert.pem",
+                    fs::copy_options::overwrite_existing);
     } else {
       std::string text = read(copy + "/" + c.what);
-      const auto at = text.find("<domains>") != std::string::npos ? text.find("<domains>") : text.find("<subject_name>");
+      const auto at = text.find("<domains>") != std::string::npos ? text.find("<domains>")
+                                                                  : text.find("<subject_name>");
       ASSERT_NE(at, std::string::npos) << c.what;
       text.insert(at, " ");  // one byte more in the signed XML
       std::ofstream(copy + "/" + c.what, std::ios::binary | std::ios::trunc) << text;

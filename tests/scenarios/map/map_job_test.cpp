@@ -19,10 +19,10 @@
 #include "sensor_msgs/msg/LaserScan.h"
 #include "sensor_msgs/msg/LaserScanPubSubTypes.h"
 #include "storey/common/config.h"
+#include "storey/eval/trajectory.h"
 #include "storey/io/carmen.h"
 #include "storey/runtime/context.h"
 #include "storey/runtime/subscription.h"
-#include "storey/eval/trajectory.h"
 #include "storey/sim/ground_truth.h"
 #include "storey/sim/scenario.h"
 #include "storey/sim/simulator.h"
@@ -92,15 +92,16 @@ TEST(MapJob, SameSeedGivesTheSameBuilding) {
 TEST(MapJob, AReplayOnTheSameDomainDoesNotChangeTheBuilding) {
   constexpr int kDomain = 225;
   const std::string dir = test::makeTempDir("storey_map_beside_replay");
-  writeSimulationBag(sim::simulate(sim::loadScenario(defaultBuilding(defaultConfigDir())), 2), dir + "/other_bag");
+  writeSimulationBag(sim::simulate(sim::loadScenario(defaultBuilding(defaultConfigDir())), 2),
+                     dir + "/other_bag");
   runMapJob(bundled(kDomain, dir + "/alone"));
 
   const pid_t replay = fork();
   ASSERT_GE(replay, 0);
   if (replay == 0) {
     const std::string domain = std::to_string(kDomain), bag = dir + "/other_bag";
-    execl(STOREY_EXECUTABLE, STOREY_EXECUTABLE, "replay", bag.c_str(), "--domain", domain.c_str(), "--rate", "5",
-          "--wait", "0", "--quiet", static_cast<char*>(nullptr));
+    execl(STOREY_EXECUTABLE, STOREY_EXECUTABLE, "replay", bag.c_str(), "--domain", domain.c_str(),
+          "--rate", "5", "--wait", "0", "--quiet", static_cast<char*>(nullptr));
     _exit(127);
   }
   struct Stop {
@@ -116,14 +117,16 @@ TEST(MapJob, AReplayOnTheSameDomainDoesNotChangeTheBuilding) {
   std::atomic<int> scans{0};
   runtime::Subscription<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType> sub(
       listener, "robot1/scan", runtime::TopicKind::kSensor, [&](const auto&) { ++scans; });
-  for (int i = 0; i < 2000 && scans == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  for (int i = 0; i < 2000 && scans == 0; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   ASSERT_GT(scans, 0) << "the replay publishes nothing";
   runMapJob(bundled(kDomain, dir + "/beside"));
   const int during = scans;
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   ASSERT_GT(scans, during) << "the replay ended before the job";
 
-  for (const char* file : {"building.yaml", "trajectory.csv", "graph.g2o", "floor_0.pgm", "floor_1.pgm"})
+  for (const char* file :
+       {"building.yaml", "trajectory.csv", "graph.g2o", "floor_0.pgm", "floor_1.pgm"})
     EXPECT_TRUE(test::readFile(dir + "/alone/" + file) == test::readFile(dir + "/beside/" + file))
         << file << " differs";
 }
@@ -135,7 +138,8 @@ TEST(MapJob, AReplayOnTheSameDomainDoesNotChangeTheBuilding) {
 // would make a one-node graph on floor 0).
 TEST(MapJob, FloorsRecordedSeparatelyAreMappedOnTheirOwnFloors) {
   const std::string dir = test::makeTempDir("storey_map_floors");
-  const sim::Simulation run = sim::simulate(sim::loadScenario(defaultBuilding(defaultConfigDir())), 1);
+  const sim::Simulation run =
+      sim::simulate(sim::loadScenario(defaultBuilding(defaultConfigDir())), 1);
   const sim::RobotRun& robot = run.robots.at(0);
   ASSERT_FALSE(robot.transits.empty());
   const sim::Transit& ride = robot.transits.front();
@@ -146,7 +150,9 @@ TEST(MapJob, FloorsRecordedSeparatelyAreMappedOnTheirOwnFloors) {
     double first = -1.0;
     for (const auto& scan : robot.scans) {
       if (scan.stamp < from || scan.stamp > to) continue;
-      while (odometry + 1 < robot.odometry.size() && robot.odometry[odometry + 1].stamp <= scan.stamp) ++odometry;
+      while (odometry + 1 < robot.odometry.size() &&
+             robot.odometry[odometry + 1].stamp <= scan.stamp)
+        ++odometry;
       if (first < 0) first = scan.stamp;
       io::CarmenLaser laser;
       laser.scan = scan;
@@ -169,7 +175,8 @@ TEST(MapJob, FloorsRecordedSeparatelyAreMappedOnTheirOwnFloors) {
   for (const auto& [id, g] : result.graph->floorGraphs()) by_robot[g.robot].push_back(&g);
   ASSERT_EQ(by_robot.size(), 2u);
   ASSERT_EQ(by_robot.at("floor0").size(), 1u);
-  ASSERT_EQ(by_robot.at("floor1").size(), 1u) << "the floor-1 log's robot has a graph on another floor";
+  ASSERT_EQ(by_robot.at("floor1").size(), 1u)
+      << "the floor-1 log's robot has a graph on another floor";
   EXPECT_EQ(by_robot.at("floor0")[0]->floor_id, 0);
   EXPECT_EQ(by_robot.at("floor1")[0]->floor_id, 1);
   EXPECT_DOUBLE_EQ(by_robot.at("floor1")[0]->floor_height, 3.5);
@@ -194,7 +201,8 @@ TEST(MapJob, BadInputsAreReportedClearly) {
   }
   EXPECT_THROW(parseMapInput("a.log@x"), std::invalid_argument);
   // A height or floor with no meaning is refused, naming the input.
-  for (const char* bad : {"a.log@0:nan", "a.log@0:inf", "a.log@1:-inf", "a.log@0:1e300", "a.log@5000"}) {
+  for (const char* bad :
+       {"a.log@0:nan", "a.log@0:inf", "a.log@1:-inf", "a.log@0:1e300", "a.log@5000"}) {
     try {
       parseMapInput(bad);
       ADD_FAILURE() << "accepted " << bad;

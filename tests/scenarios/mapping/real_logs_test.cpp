@@ -213,10 +213,12 @@ TEST(RealLogs, CsailOdometryStreamThatStallsDoesNotBreakTheMap) {
     odometry.push_back(*paired[i]);
   }
 
-  const LogRun run =
-      runAndEvaluate(log, odometry, log.poses, "csail, ODOM stream (shipped config)", shippedOptions());
-  std::printf("found around the last pose: %zu, where the odometry caught up: %zu, odometry disagreed: %zu\n",
-              run.stats.wide_matches, run.stats.caught_up_matches, run.stats.disagreeing_matches);
+  const LogRun run = runAndEvaluate(log, odometry, log.poses, "csail, ODOM stream (shipped config)",
+                                    shippedOptions());
+  std::printf(
+      "found around the last pose: %zu, where the odometry caught up: %zu, odometry disagreed: "
+      "%zu\n",
+      run.stats.wide_matches, run.stats.caught_up_matches, run.stats.disagreeing_matches);
   // Placed by odometry at the stall, the map broke (far error 8.2 m, a closure 90 degrees off).
   EXPECT_LT(run.errors.far.translation_mean, 0.7);
   EXPECT_LT(run.errors.nearby.translation_mean, 0.045);
@@ -335,10 +337,10 @@ INSTANTIATE_TEST_SUITE_P(
             "the last pass must close: at the window's cap a lone closure needs a unique place, "
             "held closures are tied where they matched, and attempts follow a closure the "
             "region check relocated"},
-        CorridorSeed{
-            18, 200, 2.5,
-            "the 300 m loop off the western corridor at (-160, 25) comes back 12-18 m off, beyond a "
-            "10 m window: the closure window's cap must reach it"},
+        CorridorSeed{18, 200, 2.5,
+                     "the 300 m loop off the western corridor at (-160, 25) comes back 12-18 m "
+                     "off, beyond a "
+                     "10 m window: the closure window's cap must reach it"},
         CorridorSeed{
             12, 200, 2.5,
             "windows of 10-20 m hold a look-alike 11 m off along a corridor: a closure alone "

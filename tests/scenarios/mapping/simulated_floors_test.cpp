@@ -113,7 +113,8 @@ FloorSlamOptions mapperOptionsFor(const sim::Scenario& scenario) {
 }
 
 TEST(SimulatedFloors, Tower10FloorGraphsKeepTheirScale) {
-  const sim::Scenario scenario = sim::loadScenario(test::sourceDir() + "/config/buildings/tower10.yaml");
+  const sim::Scenario scenario =
+      sim::loadScenario(test::sourceDir() + "/config/buildings/tower10.yaml");
   const FloorSlamOptions options = mapperOptionsFor(scenario);
   const char* seeds_env = std::getenv("STOREY_SCALE_SEEDS");
   const int seeds = seeds_env ? std::max(1, std::atoi(seeds_env)) : 2;

@@ -215,14 +215,18 @@ TEST(Journal, DeltasWithValuesOutOfReachAreRejected) {
   };
   FloorGraphDelta high = makeDelta(0, 0, 2);
   high.floor_height = 1e300;
-  EXPECT_NE(errorOf(high).find("floor graph 0 (robot robot_a): floor height 1e+300 m"), std::string::npos)
+  EXPECT_NE(errorOf(high).find("floor graph 0 (robot robot_a): floor height 1e+300 m"),
+            std::string::npos)
       << errorOf(high);
   FloorGraphDelta nan_pose = makeDelta(0, 0, 2);
   nan_pose.new_nodes[1].pose = geometry::Pose2(std::nan(""), 0, 0);
-  EXPECT_NE(errorOf(nan_pose).find("node 1 has a non-finite pose"), std::string::npos) << errorOf(nan_pose);
+  EXPECT_NE(errorOf(nan_pose).find("node 1 has a non-finite pose"), std::string::npos)
+      << errorOf(nan_pose);
   FloorGraphDelta nan_edge = makeDelta(0, 0, 2);
-  nan_edge.new_edges[0].measurement = geometry::Pose2(0, std::numeric_limits<double>::infinity(), 0);
-  EXPECT_NE(errorOf(nan_edge).find("edge 0 -> 1 has non-finite values"), std::string::npos) << errorOf(nan_edge);
+  nan_edge.new_edges[0].measurement =
+      geometry::Pose2(0, std::numeric_limits<double>::infinity(), 0);
+  EXPECT_NE(errorOf(nan_edge).find("edge 0 -> 1 has non-finite values"), std::string::npos)
+      << errorOf(nan_edge);
   EXPECT_EQ(errorOf(makeDelta(0, 0, 2)), "");
 }
 

@@ -80,10 +80,13 @@ TEST(ConfigNode, DuplicateKeysNameBothLines) {
     }
     return std::string();
   };
-  EXPECT_EQ(errorOf("a: 1\nb: 2\na: -5\n"), "p.yaml:3: a: duplicate key (also on line 1): only one value can be meant");
-  EXPECT_NE(errorOf("sub:\n  x: 1\n  y: 2\n  x: 3\n").find("p.yaml:4: sub.x: duplicate key (also on line 2)"),
+  EXPECT_EQ(errorOf("a: 1\nb: 2\na: -5\n"),
+            "p.yaml:3: a: duplicate key (also on line 1): only one value can be meant");
+  EXPECT_NE(errorOf("sub:\n  x: 1\n  y: 2\n  x: 3\n")
+                .find("p.yaml:4: sub.x: duplicate key (also on line 2)"),
             std::string::npos);
-  EXPECT_NE(errorOf("list:\n  - {n: 1, n: 2}\n").find("p.yaml:2: list[0].n: duplicate key"), std::string::npos);
+  EXPECT_NE(errorOf("list:\n  - {n: 1, n: 2}\n").find("p.yaml:2: list[0].n: duplicate key"),
+            std::string::npos);
   EXPECT_EQ(errorOf("a: 1\nb: {a: 2}\n"), "");  // the same key in different mappings is fine
 }
 

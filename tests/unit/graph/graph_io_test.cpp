@@ -57,8 +57,9 @@ TEST(GraphIo, ReadsG2oWithUpperTriangularInformationAndFix) {
 // A directory read as a graph would be an empty graph; a device never ends, a FIFO blocks.
 // Refused by name before reading.
 TEST(GraphIo, SpecialFilesAreRefusedByName) {
-  for (const auto& [path, kind] : {std::pair<std::string, std::string>{test::makeTempDir("graph_dir"), "a directory"},
-                                   {"/dev/zero", "a character device"}}) {
+  for (const auto& [path, kind] :
+       {std::pair<std::string, std::string>{test::makeTempDir("graph_dir"), "a directory"},
+        {"/dev/zero", "a character device"}}) {
     try {
       readG2o(path);
       ADD_FAILURE() << path;

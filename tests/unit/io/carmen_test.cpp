@@ -313,14 +313,16 @@ TEST(CarmenReader, LenientModeKeepsReadingAfterBadLines) {
 TEST(CarmenReader, AWholeLogReadSaysWhatItSkipped) {
   const std::string good = flaserLine(5, 1.0, "0 0 0 0 0 0 1 h 1");
   const std::string nan_pose = flaserLine(5, 1.0, "nan 0 0 0 0 0 2 h 2");
-  const std::string path = writeText("a.log", good + "\n" + nan_pose + "\nTHING 1 2\n" + good.substr(0, good.size() / 2));
+  const std::string path = writeText(
+      "a.log", good + "\n" + nan_pose + "\nTHING 1 2\n" + good.substr(0, good.size() / 2));
   testing::internal::CaptureStderr();
   const CarmenLog log = readCarmenLog(path, lenient());
   const std::string warning = testing::internal::GetCapturedStderr();
   EXPECT_EQ(log.lasers.size(), 1u);
   EXPECT_EQ(log.stats.skipped, 2u);
-  EXPECT_NE(warning.find(path + ": 3 lines skipped (2 unreadable, 1 of unknown types); first unreadable: " + path +
-                         ":2:"),
+  EXPECT_NE(warning.find(
+                path + ": 3 lines skipped (2 unreadable, 1 of unknown types); first unreadable: " +
+                path + ":2:"),
             std::string::npos)
       << warning;
   testing::internal::CaptureStderr();

@@ -237,8 +237,8 @@ TEST(SimulatedOdometry, AStallHoldsThePoseThenCatchesUpAndLeavesTheRestAlone) {
 }
 
 TEST(ThinnedIndices, KeepAPoseOnceItMovedOrTurnedEnough) {
-  const std::vector<Pose2> poses = {Pose2(0, 0, 0), Pose2(0.3, 0, 0), Pose2(0.6, 0, 0), Pose2(0.6, 0, 0.4),
-                                    Pose2(0.6, 0, 1.1), Pose2(1.7, 0, 1.1)};
+  const std::vector<Pose2> poses = {Pose2(0, 0, 0),     Pose2(0.3, 0, 0),   Pose2(0.6, 0, 0),
+                                    Pose2(0.6, 0, 0.4), Pose2(0.6, 0, 1.1), Pose2(1.7, 0, 1.1)};
   EXPECT_EQ(thinnedIndices(poses, 0.5, 0.5), (std::vector<std::size_t>{0, 2, 4, 5}));
   EXPECT_EQ(thinnedIndices(poses, 0.0, 0.0).size(), poses.size());
 }
@@ -268,7 +268,8 @@ TEST(DegradeScan, CutsRangesDropsBeamsAddsNoiseAndNarrowsTheView) {
   noise.range_noise = 0.03;
   const sensor::LaserScan noisy = degradeScan(scan, noise, rng);
   double sum2 = 0.0;
-  for (std::size_t i = 0; i < scan.size(); ++i) sum2 += std::pow(noisy.ranges[i] - scan.ranges[i], 2);
+  for (std::size_t i = 0; i < scan.size(); ++i)
+    sum2 += std::pow(noisy.ranges[i] - scan.ranges[i], 2);
   EXPECT_NEAR(std::sqrt(sum2 / static_cast<double>(scan.size())), 0.03, 0.006);
 }
 

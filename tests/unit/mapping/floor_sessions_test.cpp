@@ -202,7 +202,8 @@ TEST(FloorSessions, ScansAfterTheRidesEndGoToTheFloorReached) {
       const long k = std::lround((node.stamp - ride_end) / 0.1) - 1;
       if (k < 0 || k >= static_cast<long>(arrival.size())) continue;
       const Pose2 expected = arrival.front().between(arrival[static_cast<std::size_t>(k)]);
-      EXPECT_LT((node.pose.translation() - expected.translation()).norm(), 0.1) << "node at " << node.stamp;
+      EXPECT_LT((node.pose.translation() - expected.translation()).norm(), 0.1)
+          << "node at " << node.stamp;
       ++checked;
     }
     EXPECT_GE(checked, 10u);  // 3 m at 0.2 m a node

@@ -7,9 +7,9 @@
 #include <limits>
 #include <memory>
 
+#include "bare_options.h"
 #include "storey/mapping/evaluation.h"
 #include "storey/mapping/floor_sessions.h"
-#include "bare_options.h"
 #include "synthetic_world.h"
 #include "test_support.h"
 
@@ -254,13 +254,16 @@ TEST(FloorSlam, AlongABareCorridorOdometryDecides) {
     worst_y = std::max(worst_y, std::abs(p.y()));
     worst_heading = std::max(worst_heading, std::abs(p.theta()));
   }
-  std::printf("along %.3f (odometry %.3f, truth %.3f), without the fusion %.3f; worst y %.3f m, heading %.3f deg\n",
-              followed.back().x() - truth.front().x(), odometry_travelled, travelled,
-              unfused.back().x() - truth.front().x(), worst_y, worst_heading * 180 / M_PI);
+  std::printf(
+      "along %.3f (odometry %.3f, truth %.3f), without the fusion %.3f; worst y %.3f m, heading "
+      "%.3f deg\n",
+      followed.back().x() - truth.front().x(), odometry_travelled, travelled,
+      unfused.back().x() - truth.front().x(), worst_y, worst_heading * 180 / M_PI);
   EXPECT_LT(worst_y, 0.1);
   EXPECT_LT(worst_heading, 0.01);
   // Without the fusion the lag adds up (seed 3: 1.6 m short over 40 m).
-  EXPECT_GT(std::abs(unfused.back().x() - truth.back().x()), 2 * std::abs(followed.back().x() - truth.back().x()));
+  EXPECT_GT(std::abs(unfused.back().x() - truth.back().x()),
+            2 * std::abs(followed.back().x() - truth.back().x()));
 }
 
 TEST(FloorSlam, NodesOnlyWhenMovedEnough) {
@@ -331,7 +334,9 @@ TEST_F(FloorSlamBadInput, NoReturnInRangeIsPlacedByOdometry) {
   EXPECT_EQ(r.status, ScanStatus::kSkipped);
   EXPECT_NE(r.reason.find("no returns in range"), std::string::npos);
   EXPECT_EQ(slam_.stats().rejected, 0u);
-  EXPECT_LT((r.pose.translation() - Pose2(2, 1.2, 0).between(Pose2(4, 1.2, 0)).translation()).norm(), 0.01);
+  EXPECT_LT(
+      (r.pose.translation() - Pose2(2, 1.2, 0).between(Pose2(4, 1.2, 0)).translation()).norm(),
+      0.01);
   expectUnchanged();
   // And mapping goes on.
   EXPECT_EQ(feed(Pose2(4, 1.2, 0.3), 11.0).status, ScanStatus::kNode);
@@ -367,7 +372,8 @@ TEST_F(FloorSlamBadInput, OdometryJumpIsNotTrusted) {
   EXPECT_LT((r.pose.translation() - (Pose2(2, 1.2, 0).between(truth)).translation()).norm(), 0.05);
   // No odometry edge across the jump.
   EXPECT_NE(slam_.floorGraph().edges.back().kind, floor::EdgeKind::kOdometry);
-  for (const auto& e : slam_.floorGraph().edges) EXPECT_FALSE(e.kind == floor::EdgeKind::kOdometry && e.to == r.node_id);
+  for (const auto& e : slam_.floorGraph().edges)
+    EXPECT_FALSE(e.kind == floor::EdgeKind::kOdometry && e.to == r.node_id);
   // Later odometry steps are trusted again, relative to the new odometry frame.
   const Pose2 truth2(4.2, 1.2, 0.3), odo2 = jumped * truth.between(truth2);
   const ScanResult r2 = feed(truth2, 11.0, &odo2);
@@ -394,7 +400,8 @@ TEST(FloorSlam, AScanOdometryTurnedTooLittleIsFoundAroundTheLastPose) {
     const auto slam = officeSlamAfterStart(FloorSlamOptions{}, world);
     const ScanResult stale = slam->addScan(world.scan(stale_truth, 10.0), stale_odometry);
     // Caught up: odometry is the truth again. Slipped: it moves on from where it stalled.
-    const Pose2 next_odometry = catches_up ? next_truth : stale_odometry * stale_truth.between(next_truth);
+    const Pose2 next_odometry =
+        catches_up ? next_truth : stale_odometry * stale_truth.between(next_truth);
     const ScanResult next = slam->addScan(world.scan(next_truth, 11.0), next_odometry);
     ASSERT_EQ(stale.status, ScanStatus::kNode) << stale.reason;
     ASSERT_EQ(next.status, ScanStatus::kNode) << next.reason;
@@ -432,7 +439,8 @@ TEST(FloorSlam, OdometryThatStallsInATurnIsTrackedAndItsCatchUpFound) {
     ASSERT_NE(r.status, ScanStatus::kRejected) << r.reason;
     EXPECT_TRUE(r.matched) << k;
     EXPECT_FALSE(r.odometry_agrees) << k;
-    EXPECT_LT(std::abs(geometry::angleDiff(r.pose.theta(), start.between(truth).theta())), 0.02) << k;
+    EXPECT_LT(std::abs(geometry::angleDiff(r.pose.theta(), start.between(truth).theta())), 0.02)
+        << k;
   }
   const Pose2 turned(3.5, 1.2, 0.25 + 1.8);
   const ScanResult r = slam->addScan(world.scan(turned, 10.0), turned);
@@ -630,7 +638,8 @@ TEST(FloorSlam, ARegionCheckKeepsClosuresOffALookAlikeStretch) {
   const auto truth = ringPath();
   const std::vector<Pose2> odometry = slipOnTopLeg(truth, 1.15);
   auto run = [&](double verify_window) {
-    FloorSlamOptions options = test::bareOptions();  // max_linear_window 4 m, cluster_verify_distance 4 m
+    FloorSlamOptions options =
+        test::bareOptions();  // max_linear_window 4 m, cluster_verify_distance 4 m
     options.loop_closure.cluster_verify_window = verify_window;
     return runWorld(world, truth, options, odometry);
   };
@@ -771,31 +780,38 @@ TEST(FloorSlamOptions, TheShippedFileIsTheLibrarysDefaults) {
   EXPECT_EQ(shipped.relocalization.known_floor, defaults.relocalization.known_floor);
   EXPECT_EQ(shipped.relocalization.global.seed, defaults.relocalization.global.seed);
   EXPECT_DOUBLE_EQ(shipped.matcher.min_point_stddev, defaults.matcher.min_point_stddev);
-  EXPECT_DOUBLE_EQ(shipped.loop_closure.point_polish_translation, defaults.loop_closure.point_polish_translation);
+  EXPECT_DOUBLE_EQ(shipped.loop_closure.point_polish_translation,
+                   defaults.loop_closure.point_polish_translation);
 }
 
 TEST(FloorSlamOptions, TheLaserModelSetsTheNoiseFloors) {
-  const FloorSlamOptions real = readFloorSlamOptions(common::ConfigNode::loadString("laser: {range_noise: 0.04}\n"));
+  const FloorSlamOptions real =
+      readFloorSlamOptions(common::ConfigNode::loadString("laser: {range_noise: 0.04}\n"));
   EXPECT_DOUBLE_EQ(real.matcher.min_point_stddev, 0.02);
   EXPECT_DOUBLE_EQ(real.matcher.min_translation_stddev, 0.01);
   EXPECT_DOUBLE_EQ(real.loop_closure.point_polish_translation, 0.0);  // points no finer than cells
   // A precise laser: finer floors, and closures polished on the map's points.
-  const FloorSlamOptions clean = readFloorSlamOptions(common::ConfigNode::loadString("laser: {range_noise: 0.01}\n"));
+  const FloorSlamOptions clean =
+      readFloorSlamOptions(common::ConfigNode::loadString("laser: {range_noise: 0.01}\n"));
   EXPECT_DOUBLE_EQ(clean.matcher.min_point_stddev, 0.005);
   EXPECT_DOUBLE_EQ(clean.loop_closure.matcher.min_point_stddev, 0.005);
   EXPECT_DOUBLE_EQ(clean.matcher.min_translation_stddev, 0.0025);
   EXPECT_DOUBLE_EQ(clean.loop_closure.point_polish_translation, 0.05);
   // The resolution sets the point filter and cells.
-  const FloorSlamOptions fine = readFloorSlamOptions(common::ConfigNode::loadString("map_resolution: 0.025\n"));
+  const FloorSlamOptions fine =
+      readFloorSlamOptions(common::ConfigNode::loadString("map_resolution: 0.025\n"));
   EXPECT_DOUBLE_EQ(fine.local_map.point_cell_size, 0.025);
   EXPECT_DOUBLE_EQ(fine.matcher.point_filter_distance, 0.025);
 }
 
 TEST(FloorSlamOptions, KeysAreReadStrictly) {
-  auto read = [](const std::string& text) { return readFloorSlamOptions(common::ConfigNode::loadString(text)); };
+  auto read = [](const std::string& text) {
+    return readFloorSlamOptions(common::ConfigNode::loadString(text));
+  };
   EXPECT_EQ(read("local_map_nodes: 7\n").local_map.max_nodes, 7);
   EXPECT_FALSE(read("loop_closure: false\n").loop_closure.enabled);
-  EXPECT_EQ(read("relocalization: {known_floor: new_graph, seed: 4}\n").relocalization.global.seed, 4u);
+  EXPECT_EQ(read("relocalization: {known_floor: new_graph, seed: 4}\n").relocalization.global.seed,
+            4u);
   EXPECT_THROW(read("local_map_nodes: 1\n"), common::ConfigError);
   EXPECT_THROW(read("node_spacing: {translaton: 1}\n"), common::ConfigError);
   EXPECT_THROW(read("laser: {range_noise: 0}\n"), common::ConfigError);

@@ -203,13 +203,16 @@ TEST(ScanMatcher, ASearchStopsAtItsLookupBudgetAndSaysSo) {
   const Pose2 truth(4, 4, 0);
   const auto points = filterPoints(world.scan(truth, 0.0).pointsInRobotFrame(), 0.05);
   ScanMatcherOptions options;
-  const MatchResult full = ScanMatcher(options).correlativeSearch(target, points, Pose2(4.4, 3.7, 0.1), 2.0, 0.3);
+  const MatchResult full =
+      ScanMatcher(options).correlativeSearch(target, points, Pose2(4.4, 3.7, 0.1), 2.0, 0.3);
   ASSERT_TRUE(full.success) << full.problem;
   EXPECT_FALSE(full.exhausted);
-  const double lookups = static_cast<double>(full.candidates_scored) * static_cast<double>(points.size());
+  const double lookups =
+      static_cast<double>(full.candidates_scored) * static_cast<double>(points.size());
   // A budget the full search needed: found as before.
   options.max_lookups = lookups;
-  const MatchResult enough = ScanMatcher(options).correlativeSearch(target, points, Pose2(4.4, 3.7, 0.1), 2.0, 0.3);
+  const MatchResult enough =
+      ScanMatcher(options).correlativeSearch(target, points, Pose2(4.4, 3.7, 0.1), 2.0, 0.3);
   ASSERT_TRUE(enough.success) << enough.problem;
   EXPECT_EQ(enough.pose.translation(), full.pose.translation());
   // A tenth of it: the search stops within its budget, with no match and no claim.
@@ -218,9 +221,10 @@ TEST(ScanMatcher, ASearchStopsAtItsLookupBudgetAndSaysSo) {
   const MatchResult cut = bounded.correlativeSearch(target, points, Pose2(4.4, 3.7, 0.1), 2.0, 0.3);
   EXPECT_FALSE(cut.success);
   EXPECT_TRUE(cut.exhausted);
-  EXPECT_LE(static_cast<double>(cut.candidates_scored) * static_cast<double>(points.size()), 0.1 * lookups);
-  const MatchResult rival =
-      bounded.bestElsewhere(target, points, Pose2(4.4, 3.7, 0.1), 2.0, 0.3, full.pose.translation(), 0.5);
+  EXPECT_LE(static_cast<double>(cut.candidates_scored) * static_cast<double>(points.size()),
+            0.1 * lookups);
+  const MatchResult rival = bounded.bestElsewhere(target, points, Pose2(4.4, 3.7, 0.1), 2.0, 0.3,
+                                                  full.pose.translation(), 0.5);
   EXPECT_FALSE(rival.success);
   EXPECT_TRUE(rival.exhausted);  // not "there is none": it did not look everywhere
 }

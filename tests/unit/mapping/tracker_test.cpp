@@ -39,7 +39,7 @@ TEST(Tracker, AnUnmatchedScanWidensTheNextSearch) {
   tracker.start(Pose2(), Pose2(), Eigen::Matrix3d::Zero());
   const TrackPrediction first = tracker.predict(Pose2(1, 0, 0));
   tracker.unmatched(Pose2(1, 0, 0), first);
-  const TrackPrediction next = tracker.predict(Pose2(1, 0, 0));  // no motion since
+  const TrackPrediction next = tracker.predict(Pose2(1, 0, 0));    // no motion since
   EXPECT_NEAR(next.linear_window, 2 * first.linear_window, 0.01);  // and a standing step's floor
   EXPECT_NEAR(next.pose.x(), 1.0, 1e-12);
 }

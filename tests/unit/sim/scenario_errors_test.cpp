@@ -94,22 +94,29 @@ TEST(ScenarioErrors, DegenerateWall) {
 // the walls it bounds).
 TEST(ScenarioErrors, NonFiniteWallCorner) {
   for (const std::string bad : {".nan", ".inf", "-.inf"}) {
-    const std::string text = replaceLine("WALL", "        - {polyline: [[8.0, 0.0], [8.0, " + bad + "]]}");
+    const std::string text =
+        replaceLine("WALL", "        - {polyline: [[8.0, 0.0], [8.0, " + bad + "]]}");
     const std::string error = errorOf(text);
-    EXPECT_NE(error.find("test.yaml:" + std::to_string(lineOf(text, bad + "]]"))), std::string::npos) << error;
+    EXPECT_NE(error.find("test.yaml:" + std::to_string(lineOf(text, bad + "]]"))),
+              std::string::npos)
+        << error;
     EXPECT_NE(error.find("expected a finite number"), std::string::npos) << error;
   }
   const std::string outer = replaceLine("WALL", "        - {polyline: [[.nan, 0.0], [8.0, 2.0]]}");
-  EXPECT_NE(errorOf(outer).find("floors[0].walls[1].polyline[0][0]"), std::string::npos) << errorOf(outer);
+  EXPECT_NE(errorOf(outer).find("floors[0].walls[1].polyline[0][0]"), std::string::npos)
+      << errorOf(outer);
 }
 
 // yaml-cpp keeps the first of two equal keys: the file is refused, naming both lines.
 TEST(ScenarioErrors, DuplicateKey) {
   const std::string text = replaceLine("HEIGHT", "      height: 3.0\n      height: 30.0");
   const std::string error = errorOf(text);
-  EXPECT_NE(error.find("test.yaml:" + std::to_string(lineOf(text, "height: 30.0"))), std::string::npos) << error;
-  EXPECT_NE(error.find("duplicate key (also on line " + std::to_string(lineOf(text, "height: 3.0\n"))),
+  EXPECT_NE(error.find("test.yaml:" + std::to_string(lineOf(text, "height: 30.0"))),
             std::string::npos)
+      << error;
+  EXPECT_NE(
+      error.find("duplicate key (also on line " + std::to_string(lineOf(text, "height: 3.0\n"))),
+      std::string::npos)
       << error;
 }
 
@@ -238,8 +245,9 @@ TEST(ScenarioErrors, RobotModelHasNoMapperParameters) {
   // noise), so a section of mapper parameters is an unknown key.
   std::string text = kBase;
   const std::string section = "door_time: 1.0, radius: 0.25}";
-  text.replace(text.find(section), section.size(),
-               "door_time: 1.0, radius: 0.25},\n            floor_mapper: {slam: {loop_closure: false}}");
+  text.replace(
+      text.find(section), section.size(),
+      "door_time: 1.0, radius: 0.25},\n            floor_mapper: {slam: {loop_closure: false}}");
   EXPECT_NE(errorOf(text).find("floor_mapper"), std::string::npos) << errorOf(text);
 }
 

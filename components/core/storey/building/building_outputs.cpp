@@ -37,12 +37,14 @@ std::size_t writeBuildingOctomap(const std::string& path, const std::map<int, Fl
   const double reach = 32768.0 * options.resolution;
   for (const auto& [id, floor] : floors) {
     const grid::GridFrame& f = floor.grid.frame();
-    const double extent = std::max({std::abs(f.origin_x), std::abs(f.origin_y), std::abs(f.maxX()), std::abs(f.maxY()),
-                                    std::abs(floor.height), std::abs(floor.height + options.wall_height)});
+    const double extent = std::max({std::abs(f.origin_x), std::abs(f.origin_y), std::abs(f.maxX()),
+                                    std::abs(f.maxY()), std::abs(floor.height),
+                                    std::abs(floor.height + options.wall_height)});
     if (!(extent < reach)) {
       std::ostringstream out;
-      out << path << ": floor " << id << " reaches " << extent << " m from the origin, beyond the OctoMap's +-" << reach
-          << " m at " << options.resolution << " m voxels";
+      out << path << ": floor " << id << " reaches " << extent
+          << " m from the origin, beyond the OctoMap's +-" << reach << " m at "
+          << options.resolution << " m voxels";
       throw std::runtime_error(out.str());
     }
   }

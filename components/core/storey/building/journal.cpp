@@ -185,12 +185,13 @@ JournalRecord decodeRecord(const std::uint8_t* data, std::size_t size) {
 
 void checkDelta(const BuildingGraph& building, const FloorGraphDelta& delta) {
   auto fail = [&](const std::string& why) {
-    throw std::invalid_argument("floor graph " + std::to_string(delta.graph_id) + " (robot " + delta.robot +
-                                "): " + why);
+    throw std::invalid_argument("floor graph " + std::to_string(delta.graph_id) + " (robot " +
+                                delta.robot + "): " + why);
   };
   if (!(std::abs(delta.floor_height) <= kMaxFloorHeight)) {
     std::ostringstream out;
-    out << "floor height " << delta.floor_height << " m is not within +-" << kMaxFloorHeight << " m";
+    out << "floor height " << delta.floor_height << " m is not within +-" << kMaxFloorHeight
+        << " m";
     fail(out.str());
   }
   for (const auto& node : delta.new_nodes)
@@ -200,7 +201,8 @@ void checkDelta(const BuildingGraph& building, const FloorGraphDelta& delta) {
     if (!pose.isFinite()) fail("node " + std::to_string(id) + " is given a non-finite pose");
   for (const auto& edge : delta.new_edges)
     if (!edge.measurement.isFinite() || !edge.information.allFinite())
-      fail("edge " + std::to_string(edge.from) + " -> " + std::to_string(edge.to) + " has non-finite values");
+      fail("edge " + std::to_string(edge.from) + " -> " + std::to_string(edge.to) +
+           " has non-finite values");
   auto existing = building.floorGraphs().find(delta.graph_id);
   if (existing != building.floorGraphs().end()) floor::requireSameRobot(existing->second, delta.robot);
   std::set<int> known;
@@ -282,24 +284,26 @@ JournalCheck checkJournal(const std::string& path) {
   BuildingGraph building;
   std::set<std::pair<int, std::uint32_t>> updates;
   std::set<std::string> robots;
-  check.scan = common::scanRecordFile(path, kFileMagic, "journal", [&](const std::uint8_t* payload, std::size_t size) {
-    const JournalRecord record = decodeRecord(payload, size);
-    if (const auto* d = std::get_if<FloorGraphDelta>(&record)) {
-      ++check.deltas;
-      robots.insert(d->robot);
-      if (!updates.insert({d->graph_id, d->sequence}).second) ++check.repeated_updates;
-    } else if (std::holds_alternative<InterGraphConstraint>(record)) {
-      ++check.constraints;
-    } else {
-      ++check.retractions;
-    }
-    try {
-      applyRecord(building, record);
-    } catch (const std::exception& e) {
-      check.skipped.push_back("record " + std::to_string(check.deltas + check.constraints + check.retractions) +
-                              ": " + e.what());
-    }
-  });
+  check.scan = common::scanRecordFile(
+      path, kFileMagic, "journal", [&](const std::uint8_t* payload, std::size_t size) {
+        const JournalRecord record = decodeRecord(payload, size);
+        if (const auto* d = std::get_if<FloorGraphDelta>(&record)) {
+          ++check.deltas;
+          robots.insert(d->robot);
+          if (!updates.insert({d->graph_id, d->sequence}).second) ++check.repeated_updates;
+        } else if (std::holds_alternative<InterGraphConstraint>(record)) {
+          ++check.constraints;
+        } else {
+          ++check.retractions;
+        }
+        try {
+          applyRecord(building, record);
+        } catch (const std::exception& e) {
+          check.skipped.push_back(
+              "record " + std::to_string(check.deltas + check.constraints + check.retractions) +
+              ": " + e.what());
+        }
+      });
   check.floor_graphs = building.floorGraphs().size();
   for (const auto& [id, graph] : building.floorGraphs()) check.nodes += graph.nodes.size();
   check.robots.assign(robots.begin(), robots.end());
@@ -309,9 +313,11 @@ JournalCheck checkJournal(const std::string& path) {
 void printJournalCheck(std::ostream& out, const std::string& path, const JournalCheck& check) {
   const auto& scan = check.scan;
   out << path << ": storey journal, " << common::byteCount(scan.file_bytes) << "\n";
-  out << "  intact: " << scan.records << " records in the first " << scan.valid_bytes << " bytes (" << check.deltas
-      << " floor-graph updates, " << check.constraints << " constraints, " << check.retractions << " retractions)\n";
-  out << "  building: " << check.floor_graphs << " floor graphs, " << check.nodes << " nodes, robots:";
+  out << "  intact: " << scan.records << " records in the first " << scan.valid_bytes << " bytes ("
+      << check.deltas << " floor-graph updates, " << check.constraints << " constraints, "
+      << check.retractions << " retractions)\n";
+  out << "  building: " << check.floor_graphs << " floor graphs, " << check.nodes
+      << " nodes, robots:";
   for (const auto& robot : check.robots) out << " " << robot;
   out << "\n";
   if (check.repeated_updates)
@@ -322,8 +328,9 @@ void printJournalCheck(std::ostream& out, const std::string& path, const Journal
       out << "  end: intact\n";
       break;
     case common::RecordFileEnd::kTornTail:
-      out << "  end: torn last record at offset " << scan.valid_bytes << " (" << scan.problem << ", "
-          << scan.file_bytes - scan.valid_bytes << " bytes): a graph server drops it when it opens the journal\n";
+      out << "  end: torn last record at offset " << scan.valid_bytes << " (" << scan.problem
+          << ", " << scan.file_bytes - scan.valid_bytes
+          << " bytes): a graph server drops it when it opens the journal\n";
       break;
     case common::RecordFileEnd::kDamaged:
       out << "  end: " << common::describeDamage(path, "journal", scan) << "\n";
@@ -332,9 +339,9 @@ void printJournalCheck(std::ostream& out, const std::string& path, const Journal
 }
 
 common::RecordFileScan salvageJournal(const std::string& in, const std::string& out) {
-  return common::salvageRecordFile(in, out, kFileMagic, "journal", [](const std::uint8_t* payload, std::size_t size) {
-    (void)decodeRecord(payload, size);
-  });
+  return common::salvageRecordFile(
+      in, out, kFileMagic, "journal",
+      [](const std::uint8_t* payload, std::size_t size) { (void)decodeRecord(payload, size); });
 }
 
 bool looksLikeJournal(const std::string& path) {

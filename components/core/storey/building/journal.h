@@ -1,6 +1,6 @@
 // The graph server's journal: every accepted floor-graph change, inter-floor constraint
-// and constraint retraction is appended (length-prefixed, CRC-checked) before it is acknowledged, so a
-// restarted server rebuilds exactly what it had. A torn last record (a crash mid-write) is
+// and constraint retraction is appended (length-prefixed, CRC-checked) before it is acknowledged,
+// so a restarted server rebuilds exactly what it had. A torn last record (a crash mid-write) is
 // detected, dropped with a warning and cut off; damage before the end is an error
 // (common::RecordFileDamaged) naming the offset, and the file is left as it is.
 #pragma once

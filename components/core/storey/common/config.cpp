@@ -36,7 +36,11 @@ const char* typeName() {
 
 ConfigError::ConfigError(const std::string& file, int line, const std::string& key,
                          const std::string& problem)
-    : std::runtime_error(formatError(file, line, key, problem)), file_(file), line_(line), key_(key), problem_(problem) {}
+    : std::runtime_error(formatError(file, line, key, problem)),
+      file_(file),
+      line_(line),
+      key_(key),
+      problem_(problem) {}
 
 ConfigNode ConfigNode::loadFile(const std::string& path) {
   try {
@@ -89,7 +93,9 @@ void requireUniqueKeysAt(const YAML::Node& node, const std::string& file, const 
 
 }  // namespace
 
-void requireUniqueKeys(const YAML::Node& root, const std::string& file) { requireUniqueKeysAt(root, file, ""); }
+void requireUniqueKeys(const YAML::Node& root, const std::string& file) {
+  requireUniqueKeysAt(root, file, "");
+}
 
 ConfigNode::ConfigNode(YAML::Node node, std::string file, std::string path)
     : node_(std::move(node)),

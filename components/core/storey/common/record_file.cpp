@@ -19,7 +19,7 @@ constexpr std::size_t kMagicSize = 8;
 constexpr std::uint32_t kRecordMagic = 0x4A524543;  // "JREC"
 constexpr std::size_t kFrameHeader = 8;            // record magic + payload length
 constexpr std::size_t kFrameTrailer = 4;           // crc32 of the payload
-constexpr std::size_t kChunk = 1 << 16;             // bytes read at a time when searching
+constexpr std::size_t kChunk = 1 << 16;            // bytes read at a time when searching
 
 std::uint32_t checksum(const std::uint8_t* data, std::size_t size) {
   return static_cast<std::uint32_t>(crc32(0L, data, static_cast<uInt>(size)));
@@ -45,7 +45,8 @@ class FileSource : public ByteSource {
     while (n > 0) {
       const ssize_t got = ::pread(fd_, out, n, static_cast<off_t>(offset));
       if (got < 0 && errno == EINTR) continue;
-      if (got <= 0) throw std::runtime_error(path_ + ": read failed at offset " + std::to_string(offset));
+      if (got <= 0)
+        throw std::runtime_error(path_ + ": read failed at offset " + std::to_string(offset));
       out += got;
       offset += static_cast<std::uint64_t>(got);
       n -= static_cast<std::size_t>(got);
@@ -126,7 +127,8 @@ bool allZero(const ByteSource& source, std::uint64_t from) {
   for (std::uint64_t pos = from; pos < source.size(); pos += kChunk) {
     const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(kChunk, source.size() - pos));
     source.read(pos, chunk.data(), n);
-    if (std::any_of(chunk.begin(), chunk.begin() + static_cast<std::ptrdiff_t>(n), [](std::uint8_t b) { return b; }))
+    if (std::any_of(chunk.begin(), chunk.begin() + static_cast<std::ptrdiff_t>(n),
+                    [](std::uint8_t b) { return b; }))
       return false;
   }
   return true;
@@ -163,7 +165,8 @@ RecordFileScan scanRecords(const ByteSource& source, const std::string& name, co
   std::uint8_t head[kMagicSize];
   const auto head_size = static_cast<std::size_t>(std::min<std::uint64_t>(size, kMagicSize));
   source.read(0, head, head_size);
-  if (std::memcmp(head, magic, head_size) != 0) throw std::runtime_error(name + ": not a storey " + what);
+  if (std::memcmp(head, magic, head_size) != 0)
+    throw std::runtime_error(name + ": not a storey " + what);
   if (head_size < kMagicSize) {
     scan.end = RecordFileEnd::kTornTail;
     scan.problem = "the file header is incomplete";
@@ -186,10 +189,15 @@ RecordFileScan scanRecords(const ByteSource& source, const std::string& name, co
     const Header h = readHeader(source, pos);
     if (h.magic != kRecordMagic || h.length > kMaxRecordPayload) {
       // A crash can leave a file extended with zeros that were never written.
-      if (allZero(source, pos)) stop(RecordFileEnd::kTornTail, "zero bytes where the last record should be");
-      else if (h.magic != kRecordMagic) stop(RecordFileEnd::kDamaged, "no record header");
-      else stop(RecordFileEnd::kDamaged, "its length field claims " + std::to_string(h.length) + " bytes, more than "
-                                          "the " + std::to_string(kMaxRecordPayload) + " a record may hold");
+      if (allZero(source, pos))
+        stop(RecordFileEnd::kTornTail, "zero bytes where the last record should be");
+      else if (h.magic != kRecordMagic)
+        stop(RecordFileEnd::kDamaged, "no record header");
+      else
+        stop(RecordFileEnd::kDamaged, "its length field claims " + std::to_string(h.length) +
+                                          " bytes, more than "
+                                          "the " +
+                                          std::to_string(kMaxRecordPayload) + " a record may hold");
       break;
     }
     const std::uint64_t frame = kFrameHeader + std::uint64_t{h.length} + kFrameTrailer;
@@ -199,8 +207,8 @@ RecordFileScan scanRecords(const ByteSource& source, const std::string& name, co
       RecordFileScan probe;
       findIntactAfter(source, pos, probe);
       if (probe.next_intact_offset == 0) {
-        stop(RecordFileEnd::kTornTail, "incomplete: " + std::to_string(left) + " of " + std::to_string(frame) +
-                                           " bytes written");
+        stop(RecordFileEnd::kTornTail, "incomplete: " + std::to_string(left) + " of " +
+                                           std::to_string(frame) + " bytes written");
       } else {
         scan.end = RecordFileEnd::kDamaged;
         scan.problem = "its length field claims " + std::to_string(h.length) +
@@ -218,8 +226,10 @@ RecordFileScan scanRecords(const ByteSource& source, const std::string& name, co
     std::memcpy(&crc, stored, 4);
     if (crc != checksum(payload.data(), payload.size())) {
       // The last record may have been written in part (its tail zeros or stale bytes).
-      if (frame == left) stop(RecordFileEnd::kTornTail, "the last record fails its checksum");
-      else stop(RecordFileEnd::kDamaged, "fails its checksum");
+      if (frame == left)
+        stop(RecordFileEnd::kTornTail, "the last record fails its checksum");
+      else
+        stop(RecordFileEnd::kDamaged, "fails its checksum");
       break;
     }
     if (on_record) {
@@ -243,9 +253,11 @@ RecordFileScan scanRecordFile(const std::string& path, const char* magic, const 
   return scanRecords(source, path, magic, what, on_record);
 }
 
-std::string describeDamage(const std::string& path, const std::string& what, const RecordFileScan& scan) {
-  std::string text = path + ": damaged " + what + " record at offset " + std::to_string(scan.valid_bytes) + " (" +
-                     scan.problem + "), after " + std::to_string(scan.records) + " intact records; ";
+std::string describeDamage(const std::string& path, const std::string& what,
+                           const RecordFileScan& scan) {
+  std::string text = path + ": damaged " + what + " record at offset " +
+                     std::to_string(scan.valid_bytes) + " (" + scan.problem + "), after " +
+                     std::to_string(scan.records) + " intact records; ";
   if (scan.next_intact_offset > 0) {
     text += std::to_string(scan.intact_after) + " intact records follow from offset " +
             std::to_string(scan.next_intact_offset);
@@ -256,13 +268,14 @@ std::string describeDamage(const std::string& path, const std::string& what, con
          " NEW` copies the records before the damage";
 }
 
-RecordFileReadResult readRecordFile(const std::string& path, const char* magic, const std::string& what,
-                                    const RecordHandler& on_record) {
+RecordFileReadResult readRecordFile(const std::string& path, const char* magic,
+                                    const std::string& what, const RecordHandler& on_record) {
   const RecordFileScan scan = scanRecordFile(path, magic, what, on_record);
-  if (scan.end == RecordFileEnd::kDamaged) throw RecordFileDamaged(describeDamage(path, what, scan));
+  if (scan.end == RecordFileEnd::kDamaged)
+    throw RecordFileDamaged(describeDamage(path, what, scan));
   if (scan.end == RecordFileEnd::kTornTail) {
-    logWarn(str(path, ": dropping a torn last record at offset ", scan.valid_bytes, " (", scan.problem, ", ",
-                scan.file_bytes - scan.valid_bytes, " bytes)"));
+    logWarn(str(path, ": dropping a torn last record at offset ", scan.valid_bytes, " (",
+                scan.problem, ", ", scan.file_bytes - scan.valid_bytes, " bytes)"));
   }
   return {scan.records, scan.end == RecordFileEnd::kTornTail, scan.valid_bytes};
 }
@@ -281,7 +294,8 @@ RecordFileScan salvageRecordFile(const std::string& in, const std::string& out, 
   // A file whose header was torn gets a whole one.
   if (scan.valid_bytes < kMagicSize) ok = std::fwrite(magic, 1, kMagicSize, file) == kMagicSize;
   for (std::uint64_t pos = 0; ok && pos < scan.valid_bytes; pos += kChunk) {
-    const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(kChunk, scan.valid_bytes - pos));
+    const auto n =
+        static_cast<std::size_t>(std::min<std::uint64_t>(kChunk, scan.valid_bytes - pos));
     source.read(pos, chunk.data(), n);
     ok = std::fwrite(chunk.data(), 1, n, file) == n;
   }
@@ -321,8 +335,9 @@ RecordFileWriter::~RecordFileWriter() {
 
 void RecordFileWriter::append(const std::vector<std::uint8_t>& payload) {
   if (payload.size() > kMaxRecordPayload)
-    throw std::invalid_argument(path_ + ": a " + what_ + " record of " + std::to_string(payload.size()) +
-                                " bytes, more than the " + std::to_string(kMaxRecordPayload) + " a record may hold");
+    throw std::invalid_argument(path_ + ": a " + what_ + " record of " +
+                                std::to_string(payload.size()) + " bytes, more than the " +
+                                std::to_string(kMaxRecordPayload) + " a record may hold");
   const std::uint32_t length = static_cast<std::uint32_t>(payload.size());
   const std::uint32_t crc = checksum(payload.data(), payload.size());
   std::vector<std::uint8_t> frame(kFrameHeader + payload.size() + kFrameTrailer);

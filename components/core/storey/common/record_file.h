@@ -92,7 +92,7 @@ struct RecordFileScan {
   std::size_t records = 0;        // intact records in the prefix
   std::uint64_t valid_bytes = 0;  // length of the intact prefix (file magic and records)
   std::uint64_t file_bytes = 0;
-  std::string problem;            // what is wrong at valid_bytes (torn or damaged)
+  std::string problem;  // what is wrong at valid_bytes (torn or damaged)
   // kDamaged: the first intact record found after the damage (0: none) and how many
   // intact records follow from there.
   std::uint64_t next_intact_offset = 0;
@@ -113,7 +113,8 @@ RecordFileScan scanRecords(const ByteSource& source, const std::string& name, co
 RecordFileScan scanRecordFile(const std::string& path, const char* magic, const std::string& what,
                               const RecordHandler& on_record);
 // The message for a damaged file: offset, why, what is intact, and how to recover.
-std::string describeDamage(const std::string& path, const std::string& what, const RecordFileScan& scan);
+std::string describeDamage(const std::string& path, const std::string& what,
+                           const RecordFileScan& scan);
 
 struct RecordFileReadResult {
   std::size_t records = 0;

@@ -20,7 +20,8 @@ using common::str;
 using geometry::Pose2;
 
 GraphFileError::GraphFileError(const std::string& file, int line, const std::string& problem)
-    : std::runtime_error(file + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + problem),
+    : std::runtime_error(file + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " +
+                         problem),
       file_(file),
       line_(line) {}
 

@@ -102,8 +102,9 @@ Image readPng(const std::string& path) {
   }
   if (image.width <= 0 || image.height <= 0) throw std::runtime_error(path + ": missing PNG header");
   if (static_cast<double>(image.width) * image.height > kMaxGridCells)
-    throw std::runtime_error(path + ": " + std::to_string(image.width) + " x " + std::to_string(image.height) +
-                             " pixels, more than the " + std::to_string(static_cast<long>(kMaxGridCells)) +
+    throw std::runtime_error(path + ": " + std::to_string(image.width) + " x " +
+                             std::to_string(image.height) + " pixels, more than the " +
+                             std::to_string(static_cast<long>(kMaxGridCells)) +
                              " a picture may have");
   const std::size_t row_bytes = static_cast<std::size_t>(image.width) * image.channels;
   std::vector<std::uint8_t> raw((row_bytes + 1) * image.height);

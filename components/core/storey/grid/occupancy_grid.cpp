@@ -60,8 +60,9 @@ std::array<std::size_t, 3> OccupancyGrid::countStates() const {
 void checkGridSize(double width, double height, double resolution, const std::string& what) {
   if (width * height <= kMaxGridCells) return;
   std::ostringstream out;
-  out << what << ": " << width << " x " << height << " cells (" << width * resolution << " m x " << height * resolution
-      << " m at " << resolution << " m per cell), more than the " << kMaxGridCells << " cells a map may hold";
+  out << what << ": " << width << " x " << height << " cells (" << width * resolution << " m x "
+      << height * resolution << " m at " << resolution << " m per cell), more than the "
+      << kMaxGridCells << " cells a map may hold";
   throw std::runtime_error(out.str());
 }
 
@@ -76,10 +77,12 @@ void OccupancyGrid::ensureContains(const Eigen::Vector2d& min_corner,
     const double lo_y = std::min(min_corner.y(), f.width ? f.origin_y : min_corner.y()) - margin;
     const double hi_x = std::max(max_corner.x(), f.width ? f.maxX() : max_corner.x()) + margin;
     const double hi_y = std::max(max_corner.y(), f.width ? f.maxY() : max_corner.y()) + margin;
-    const double cells_x = std::ceil((hi_x - lo_x) / res) + 2, cells_y = std::ceil((hi_y - lo_y) / res) + 2;
+    const double cells_x = std::ceil((hi_x - lo_x) / res) + 2,
+                 cells_y = std::ceil((hi_y - lo_y) / res) + 2;
     if (!(cells_x * cells_y <= kMaxGridCells)) {  // NaN and infinity included
       std::ostringstream what;
-      what << "an occupancy grid reaching from (" << lo_x << ", " << lo_y << ") to (" << hi_x << ", " << hi_y << ") m";
+      what << "an occupancy grid reaching from (" << lo_x << ", " << lo_y << ") to (" << hi_x
+           << ", " << hi_y << ") m";
       checkGridSize(cells_x, cells_y, res, what.str());
     }
   }

@@ -263,8 +263,9 @@ bool CarmenReader::readLine() {
     got = true;
     const std::size_t length = std::strlen(result);
     if (s.line.size() + length > kMaxLineBytes)
-      throw CarmenError(path_, s.line_number + 1,
-                        "line longer than " + std::to_string(kMaxLineBytes) + " bytes (not a CARMEN log?)");
+      throw CarmenError(
+          path_, s.line_number + 1,
+          "line longer than " + std::to_string(kMaxLineBytes) + " bytes (not a CARMEN log?)");
     s.line.append(result, length);
     if (length > 0 && result[length - 1] == '\n') break;
     // Shorter than the buffer without a newline: the last line of a file that does not end in
@@ -503,7 +504,8 @@ bool CarmenReader::next(CarmenRecord* record) {
       if (options_.strict) throw CarmenError(path_, impl_->line_number, problem);
       ++stats_.skipped;
       noteProblem("malformed", problem);
-      if (stats_.first_skipped.empty()) stats_.first_skipped = formatError(path_, impl_->line_number, problem);
+      if (stats_.first_skipped.empty())
+        stats_.first_skipped = formatError(path_, impl_->line_number, problem);
       continue;
     }
     ++stats_.records[record->type];
@@ -523,7 +525,8 @@ CarmenLog readCarmenLog(const std::string& path, const CarmenReaderOptions& opti
       log.odometry.push_back(record.odometry);
   }
   log.stats = reader.stats();
-  if (const std::string note = skippedLinesNote(path, log.stats); !note.empty()) common::logWarn(note);
+  if (const std::string note = skippedLinesNote(path, log.stats); !note.empty())
+    common::logWarn(note);
   return log;
 }
 

@@ -1,13 +1,12 @@
 #include "storey/mapping/evaluation.h"
 
-#include <chrono>
+#include <Eigen/LU>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <random>
 #include <stdexcept>
-
-#include <Eigen/LU>
 
 #include "storey/grid/occupancy_grid.h"
 #include "storey/mapping/scan_matcher.h"
@@ -50,8 +49,10 @@ std::vector<Pose2> simulateOdometry(const std::vector<Pose2>& reference, const O
       if (stalled) {
         stall_travel += step.translation().norm();
         stall_turn += std::abs(step.theta());
-        if (stall_travel >= noise.stall_length || stall_turn >= noise.stall_length) stalled = false;
-        else out[i] = held;
+        if (stall_travel >= noise.stall_length || stall_turn >= noise.stall_length)
+          stalled = false;
+        else
+          out[i] = held;
       } else if (travelled >= next_stall) {
         stalled = true;
         held = out[i - 1];
@@ -71,14 +72,16 @@ std::vector<std::size_t> thinnedIndices(const std::vector<Pose2>& poses, double 
   for (std::size_t i = 0; i < poses.size(); ++i) {
     if (!kept.empty()) {
       const Pose2 step = poses[kept.back()].between(poses[i]);
-      if (step.translation().norm() < min_translation && std::abs(step.theta()) < min_rotation) continue;
+      if (step.translation().norm() < min_translation && std::abs(step.theta()) < min_rotation)
+        continue;
     }
     kept.push_back(i);
   }
   return kept;
 }
 
-sensor::LaserScan degradeScan(const sensor::LaserScan& scan, const LaserDegradation& d, std::mt19937_64& rng) {
+sensor::LaserScan degradeScan(const sensor::LaserScan& scan, const LaserDegradation& d,
+                              std::mt19937_64& rng) {
   sensor::LaserScan out = sensor::subsample(scan, std::max<std::size_t>(1, d.beam_step));
   if (d.field_of_view > 0.0) {
     // Beams within ±fov/2 of the sensor's axis, as one contiguous run.

@@ -39,14 +39,14 @@ std::vector<geometry::Pose2> simulateOdometry(const std::vector<geometry::Pose2>
 
 // Indices of the poses kept when a log is thinned as a sparser recording would be: the
 // first, then each pose at least min_translation (m) or min_rotation (rad) from the last kept.
-std::vector<std::size_t> thinnedIndices(const std::vector<geometry::Pose2>& poses, double min_translation,
-                                        double min_rotation);
+std::vector<std::size_t> thinnedIndices(const std::vector<geometry::Pose2>& poses,
+                                        double min_translation, double min_rotation);
 
 // A laser other than the logged one, made from its scans: returns beyond max_range become no
 // returns (a shorter-range sensor), every beam_step-th beam kept, Gaussian range noise
 // added, and beams outside ±field_of_view/2 of the sensor's forward axis dropped.
 struct LaserDegradation {
-  double max_range = 0.0;      // m (0: as logged)
+  double max_range = 0.0;  // m (0: as logged)
   std::size_t beam_step = 1;
   double range_noise = 0.0;    // m, standard deviation
   double field_of_view = 0.0;  // rad (0: as logged)

@@ -29,7 +29,8 @@ ScanResult FloorSessions::addScan(const sensor::LaserScan& scan, const geometry:
     transit_scans_.push_back({scan, odometry});
     // Only scans after the ride's end are wanted, and the detector decides an end 3-15 s
     // after it (settle_time, new_floor_settle_time): a minute is plenty.
-    while (transit_scans_.front().scan.stamp < scan.stamp - kHeldTransitSeconds) transit_scans_.pop_front();
+    while (transit_scans_.front().scan.stamp < scan.stamp - kHeldTransitSeconds)
+      transit_scans_.pop_front();
     r.status = ScanStatus::kSkipped;
     r.reason = "in transit";
     return r;

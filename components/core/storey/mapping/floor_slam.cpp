@@ -1,5 +1,4 @@
 #include "storey/mapping/floor_slam.h"
-#include "storey/mapping/floor_slam_internal.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -8,6 +7,7 @@
 #include <unordered_set>
 
 #include "storey/common/log.h"
+#include "storey/mapping/floor_slam_internal.h"
 
 namespace storey::mapping {
 
@@ -110,7 +110,6 @@ Eigen::Matrix3d rotateCovariance(const Eigen::Matrix3d& covariance, double theta
   j(1, 1) = c;
   return j * covariance * j.transpose();
 }
-
 
 FloorSlam::FloorSlam(FloorSlamOptions options, std::string robot, int graph_id, int floor_id,
                      double floor_height)
@@ -303,7 +302,8 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
   MatchResult match = search(s.local_target, prediction);
   if (const auto from_anchor = s.tracker.predictFromAnchor(odometry)) {
     const MatchResult caught_up = search(s.local_target, *from_anchor);
-    if (caught_up.success && (!match.success || caught_up.correlative_score > match.correlative_score)) {
+    if (caught_up.success &&
+        (!match.success || caught_up.correlative_score > match.correlative_score)) {
       match = caught_up;
       prediction = *from_anchor;
       ++stats_.caught_up_matches;
@@ -315,7 +315,8 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
       floor_graph_.nodes.size() > static_cast<std::size_t>(lm.retry_nodes)) {
     const std::size_t n = floor_graph_.nodes.size();
     const MatchResult retry =
-        search(buildTarget(floor_graph_, n - lm.retry_nodes, n, lm, lm.pyramid_levels, s.matcher), prediction);
+        search(buildTarget(floor_graph_, n - lm.retry_nodes, n, lm, lm.pyramid_levels, s.matcher),
+               prediction);
     if (retry.success) {
       ++stats_.retry_matches;
       match = retry;
@@ -332,19 +333,20 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     around_last.linear_window = options_.max_linear_window;
     around_last.angular_window = options_.max_angular_window;
     around_last.covariance = prediction.covariance;
-    MatchResult wide = s.matcher.match(s.local_target, points, around_last.pose, around_last.linear_window,
-                                       around_last.angular_window);
-    const bool sure = wide.success &&
-                      3.0 * largestTranslationStddev(wide.covariance) <= options_.matcher.linear_window &&
-                      3.0 * std::sqrt(std::max(0.0, wide.covariance(2, 2))) <= options_.matcher.angular_window;
+    MatchResult wide = s.matcher.match(s.local_target, points, around_last.pose,
+                                       around_last.linear_window, around_last.angular_window);
+    const bool sure =
+        wide.success &&
+        3.0 * largestTranslationStddev(wide.covariance) <= options_.matcher.linear_window &&
+        3.0 * std::sqrt(std::max(0.0, wide.covariance(2, 2))) <= options_.matcher.angular_window;
     if (sure) {
       ++stats_.wide_matches;
       result.wide = true;
       match = wide;
       prediction = around_last;
       common::logWarn(str("floor_slam: the scan at ", scan.stamp, " matched ",
-                          s.tracker.predict(odometry).pose.between(wide.pose).translation().norm(), " m from where ",
-                          "odometry put it; that odometry step is not trusted"));
+                          s.tracker.predict(odometry).pose.between(wide.pose).translation().norm(),
+                          " m from where ", "odometry put it; that odometry step is not trusted"));
     }
   }
 
@@ -354,8 +356,9 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     // Along a direction where the match knows less than the prediction (a bare corridor's
     // axis), the two fused by their information; elsewhere the match's.
     pose = options_.degenerate_ratio > 0.0 && !result.wide
-               ? withOdometryWhereDegenerate(match.pose, safeInformation(match.covariance), prediction.pose,
-                                             safeInformation(prediction.step_covariance), options_.degenerate_ratio)
+               ? withOdometryWhereDegenerate(
+                     match.pose, safeInformation(match.covariance), prediction.pose,
+                     safeInformation(prediction.step_covariance), options_.degenerate_ratio)
                : match.pose;
     // A scan found around the last pose says the odometry failed (no noise to learn from).
     odometry_agrees = !result.wide && s.tracker.check(odometry, pose, match.covariance, prediction);
@@ -379,7 +382,8 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     // estimate that built it, so what came before that step does not count.
     const Eigen::Matrix3d known =
         result.wide ? match.covariance
-                    : Eigen::Matrix3d((safeInformation(match.covariance) + safeInformation(prediction.step_covariance))
+                    : Eigen::Matrix3d((safeInformation(match.covariance) +
+                                       safeInformation(prediction.step_covariance))
                                           .inverse());
     s.tracker.moveTo(odometry, pose, known, odometry_agrees);
   }
@@ -393,8 +397,10 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     result.status = ScanStatus::kSkipped;
     return result;
   }
-  if (match.success) ++stats_.matched;
-  else ++stats_.match_failures;
+  if (match.success)
+    ++stats_.matched;
+  else
+    ++stats_.match_failures;
 
   // A node: its odometry edge when the odometry agreed with the scans at both ends (a stall
   // or a slip between them would pull the graph its way), its scan-match edge when matched.
@@ -407,15 +413,20 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
   s.last_node_odometry_agrees = odometry_agrees;
   const int to = floor_graph_.nodes.back().id;
   if (odometry_edge)
-    appendEdge(from, to, odometry_step, safeInformation(odometry_covariance), floor::EdgeKind::kOdometry);
+    appendEdge(from, to, odometry_step, safeInformation(odometry_covariance),
+               floor::EdgeKind::kOdometry);
   Eigen::Matrix3d step_covariance = odometry_covariance;
   if (match.success) {
     const Eigen::Matrix3d relative = rotateCovariance(match.covariance, last_pose.theta());
-    appendEdge(from, to, last_pose.between(match.pose), safeInformation(relative), floor::EdgeKind::kScanMatch);
-    step_covariance = odometry_edge ? Eigen::Matrix3d((relative.inverse() + odometry_covariance.inverse()).inverse())
-                                    : relative;
+    appendEdge(from, to, last_pose.between(match.pose), safeInformation(relative),
+               floor::EdgeKind::kScanMatch);
+    step_covariance =
+        odometry_edge
+            ? Eigen::Matrix3d((relative.inverse() + odometry_covariance.inverse()).inverse())
+            : relative;
   }
-  covariance_ = geometry::composeCovariance(last_pose, covariance_, last_pose.between(pose), step_covariance);
+  covariance_ =
+      geometry::composeCovariance(last_pose, covariance_, last_pose.between(pose), step_covariance);
   result.status = ScanStatus::kNode;
   result.node_id = to;
 

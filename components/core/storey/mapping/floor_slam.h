@@ -27,9 +27,9 @@
 #include "storey/grid/likelihood_field.h"
 #include "storey/grid/occupancy_grid.h"
 #include "storey/mapping/closure_clusters.h"
+#include "storey/mapping/floor_slam_options.h"
 #include "storey/mapping/global_relocalizer.h"
 #include "storey/mapping/scan_matcher.h"
-#include "storey/mapping/floor_slam_options.h"
 #include "storey/mapping/tracker.h"
 #include "storey/sensor/laser_scan.h"
 
@@ -47,8 +47,8 @@ struct ScanResult {
   std::string reason;
   geometry::Pose2 pose;  // estimated robot pose in the floor frame
   int node_id = -1;
-  bool matched = false;       // the scan matched the local map
-  double score = 0.0;         // its mean score there (correlative)
+  bool matched = false;  // the scan matched the local map
+  double score = 0.0;    // its mean score there (correlative)
   // Whether it was found where the odometry's motion since it last agreed put it, around
   // the last tracked pose instead of where odometry put it, and whether the odometry agreed
   // with the match.
@@ -107,7 +107,7 @@ struct FloorSlamStats {
   std::size_t caught_up_matches = 0;
   std::size_t disagreeing_matches = 0;  // matches the odometry since its anchor disagrees with
   std::size_t wide_matches = 0;  // scans found around the last pose, not where odometry put them
-  std::size_t successor_matches = 0;    // edges from matching a node against its successors
+  std::size_t successor_matches = 0;  // edges from matching a node against its successors
   std::size_t loop_attempts = 0, loop_closures = 0, loop_rejected_inconsistent = 0;
   std::size_t loop_ambiguous = 0;  // attempts whose scan fit as well elsewhere
   std::size_t loop_clusters = 0;   // clusters of agreeing closures accepted together

@@ -44,7 +44,8 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
     }
   }
   const int best = floor_graph_.nearestNodeIndex(prediction.translation(), last_candidate + 1);
-  if (best < 0 || (floor_graph_.nodes[best].pose.translation() - prediction.translation()).norm() > radius)
+  if (best < 0 ||
+      (floor_graph_.nodes[best].pose.translation() - prediction.translation()).norm() > radius)
     return false;
   ++stats_.loop_attempts;
   loop_attempts_.emplace_back();
@@ -55,13 +56,15 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   attempt.predicted = floor_graph_.nodes[best].pose.between(current.pose);
   const MatchTarget& target = loopTarget(best, last_candidate);
   const double linear = std::min(o.max_linear_window, o.linear_window + o.sigma_factor * sigma_xy);
-  const double angular = std::min(o.max_angular_window, o.angular_window + o.sigma_factor * sigma_theta);
+  const double angular =
+      std::min(o.max_angular_window, o.angular_window + o.sigma_factor * sigma_theta);
   attempt.sigma = sigma_xy;
   attempt.followed = followed;
   attempt.linear_window = linear;
   attempt.angular_window = angular;
   // Ties the closure to `old` at `pose` of the current node.
-  auto tie = [&](const floor::FloorNode& old, const Pose2& pose, const Eigen::Matrix3d& covariance) {
+  auto tie = [&](const floor::FloorNode& old, const Pose2& pose,
+                 const Eigen::Matrix3d& covariance) {
     attempt.candidate = old.id;
     attempt.predicted = old.pose.between(current.pose);
     attempt.measurement = old.pose.between(pose);
@@ -71,7 +74,8 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   // that place, tied to the old node nearest it.
   auto relocate = [&](const ClusterCheck& check) {
     attempt.relocated = true;
-    tie(floor_graph_.nodes[floor_graph_.nearestNodeIndex(check.pose.translation(), last_candidate + 1)],
+    tie(floor_graph_
+            .nodes[floor_graph_.nearestNodeIndex(check.pose.translation(), last_candidate + 1)],
         check.pose, check.covariance);
   };
   MatchResult match = s.loop_matcher.match(target, points, prediction, linear, angular);
@@ -97,8 +101,11 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   int anchor = best;
   if (retie) {  // the candidate map may be a reused one that ends before `best`
     const Eigen::Vector2d matched = match.pose.translation();
-    const auto squared = [&](int i) { return (floor_graph_.nodes[i].pose.translation() - matched).squaredNorm(); };
-    const int in_map = floor_graph_.nearestNodeIndex(matched, s.loop_target.first, s.loop_target.end);
+    const auto squared = [&](int i) {
+      return (floor_graph_.nodes[i].pose.translation() - matched).squaredNorm();
+    };
+    const int in_map =
+        floor_graph_.nearestNodeIndex(matched, s.loop_target.first, s.loop_target.end);
     if (in_map >= 0 && squared(in_map) < squared(anchor)) anchor = in_map;
   }
   tie(floor_graph_.nodes[anchor], match.pose, covariance);
@@ -106,7 +113,9 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   // Hypotheses whose newer node has left the window are no longer compared.
   const int oldest = current.id - o.cluster_window;
   s.hypotheses.erase(std::remove_if(s.hypotheses.begin(), s.hypotheses.end(),
-                                    [&](const Impl::Hypothesis& x) { return loop_attempts_[x.attempt].node < oldest; }),
+                                    [&](const Impl::Hypothesis& x) {
+                                      return loop_attempts_[x.attempt].node < oldest;
+                                    }),
                      s.hypotheses.end());
   s.hypotheses.push_back({attempt_index, false});
   const std::size_t newest = s.hypotheses.size() - 1;
@@ -114,8 +123,9 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   // A small correction the optimised graph agrees with (a short loop, little drift): in at
   // once. A large one alone could be a similar place that a graph uncertain enough bends to.
   const Pose2 correction = attempt.correction();
-  bool small = o.cluster_size <= 1 || (correction.translation().norm() <= o.single_max_translation &&
-                                       std::abs(correction.theta()) <= o.single_max_rotation);
+  bool small =
+      o.cluster_size <= 1 || (correction.translation().norm() <= o.single_max_translation &&
+                              std::abs(correction.theta()) <= o.single_max_rotation);
   // A graph too uncertain for the window agrees with whatever lies near its prediction, and
   // a prediction metres off along a corridor has a look-alike there: alone, a closure must
   // then be the only place in the window its scan fits; otherwise it waits for company.
@@ -123,12 +133,14 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
                                    ? std::min(o.single_unique_window, o.max_linear_window)
                                    : o.max_linear_window;
   if (small && o.cluster_size > 1 && o.single_unique_distance > 0.0 && linear >= unique_window) {
-    const MatchResult rival =
-        s.loop_matcher.bestElsewhere(target, points, prediction, linear, angular, match.pose.translation(),
-                                     o.single_unique_distance, o.single_unique_ratio * match.correlative_score);
+    const MatchResult rival = s.loop_matcher.bestElsewhere(
+        target, points, prediction, linear, angular, match.pose.translation(),
+        o.single_unique_distance, o.single_unique_ratio * match.correlative_score);
     // A rival the closure's own uncertainty already spans (along a bare corridor's axis) is
     // what it claims; only a closure that claims to know better waits.
-    if (rival.exhausted || (rival.success && pinsAlong(covariance, rival.pose.translation() - match.pose.translation(), o.sigma_factor))) {
+    if (rival.exhausted ||
+        (rival.success && pinsAlong(covariance, rival.pose.translation() - match.pose.translation(),
+                                    o.sigma_factor))) {
       small = false;
       attempt.not_unique = true;
     }
@@ -156,7 +168,8 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
     double spread = 0.0;
     for (std::size_t i : cluster)
       for (std::size_t j : cluster) spread = std::max(spread, (place(i) - place(j)).norm());
-    if (cluster.size() < static_cast<std::size_t>(o.cluster_size) || spread < o.cluster_min_spread) return false;
+    if (cluster.size() < static_cast<std::size_t>(o.cluster_size) || spread < o.cluster_min_spread)
+      return false;
     if (o.cluster_verify_window > 0.0) {
       const ClusterCheck check = checkCluster(cluster, last_candidate);
       if (!check.unique) {
@@ -182,7 +195,8 @@ bool FloorSlam::tryLoopClosure(const std::vector<Eigen::Vector2d>& points) {
   return false;  // relocated, held for company
 }
 
-FloorSlam::ClusterCheck FloorSlam::checkCluster(const std::vector<std::size_t>& cluster, std::size_t last_candidate) {
+FloorSlam::ClusterCheck FloorSlam::checkCluster(const std::vector<std::size_t>& cluster,
+                                                std::size_t last_candidate) {
   Impl& s = *impl_;
   const LoopClosureOptions& o = options_.loop_closure;
   const LoopClosureAttempt& newest = loop_attempts_[s.hypotheses[cluster.back()].attempt];
@@ -198,7 +212,8 @@ FloorSlam::ClusterCheck FloorSlam::checkCluster(const std::vector<std::size_t>& 
   double extent = 0.0;
   // A cell's two indices in one key, through unsigned so negative indices are defined.
   const auto cellIndex = [&](double v) {
-    return static_cast<std::uint64_t>(static_cast<std::uint32_t>(static_cast<std::int32_t>(std::floor(v / cell))));
+    return static_cast<std::uint64_t>(
+        static_cast<std::uint32_t>(static_cast<std::int32_t>(std::floor(v / cell))));
   };
   auto inRange = [&](const floor::FloorNode& node) {  // as the maps insert them
     std::vector<Eigen::Vector2d> near;
@@ -216,32 +231,37 @@ FloorSlam::ClusterCheck FloorSlam::checkCluster(const std::vector<std::size_t>& 
       if (occupied.insert(key).second) points.push_back(q);
     }
   }
-  const double window = std::min(o.cluster_verify_window, o.linear_window + o.sigma_factor * newest.sigma);
+  const double window =
+      std::min(o.cluster_verify_window, o.linear_window + o.sigma_factor * newest.sigma);
   // The old map wherever those scans could lie (the window, their extent and a margin).
   std::vector<std::size_t> region;
   for (std::size_t i = 0; i <= last_candidate; ++i)
-    if ((floor_graph_.nodes[i].pose.translation() - current.pose.translation()).norm() <= window + extent + 2.0)
+    if ((floor_graph_.nodes[i].pose.translation() - current.pose.translation()).norm() <=
+        window + extent + 2.0)
       region.push_back(i);
   LocalMapOptions coarse = options_.local_map;
   coarse.resolution = resolution;
-  const MatchTarget target = buildTarget(floor_graph_, region, coarse, kWideSearchLevels - 1, s.verify_matcher);
+  const MatchTarget target =
+      buildTarget(floor_graph_, region, coarse, kWideSearchLevels - 1, s.verify_matcher);
   const Pose2 claimed = floor_graph_.nodes[newest.candidate].pose * newest.measurement;
-  const MatchResult at_cluster =
-      s.verify_matcher.match(target, points, claimed, o.cluster_verify_distance, newest.angular_window);
+  const MatchResult at_cluster = s.verify_matcher.match(
+      target, points, claimed, o.cluster_verify_distance, newest.angular_window);
   const double own = at_cluster.success ? at_cluster.correlative_score : 0.0;
-  const MatchResult elsewhere =
-      s.verify_matcher.bestElsewhere(target, points, current.pose, window, newest.angular_window,
-                                     claimed.translation(), o.cluster_verify_distance, o.cluster_verify_ratio * own);
-  common::logDebug(str("floor_slam: cluster of ", cluster.size(), " at node ", newest.node, " scores ", own,
-                       elsewhere.success ? str("; elsewhere ", elsewhere.correlative_score, " at ",
-                                               (elsewhere.pose.translation() - claimed.translation()).norm(), " m")
-                                         : std::string("; nothing elsewhere")));
+  const MatchResult elsewhere = s.verify_matcher.bestElsewhere(
+      target, points, current.pose, window, newest.angular_window, claimed.translation(),
+      o.cluster_verify_distance, o.cluster_verify_ratio * own);
+  common::logDebug(str(
+      "floor_slam: cluster of ", cluster.size(), " at node ", newest.node, " scores ", own,
+      elsewhere.success ? str("; elsewhere ", elsewhere.correlative_score, " at ",
+                              (elsewhere.pose.translation() - claimed.translation()).norm(), " m")
+                        : std::string("; nothing elsewhere")));
   ClusterCheck check;
   check.unique = at_cluster.success && !elsewhere.success && !elsewhere.exhausted;
   if (elsewhere.success && elsewhere.correlative_score > own) {
     // The newest scan alone, refined there: a closure like the others (the joined scans'
     // information would count the chain between them as exact).
-    const MatchResult there = s.loop_matcher.match(target, inRange(current), elsewhere.pose, 0.3, 0.1);
+    const MatchResult there =
+        s.loop_matcher.match(target, inRange(current), elsewhere.pose, 0.3, 0.1);
     if (there.success && there.score >= o.min_score) {
       check.better_elsewhere = true;
       check.pose = there.pose;
@@ -287,8 +307,11 @@ std::vector<std::size_t> FloorSlam::agreeingCluster() const {
       // Older nodes farther apart than the window are on other passes: not compared.
       if (std::abs(cp.candidate - cq.candidate) > o.cluster_window) continue;
       UncertainPose old, recent;
-      if (!chainBetween(cp.candidate, cq.candidate, &old) || !chainBetween(cp.node, cq.node, &recent)) continue;
-      agree[p][q] = agree[q][p] = closurePairChi2(old, measured[p], recent, measured[q]) <= o.cluster_chi2 ? 1 : 0;
+      if (!chainBetween(cp.candidate, cq.candidate, &old) ||
+          !chainBetween(cp.node, cq.node, &recent))
+        continue;
+      agree[p][q] = agree[q][p] =
+          closurePairChi2(old, measured[p], recent, measured[q]) <= o.cluster_chi2 ? 1 : 0;
     }
   const std::vector<int> clique = largestCliqueContaining(agree, static_cast<int>(count) - 1);
   return std::vector<std::size_t>(clique.begin(), clique.end());
@@ -303,7 +326,8 @@ bool FloorSlam::addClosures(const std::vector<std::size_t>& members, bool bend_f
   std::vector<std::size_t> edges;
   for (std::size_t m : members) {
     const LoopClosureAttempt& c = loop_attempts_[s.hypotheses[m].attempt];
-    edges.push_back(pose_graph_.addEdge(c.candidate, c.node, c.measurement, c.information, graph::EdgeKind::kLoopClosure));
+    edges.push_back(pose_graph_.addEdge(c.candidate, c.node, c.measurement, c.information,
+                                        graph::EdgeKind::kLoopClosure));
   }
   auto undo = [&] {
     for (std::size_t e : edges) pose_graph_.setEdgeEnabled(e, false);
@@ -329,8 +353,8 @@ bool FloorSlam::addClosures(const std::vector<std::size_t>& members, bool bend_f
   }
   if (!consistent) {
     const LoopClosureAttempt& newest = loop_attempts_[s.hypotheses[members.back()].attempt];
-    common::logDebug(str("floor_slam: loop closure ", newest.candidate, " -> ", newest.node, " not taken (chi2 ",
-                         newest.chi2, ", ", members.size(), " together)"));
+    common::logDebug(str("floor_slam: loop closure ", newest.candidate, " -> ", newest.node,
+                         " not taken (chi2 ", newest.chi2, ", ", members.size(), " together)"));
     undo();
     return false;
   }
@@ -340,9 +364,11 @@ bool FloorSlam::addClosures(const std::vector<std::size_t>& members, bool bend_f
     LoopClosureAttempt& c = loop_attempts_[s.hypotheses[m].attempt];
     c.outcome = LoopOutcome::kAccepted;
     c.together = static_cast<int>(members.size());
-    common::logDebug(str("floor_slam: loop closure ", c.candidate, " -> ", c.node, " accepted (score ", c.score,
-                         ", chi2 ", c.chi2, ", ", members.size(), " together)"));
-    floor::FloorEdge e{c.candidate, c.node, c.measurement, c.information, floor::EdgeKind::kLoopClosure};
+    common::logDebug(str("floor_slam: loop closure ", c.candidate, " -> ", c.node,
+                         " accepted (score ", c.score, ", chi2 ", c.chi2, ", ", members.size(),
+                         " together)"));
+    floor::FloorEdge e{c.candidate, c.node, c.measurement, c.information,
+                       floor::EdgeKind::kLoopClosure};
     floor_graph_.edges.push_back(e);
     s.update_edges.push_back(e);
   }
@@ -377,13 +403,16 @@ const MatchTarget& FloorSlam::loopTarget(int candidate, std::size_t last_candida
     }
     return true;
   };
-  if (cached.centre >= 0 && std::abs(candidate - cached.centre) <= o.submap_reuse_nodes && unmoved())
+  if (cached.centre >= 0 && std::abs(candidate - cached.centre) <= o.submap_reuse_nodes &&
+      unmoved())
     return cached.target;
   cached.first = candidate > o.submap_half_nodes ? candidate - o.submap_half_nodes : 0;
-  cached.end = std::min(last_candidate + 1, static_cast<std::size_t>(candidate + o.submap_half_nodes + 1));
+  cached.end =
+      std::min(last_candidate + 1, static_cast<std::size_t>(candidate + o.submap_half_nodes + 1));
   cached.centre = candidate;
   cached.poses.clear();
-  for (std::size_t i = cached.first; i < cached.end; ++i) cached.poses.push_back(floor_graph_.nodes[i].pose);
+  for (std::size_t i = cached.first; i < cached.end; ++i)
+    cached.poses.push_back(floor_graph_.nodes[i].pose);
   cached.target =
       buildTarget(floor_graph_, cached.first, cached.end, options_.local_map, kWideSearchLevels,
                   o.point_polish_translation > 0.0 ? impl_->polish_matcher : impl_->loop_matcher);

@@ -25,11 +25,14 @@ double largestTranslationStddev(const Eigen::Matrix3d& covariance);
 // The matched step from the last node, with its position along each direction where the
 // match's information is below `ratio` times the odometry step's replaced by the two fused
 // by their information (at the match's heading).
-geometry::Pose2 withOdometryWhereDegenerate(const geometry::Pose2& matched, const Eigen::Matrix3d& match_information,
+geometry::Pose2 withOdometryWhereDegenerate(const geometry::Pose2& matched,
+                                            const Eigen::Matrix3d& match_information,
                                             const geometry::Pose2& odometry,
-                                            const Eigen::Matrix3d& odometry_information, double ratio);
+                                            const Eigen::Matrix3d& odometry_information,
+                                            double ratio);
 // Whether `covariance` spans `offset` within sigma_factor standard deviations along it.
-bool pinsAlong(const Eigen::Matrix3d& covariance, const Eigen::Vector2d& offset, double sigma_factor);
+bool pinsAlong(const Eigen::Matrix3d& covariance, const Eigen::Vector2d& offset,
+               double sigma_factor);
 
 // The map of the graph's nodes `indices` (or [first, last)) for `matcher` (see floor_slam.cpp).
 MatchTarget buildTarget(const floor::FloorGraph& graph, const std::vector<std::size_t>& indices,
@@ -39,15 +42,18 @@ MatchTarget buildTarget(const floor::FloorGraph& graph, std::size_t first, std::
                         const LocalMapOptions& o, int pyramid_levels, const ScanMatcher& matcher,
                         grid::OccupancyGrid* grid_out = nullptr);
 std::vector<Eigen::Vector2d> pointsWhereObserved(const std::vector<Eigen::Vector2d>& points,
-                                                 const geometry::Pose2& pose, const grid::OccupancyGrid& grid);
-MatchTarget buildLocalTarget(const floor::FloorGraph& graph, const LocalMapOptions& o, const ScanMatcher& matcher);
+                                                 const geometry::Pose2& pose,
+                                                 const grid::OccupancyGrid& grid);
+MatchTarget buildLocalTarget(const floor::FloorGraph& graph, const LocalMapOptions& o,
+                             const ScanMatcher& matcher);
 
 }  // namespace detail
 
 struct FloorSlam::Impl {
   explicit Impl(const FloorSlamOptions& o)
-      : tracker(o.odometry, TrackingWindows{o.matcher.linear_window, o.matcher.angular_window, o.max_linear_window,
-                                            o.max_angular_window, o.node.min_translation, o.node.min_rotation}),
+      : tracker(o.odometry, TrackingWindows{o.matcher.linear_window, o.matcher.angular_window,
+                                            o.max_linear_window, o.max_angular_window,
+                                            o.node.min_translation, o.node.min_rotation}),
         matcher(o.matcher),
         loop_matcher(o.loop_closure.matcher),
         optimizer(o.optimizer),
@@ -98,7 +104,7 @@ struct FloorSlam::Impl {
   // Whether the odometry agreed with the matches at the last node (tracker.h): the odometry
   // between two such nodes is an edge; a step into or out of a stall is not.
   bool last_node_odometry_agrees = true;
-  std::size_t chain_start = 0;  // first node of the current run of tracked nodes
+  std::size_t chain_start = 0;          // first node of the current run of tracked nodes
   std::vector<std::size_t> run_starts;  // every such first node, in order
   std::size_t successors_matched = 0;   // nodes before this one were tried (at finish)
   int nodes_since_attempt = 0;

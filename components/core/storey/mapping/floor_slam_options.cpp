@@ -65,7 +65,8 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
   if (node.has("odometry_noise")) {
     const auto n = node.child("odometry_noise");
     auto& m = o.odometry;
-    m.translation_per_meter = n.getDouble("translation_per_meter", m.translation_per_meter, 0.0, 10.0);
+    m.translation_per_meter =
+        n.getDouble("translation_per_meter", m.translation_per_meter, 0.0, 10.0);
     m.rotation_per_meter = n.getDouble("rotation_per_meter", m.rotation_per_meter, 0.0, 10.0);
     m.rotation_per_radian = n.getDouble("rotation_per_radian", m.rotation_per_radian, 0.0, 10.0);
     n.finish();
@@ -87,7 +88,8 @@ FloorSlamOptions readFloorSlamOptions(const common::ConfigNode& node) {
     const auto n = node.child("relocalization");
     auto& r = o.relocalization;
     r.known_floor = n.getChoice("known_floor", r.known_floor, {"new_graph", "relocalize"});
-    r.global.seed = static_cast<std::uint64_t>(n.getInt("seed", static_cast<long>(r.global.seed), 0, 2147483647L));
+    r.global.seed = static_cast<std::uint64_t>(
+        n.getInt("seed", static_cast<long>(r.global.seed), 0, 2147483647L));
     n.finish();
   }
   node.finish();

@@ -31,8 +31,8 @@ struct LocalMapOptions {
   int max_nodes = 20;  // most recent nodes rendered into the local map
   double resolution = 0.05;
   double max_insert_range = 20.0;  // m; farther returns are left out of local maps
-  int pyramid_levels = 5;  // enough for the tracking window; wider searches start coarser
-  int rebuild_every_n_nodes = 2;  // the local map is re-rendered this often
+  int pyramid_levels = 5;          // enough for the tracking window; wider searches start coarser
+  int rebuild_every_n_nodes = 2;   // the local map is re-rendered this often
   // A scan the local map does not match is matched again against the map of only the last
   // retry_nodes nodes (0, or not below max_nodes: off). Drift within the local map puts its
   // far end's walls beside the near end's, and each copy's rays erase the other's cells: a
@@ -48,24 +48,24 @@ struct LocalMapOptions {
 
 struct LoopClosureOptions {
   bool enabled = true;
-  int every_n_nodes = 3;         // attempt a closure every n nodes
-  int min_node_gap = 40;         // candidates are at least this many nodes older
-  double search_radius = 1.5;    // m, plus sigma_factor standard deviations...
+  int every_n_nodes = 3;       // attempt a closure every n nodes
+  int min_node_gap = 40;       // candidates are at least this many nodes older
+  double search_radius = 1.5;  // m, plus sigma_factor standard deviations...
   double sigma_factor = 3.0;
   double max_search_radius = 20.0;  // ...up to this
-  double linear_window = 1.0;   // m, plus sigma_factor standard deviations...
+  double linear_window = 1.0;       // m, plus sigma_factor standard deviations...
   // ...up to this: after a long loop the right place is farther off than a few metres
   // (infinite-corridor: 10-20 m).
   double max_linear_window = 20.0;
-  double angular_window = 0.35;  // rad, plus sigma_factor standard deviations...
+  double angular_window = 0.35;     // rad, plus sigma_factor standard deviations...
   double max_angular_window = 1.2;  // ...up to this
-  int submap_half_nodes = 10;    // the candidate's map: nodes within this index distance
+  int submap_half_nodes = 10;       // the candidate's map: nodes within this index distance
   // The last attempt's candidate map is reused while none of its nodes has moved and the new
   // candidate is at most this many nodes from its centre (building it costs more than the
   // match); 0: only for the same candidate.
   int submap_reuse_nodes = 5;
-  double min_score = 0.6;        // refined mean score a closure needs
-  double max_chi2 = 25.0;        // after optimisation, a closure with larger χ² is disabled
+  double min_score = 0.6;  // refined mean score a closure needs
+  double max_chi2 = 25.0;  // after optimisation, a closure with larger χ² is disabled
   // Closures that agree with each other (closure_clusters.h). A matched closure the graph
   // does not already agree with (χ² after a robust optimisation) is held as a hypothesis;
   // when cluster_size hypotheses and accepted closures whose newer nodes lie within
@@ -74,7 +74,7 @@ struct LoopClosureOptions {
   // kernel would refuse the correction they bring), then robustly, and kept when each
   // edge's χ² is <= max_chi2. 0 or 1: no hypotheses, a closure stands or falls alone.
   int cluster_size = 3;
-  int cluster_window = 60;    // nodes
+  int cluster_window = 60;      // nodes
   double cluster_chi2 = 11.34;  // χ²(3 dof) at 99 %
   // A cluster ties older nodes at least this far apart (m): matches against one small
   // place share its ambiguity (a bare corridor's corner fits a scan 2 m off match after
@@ -94,7 +94,7 @@ struct LoopClosureOptions {
   // cluster's scores cluster_verify_ratio of the best near it, the cluster is refused; when
   // it scores better, the newest closure is moved there (its scan matched at that place, to
   // the old node nearest it) and may form a cluster with others so moved. 0: no check.
-  double cluster_verify_window = 30.0;  // m
+  double cluster_verify_window = 30.0;   // m
   double cluster_verify_distance = 4.0;  // m
   double cluster_verify_ratio = 1.0;
   int cluster_verify_nodes = 20;

@@ -15,8 +15,8 @@ using common::str;
 using geometry::Pose2;
 using namespace detail;
 
-int FloorSlam::resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& scans, const Pose2& pose,
-                               const Eigen::Matrix3d& covariance) {
+int FloorSlam::resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& scans,
+                               const Pose2& pose, const Eigen::Matrix3d& covariance) {
   Impl& s = *impl_;
   if (scans.empty()) throw std::invalid_argument("resumeLocalized: no scans");
   if (floor_graph_.nodes.empty()) throw std::logic_error("resumeLocalized: the floor has no map");
@@ -58,17 +58,18 @@ int FloorSlam::resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& s
   };
   addToChain(keep.size() - 1);
   for (std::size_t j = keep.size() - 1; j-- > 0;) {
-    const Pose2 prediction = poses[j + 1] * scans[keep[j + 1]].odometry.between(scans[keep[j]].odometry);
-    const std::vector<Eigen::Vector2d> points =
-        filterPoints(scans[keep[j]].scan.pointsInRobotFrame(), options_.matcher.point_filter_distance);
+    const Pose2 prediction =
+        poses[j + 1] * scans[keep[j + 1]].odometry.between(scans[keep[j]].odometry);
+    const std::vector<Eigen::Vector2d> points = filterPoints(
+        scans[keep[j]].scan.pointsInRobotFrame(), options_.matcher.point_filter_distance);
     const MatchResult match = s.matcher.match(target, points, prediction);
     if (match.success && match.score >= options_.loop_closure.min_score) {
       placed[j] = Placed::kTied;
       poses[j] = match.pose;
       covariances[j] = match.covariance;
     } else {
-      const MatchResult tracked =
-          s.matcher.match(buildLocalTarget(chain, options_.local_map, s.matcher), points, prediction);
+      const MatchResult tracked = s.matcher.match(
+          buildLocalTarget(chain, options_.local_map, s.matcher), points, prediction);
       placed[j] = tracked.success ? Placed::kTracked : Placed::kOdometry;
       poses[j] = tracked.success ? tracked.pose : prediction;
       if (tracked.success) covariances[j] = tracked.covariance;
@@ -77,7 +78,8 @@ int FloorSlam::resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& s
   }
   std::vector<int> anchors(keep.size(), -1);
   for (std::size_t j = 0; j < keep.size(); ++j)
-    if (placed[j] == Placed::kTied) anchors[j] = floor_graph_.nearestNodeIndex(poses[j].translation());
+    if (placed[j] == Placed::kTied)
+      anchors[j] = floor_graph_.nearestNodeIndex(poses[j].translation());
   std::vector<int> ids(keep.size(), -1);
   for (std::size_t j = 0; j < keep.size(); ++j) {
     const Pose2& p = poses[j];
@@ -130,12 +132,14 @@ ScanResult FloorSlam::relocalizeWith(const sensor::LaserScan& scan, const Pose2&
                                  kWideSearchLevels, s.reloc_matcher);
     s.floor_target_valid = true;
   }
-  const MatchResult match = s.reloc_matcher.match(s.floor_target, points, guess, o.linear_window, o.angular_window);
+  const MatchResult match =
+      s.reloc_matcher.match(s.floor_target, points, guess, o.linear_window, o.angular_window);
   ++s.reloc_attempts;
   const bool found = match.success && match.score >= o.min_score;
   if (!found && s.reloc_attempts < o.max_attempts) {
     result.status = ScanStatus::kRejected;
-    result.reason = str("relocalising (attempt ", s.reloc_attempts, "): ", match.success ? "score too low" : match.problem);
+    result.reason = str("relocalising (attempt ", s.reloc_attempts,
+                        "): ", match.success ? "score too low" : match.problem);
     result.pose = guess;
     ++stats_.rejected;
     return result;
@@ -150,15 +154,17 @@ ScanResult FloorSlam::relocalizeWith(const sensor::LaserScan& scan, const Pose2&
   } else {
     // Nothing matched: resume on the guess with a weak tie so the graph stays connected.
     ++stats_.relocalization_failures;
-    common::logWarn(str("floor_slam: could not localise on floor ", floor_graph_.floor_id, " after ",
-                        s.reloc_attempts, " scans; resuming at the expected arrival pose"));
+    common::logWarn(str("floor_slam: could not localise on floor ", floor_graph_.floor_id,
+                        " after ", s.reloc_attempts,
+                        " scans; resuming at the expected arrival pose"));
     cov = Eigen::Vector3d(1.0, 1.0, 0.25).asDiagonal();
   }
   const int nearest = floor_graph_.nearestNodeIndex(pose.translation());
   const floor::FloorNode anchor = floor_graph_.nodes[nearest];
   appendNode(scan, odometry, pose, /*starts_run=*/true);
   const Eigen::Matrix3d info = safeInformation(rotateCovariance(cov, anchor.pose.theta()));
-  appendEdge(anchor.id, floor_graph_.nodes.back().id, anchor.pose.between(pose), info, floor::EdgeKind::kLoopClosure);
+  appendEdge(anchor.id, floor_graph_.nodes.back().id, anchor.pose.between(pose), info,
+             floor::EdgeKind::kLoopClosure);
   covariance_ = cov;
   relocalize_ = false;
   s.tracker.start(pose, odometry, cov);

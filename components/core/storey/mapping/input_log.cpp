@@ -110,15 +110,17 @@ bool looksLikeInputLog(const std::string& path) {
 }
 
 common::RecordFileScan scanInputLog(const std::string& path) {
-  return common::scanRecordFile(path, kFileMagic, "input log", [](const std::uint8_t* payload, std::size_t size) {
-    (void)decodeLoggedInput(payload, size);
-  });
+  return common::scanRecordFile(path, kFileMagic, "input log",
+                                [](const std::uint8_t* payload, std::size_t size) {
+                                  (void)decodeLoggedInput(payload, size);
+                                });
 }
 
 common::RecordFileScan salvageInputLog(const std::string& in, const std::string& out) {
-  return common::salvageRecordFile(in, out, kFileMagic, "input log", [](const std::uint8_t* payload, std::size_t size) {
-    (void)decodeLoggedInput(payload, size);
-  });
+  return common::salvageRecordFile(in, out, kFileMagic, "input log",
+                                   [](const std::uint8_t* payload, std::size_t size) {
+                                     (void)decodeLoggedInput(payload, size);
+                                   });
 }
 
 void InputLog::appendScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry) {

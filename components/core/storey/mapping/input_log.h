@@ -24,7 +24,7 @@ struct LoggedInput {
   bool is_scan = true;
   sensor::LaserScan scan;     // is_scan
   geometry::Pose2 odometry;   // is_scan: odometry at the scan's stamp
-  floor::FloorEvent event;  // !is_scan: TransitStarted or TransitEnded
+  floor::FloorEvent event;    // !is_scan: TransitStarted or TransitEnded
 };
 
 class InputLog {

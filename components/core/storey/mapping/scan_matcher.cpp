@@ -328,7 +328,8 @@ MatchResult correlative(const ScanMatcherOptions& options, const MatchTarget& ta
   BranchAndBound bb(target, rotations, offsets, window, options, excluded);
   bb.best_score_ = min_score;
   if (options.max_lookups > 0.0)
-    bb.max_evaluations_ = std::max<long>(1, static_cast<long>(options.max_lookups / static_cast<double>(points.size())));
+    bb.max_evaluations_ = std::max<long>(
+        1, static_cast<long>(options.max_lookups / static_cast<double>(points.size())));
   std::vector<Candidate> nodes;
   for (std::size_t a = 0; a < offsets.size(); ++a)
     for (int y = -window; y <= window; y += top)
@@ -337,7 +338,8 @@ MatchResult correlative(const ScanMatcherOptions& options, const MatchTarget& ta
   result.candidates_scored = bb.evaluated_;
   if (bb.exhausted_) {
     result.exhausted = true;
-    result.problem = common::str("search stopped after ", bb.evaluated_, " candidates (max_lookups)");
+    result.problem =
+        common::str("search stopped after ", bb.evaluated_, " candidates (max_lookups)");
     return result;
   }
   if (!bb.found_) {

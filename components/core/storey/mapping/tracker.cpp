@@ -45,11 +45,13 @@ Eigen::Matrix3d odometryCovariance(const Pose2& delta, const OdometryNoiseModel&
   const double d = delta.translation().norm();
   const double st = std::max(m.min_translation_stddev, m.translation_per_meter * d);
   const double sr =
-      std::max(m.min_rotation_stddev, m.rotation_per_meter * d + m.rotation_per_radian * std::abs(delta.theta()));
+      std::max(m.min_rotation_stddev,
+               m.rotation_per_meter * d + m.rotation_per_radian * std::abs(delta.theta()));
   return Eigen::Vector3d(st * st, st * st, sr * sr).asDiagonal();
 }
 
-Tracker::Tracker(OdometryNoiseModel model, TrackingWindows windows) : model_(model), windows_(windows) {}
+Tracker::Tracker(OdometryNoiseModel model, TrackingWindows windows)
+    : model_(model), windows_(windows) {}
 
 void Tracker::start(const Pose2& pose, const Pose2& odometry, const Eigen::Matrix3d& covariance) {
   started_ = true;
@@ -59,10 +61,12 @@ void Tracker::start(const Pose2& pose, const Pose2& odometry, const Eigen::Matri
   agrees_ = true;
 }
 
-Eigen::Matrix3d Tracker::stepCovariance(const Pose2& delta) const { return scale_ * odometryCovariance(delta, model_); }
+Eigen::Matrix3d Tracker::stepCovariance(const Pose2& delta) const {
+  return scale_ * odometryCovariance(delta, model_);
+}
 
-TrackPrediction Tracker::predictFrom(const Pose2& pose, const Eigen::Matrix3d& covariance, const Pose2& from_odometry,
-                                     const Pose2& odometry) const {
+TrackPrediction Tracker::predictFrom(const Pose2& pose, const Eigen::Matrix3d& covariance,
+                                     const Pose2& from_odometry, const Pose2& odometry) const {
   const Pose2 delta = from_odometry.between(odometry);
   TrackPrediction p;
   p.pose = pose * delta;
@@ -74,10 +78,12 @@ TrackPrediction Tracker::predictFrom(const Pose2& pose, const Eigen::Matrix3d& c
 }
 
 void Tracker::setWindows(TrackPrediction* p) const {
-  p->linear_window = std::clamp(kWindowSigmas * largestStddev(p->covariance.topLeftCorner<2, 2>()),
-                                windows_.min_linear, std::max(windows_.min_linear, windows_.max_linear));
-  p->angular_window = std::clamp(kWindowSigmas * std::sqrt(std::max(0.0, p->covariance(2, 2))),
-                                 windows_.min_angular, std::max(windows_.min_angular, windows_.max_angular));
+  p->linear_window =
+      std::clamp(kWindowSigmas * largestStddev(p->covariance.topLeftCorner<2, 2>()),
+                 windows_.min_linear, std::max(windows_.min_linear, windows_.max_linear));
+  p->angular_window =
+      std::clamp(kWindowSigmas * std::sqrt(std::max(0.0, p->covariance(2, 2))),
+                 windows_.min_angular, std::max(windows_.min_angular, windows_.max_angular));
 }
 
 TrackPrediction Tracker::predict(const Pose2& odometry) const {
@@ -97,24 +103,30 @@ bool Tracker::check(const Pose2& odometry, const Pose2& pose, const Eigen::Matri
   // scale estimates what the model misses).
   const Pose2 delta = (prediction.from_anchor ? anchor_odometry_ : odometry_).between(odometry);
   const Pose2& from = prediction.from_anchor ? anchor_pose_ : pose_;
-  const Eigen::Matrix3d& from_covariance = prediction.from_anchor ? anchor_covariance_ : covariance_;
+  const Eigen::Matrix3d& from_covariance =
+      prediction.from_anchor ? anchor_covariance_ : covariance_;
   const Eigen::Matrix3d unscaled =
-      geometry::composeCovariance(from, from_covariance, delta, odometryCovariance(delta, model_)) + covariance;
+      geometry::composeCovariance(from, from_covariance, delta, odometryCovariance(delta, model_)) +
+      covariance;
   const double nis = mahalanobis2(difference(pose, prediction.pose), unscaled);
-  scale_ = std::max(1.0, (1.0 - kScaleWeight) * scale_ + kScaleWeight * std::min(kMaxStepScale, nis / 3.0));
+  scale_ = std::max(
+      1.0, (1.0 - kScaleWeight) * scale_ + kScaleWeight * std::min(kMaxStepScale, nis / 3.0));
   // The odometry since the anchor, or its step since the last scan, against the match.
-  const TrackPrediction from_anchor = predictFrom(anchor_pose_, anchor_covariance_, anchor_odometry_, odometry);
-  if (mahalanobis2(difference(pose, from_anchor.pose), from_anchor.covariance + covariance) <= kAgreementChi2)
+  const TrackPrediction from_anchor =
+      predictFrom(anchor_pose_, anchor_covariance_, anchor_odometry_, odometry);
+  if (mahalanobis2(difference(pose, from_anchor.pose), from_anchor.covariance + covariance) <=
+      kAgreementChi2)
     return true;
   const Pose2 step = pose_.between(pose);
   const bool informative = step.translation().norm() >= windows_.informative_translation ||
                            std::abs(step.theta()) >= windows_.informative_rotation;
   const TrackPrediction from_last = predictFrom(pose_, covariance_, odometry_, odometry);
-  return informative &&
-         mahalanobis2(difference(pose, from_last.pose), from_last.covariance + covariance) <= kAgreementChi2;
+  return informative && mahalanobis2(difference(pose, from_last.pose),
+                                     from_last.covariance + covariance) <= kAgreementChi2;
 }
 
-void Tracker::moveTo(const Pose2& odometry, const Pose2& pose, const Eigen::Matrix3d& covariance, bool agrees) {
+void Tracker::moveTo(const Pose2& odometry, const Pose2& pose, const Eigen::Matrix3d& covariance,
+                     bool agrees) {
   pose_ = pose;
   odometry_ = odometry;
   covariance_ = covariance;

@@ -65,7 +65,8 @@ class Tracker {
 
   // A run starts (first scan, relocalisation): the pose of the scan at `odometry`, known to
   // `covariance` relative to the map.
-  void start(const geometry::Pose2& pose, const geometry::Pose2& odometry, const Eigen::Matrix3d& covariance);
+  void start(const geometry::Pose2& pose, const geometry::Pose2& odometry,
+             const Eigen::Matrix3d& covariance);
   bool started() const { return started_; }
 
   // The scan at `odometry`, predicted from the last tracked scan.
@@ -79,12 +80,12 @@ class Tracker {
   // 99 %): its motion since the anchor, or its step since the last tracked scan when that
   // step moved the robot enough to tell (after a slip or a jump the odometry goes on from a
   // new offset, and agrees again step by step).
-  bool check(const geometry::Pose2& odometry, const geometry::Pose2& pose, const Eigen::Matrix3d& covariance,
-             const TrackPrediction& prediction);
+  bool check(const geometry::Pose2& odometry, const geometry::Pose2& pose,
+             const Eigen::Matrix3d& covariance, const TrackPrediction& prediction);
   // Tracking goes on from the scan at `odometry`, at `pose` known to `covariance` relative
   // to the map; it becomes the anchor when the odometry agreed with it.
-  void moveTo(const geometry::Pose2& odometry, const geometry::Pose2& pose, const Eigen::Matrix3d& covariance,
-              bool agrees);
+  void moveTo(const geometry::Pose2& odometry, const geometry::Pose2& pose,
+              const Eigen::Matrix3d& covariance, bool agrees);
   // The scan at `odometry` was not matched: tracking goes on from the prediction, its
   // covariance grown (σ doubled: the scan lay outside the window, or saw little of the map).
   void unmatched(const geometry::Pose2& odometry, const TrackPrediction& prediction);
@@ -101,7 +102,8 @@ class Tracker {
 
  private:
   TrackPrediction predictFrom(const geometry::Pose2& pose, const Eigen::Matrix3d& covariance,
-                              const geometry::Pose2& from_odometry, const geometry::Pose2& odometry) const;
+                              const geometry::Pose2& from_odometry,
+                              const geometry::Pose2& odometry) const;
   void setWindows(TrackPrediction* p) const;
 
   OdometryNoiseModel model_;

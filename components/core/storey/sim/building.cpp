@@ -29,8 +29,10 @@ std::vector<Eigen::Vector2d> readPoints(const common::ConfigNode& node, const st
     if (!element.isSequence() || element.yaml().size() != 2)
       node.fail(key, "expected a list of points [x, y]");
     // Read as config values: a coordinate that is not a finite number names its line.
-    const double x = common::ConfigNode(element.yaml()[0], element.file(), element.path() + "[0]").as<double>();
-    const double y = common::ConfigNode(element.yaml()[1], element.file(), element.path() + "[1]").as<double>();
+    const double x =
+        common::ConfigNode(element.yaml()[0], element.file(), element.path() + "[0]").as<double>();
+    const double y =
+        common::ConfigNode(element.yaml()[1], element.file(), element.path() + "[1]").as<double>();
     points.emplace_back(x, y);
   }
   return points;

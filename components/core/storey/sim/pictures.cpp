@@ -30,7 +30,8 @@ Frame frameFor(const Building& building, const PictureOptions& options) {
   const Eigen::Vector2d extent = hi - lo + Eigen::Vector2d::Constant(2.0 * options.margin);
   // A building too large for the picture at this resolution is drawn coarser (a 2 km wall
   // at 0.05 m would need 1.6e9 pixels).
-  frame.resolution = std::max(options.resolution, std::sqrt(extent.x() * extent.y() / kMaxPicturePixels));
+  frame.resolution =
+      std::max(options.resolution, std::sqrt(extent.x() * extent.y() / kMaxPicturePixels));
   const Eigen::Vector2d size = extent / frame.resolution;
   frame.width = std::max(1, static_cast<int>(std::ceil(size.x())));
   frame.height = std::max(1, static_cast<int>(std::ceil(size.y())));

@@ -261,11 +261,14 @@ void GraphServer::workerLoop() {
     state_publisher_->publish(toMessage(solution, work.constraints(), state_sequence_++, stamp));
     if (options_.publish_maps) {
       try {
-        for (const auto& [floor_id, floor] : building::renderBuildingFloors(work, solution, options_.map)) {
+        for (const auto& [floor_id, floor] :
+             building::renderBuildingFloors(work, solution, options_.map)) {
           auto& publisher = map_publishers_[floor_id];
           if (!publisher)
-            publisher = createPublisher<nav_msgs::msg::OccupancyGrid, nav_msgs::msg::OccupancyGridPubSubType>(
-                options_.floor_map_topic_prefix + "/floor_" + std::to_string(floor_id), runtime::TopicKind::kGraph);
+            publisher = createPublisher<nav_msgs::msg::OccupancyGrid,
+                                        nav_msgs::msg::OccupancyGridPubSubType>(
+                options_.floor_map_topic_prefix + "/floor_" + std::to_string(floor_id),
+                runtime::TopicKind::kGraph);
           publisher->publish(toMessage(floor, stamp));
         }
       } catch (const std::exception& e) {  // a map too large to draw: the state went out

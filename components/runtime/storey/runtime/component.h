@@ -7,8 +7,8 @@
 // Publishers made with createPublisher() are inactive until activate(): nothing leaves
 // a component before activation. deactivate() first calls onDeactivating() with the
 // publishers still active, so work in flight (a background pass) publishes its results,
-// then silences the publishers and calls onDeactivate(). Timers made with createTimer() only fire while active.
-// Subscriptions deliver in every state once created (so transient-local history that
+// then silences the publishers and calls onDeactivate(). Timers made with createTimer() only fire
+// while active. Subscriptions deliver in every state once created (so transient-local history that
 // arrives before activate is not lost); callbacks can check state().
 // Callbacks of all kinds, and the lifecycle hooks, run on the Context's Executor: with
 // one worker (the default) a component's hooks and callbacks never run concurrently.

@@ -1,11 +1,11 @@
 #include "storey/runtime/context.h"
 
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cstdlib>
-#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
-#include <fastrtps/utils/IPLocator.h>
 #include <fstream>
 #include <set>
 
@@ -61,8 +61,9 @@ void isolate(fdds::DomainParticipantQos& qos) {
   qos.wire_protocol().default_unicast_locator_list.push_back(loopback);
   qos.wire_protocol().default_multicast_locator_list.clear();
   using Filter = rtps::ParticipantFilteringFlags_t;
-  builtin.discovery_config.ignoreParticipantFlags = static_cast<Filter>(
-      Filter::FILTER_DIFFERENT_HOST | Filter::FILTER_DIFFERENT_PROCESS | Filter::FILTER_SAME_PROCESS);
+  builtin.discovery_config.ignoreParticipantFlags =
+      static_cast<Filter>(Filter::FILTER_DIFFERENT_HOST | Filter::FILTER_DIFFERENT_PROCESS |
+                          Filter::FILTER_SAME_PROCESS);
 }
 
 // A partition no other participant uses: a second guard should one be matched anyway.
@@ -151,11 +152,14 @@ Context::Context(const ContextOptions& options) {
     std::string why;
     if (security.enabled()) {
       why = diagnoseSecurityFiles(security);
-      why = why.empty() ? " (security enabled: check the identity, governance and permissions files and that "
-                          "they are signed by the given CAs)"
-                        : ": security check failed: " + why;
+      why =
+          why.empty()
+              ? " (security enabled: check the identity, governance and permissions files and that "
+                "they are signed by the given CAs)"
+              : ": security check failed: " + why;
     }
-    throw DdsError("cannot create a DomainParticipant on domain " + std::to_string(domain_id_) + why);
+    throw DdsError("cannot create a DomainParticipant on domain " + std::to_string(domain_id_) +
+                   why);
   }
   fdds::PublisherQos publisher_qos = fdds::PUBLISHER_QOS_DEFAULT;
   fdds::SubscriberQos subscriber_qos = fdds::SUBSCRIBER_QOS_DEFAULT;

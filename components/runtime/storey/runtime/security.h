@@ -42,7 +42,8 @@ void validateSecurityOptions(const SecurityOptions& options);
 // the identity CA and has not expired; the private key belongs to it; governance and
 // permissions verify against the permissions CA; the permissions grant the certificate's
 // subject. Context calls it when a secured participant cannot be created.
-std::string diagnoseSecurityFiles(const SecurityOptions& options, const std::string& openssl = "openssl");
+std::string diagnoseSecurityFiles(const SecurityOptions& options,
+                                  const std::string& openssl = "openssl");
 
 // The DomainParticipant properties that enable the builtin plugins (PKI-DH,
 // Access-Permissions, AES-GCM-GMAC) with these files ("file:" URIs, absolute paths).

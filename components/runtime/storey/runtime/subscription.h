@@ -180,11 +180,13 @@ class Subscription : public SubscriptionBase {
       if (!state) return;
       common::logDebug(common::str("dds: reader on ", state->topic, ": ", status.current_count_change > 0 ? "matched" : "unmatched",
                                    " a writer, ", status.current_count, " now"));
-      if (state->kind == TopicKind::kSensor && status.current_count_change > 0 && status.current_count > 1) {
-        common::logWarn(common::str("sensor topic ", state->topic, " has ", status.current_count,
-                                    " writers, where a robot's sensor topic has one: another replay or robot on this DDS "
-                                    "domain under the same name (or a restarted driver whose old participant has "
-                                    "not yet expired); their samples are mixed"));
+      if (state->kind == TopicKind::kSensor && status.current_count_change > 0 &&
+          status.current_count > 1) {
+        common::logWarn(common::str(
+            "sensor topic ", state->topic, " has ", status.current_count,
+            " writers, where a robot's sensor topic has one: another replay or robot on this DDS "
+            "domain under the same name (or a restarted driver whose old participant has "
+            "not yet expired); their samples are mixed"));
       }
     }
 

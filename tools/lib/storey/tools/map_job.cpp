@@ -94,11 +94,13 @@ MapInput parseMapInput(const std::string& text) {
     throw std::invalid_argument("'" + text + "': expected PATH@FLOOR or PATH@FLOOR:HEIGHT");
   }
   if (*input.floor < kFloorIds[0] || *input.floor > kFloorIds[1])
-    throw std::invalid_argument("'" + text + "': floor " + std::to_string(*input.floor) + " is outside [" +
-                                std::to_string(kFloorIds[0]) + ", " + std::to_string(kFloorIds[1]) + "]");
+    throw std::invalid_argument("'" + text + "': floor " + std::to_string(*input.floor) +
+                                " is outside [" + std::to_string(kFloorIds[0]) + ", " +
+                                std::to_string(kFloorIds[1]) + "]");
   if (input.height && !(*input.height >= kFloorHeights[0] && *input.height <= kFloorHeights[1]))
-    throw std::invalid_argument("'" + text + "': height " + spec.substr(colon + 1) + " is not a number in [" +
-                                common::str(kFloorHeights[0]) + ", " + common::str(kFloorHeights[1]) + "] m");
+    throw std::invalid_argument("'" + text + "': height " + spec.substr(colon + 1) +
+                                " is not a number in [" + common::str(kFloorHeights[0]) + ", " +
+                                common::str(kFloorHeights[1]) + "] m");
   return input;
 }
 
@@ -267,10 +269,11 @@ MapJobResult runMapJob(const MapJobOptions& options) {
     }
   }
   for (const auto& robot : robots) {
-    pipeline.push_back(registry.create("floor_mapper", context,
-                                       common::ConfigNode(floorMapperParameters(config_dir, robot, setup),
-                                                          parameterFilePath(config_dir, "floor_mapper"), ""),
-                                       "floor_mapper_" + robot));
+    pipeline.push_back(
+        registry.create("floor_mapper", context,
+                        common::ConfigNode(floorMapperParameters(config_dir, robot, setup),
+                                           parameterFilePath(config_dir, "floor_mapper"), ""),
+                        "floor_mapper_" + robot));
   }
   pipeline.push_back(registry.create("floor_matcher", context,
                                      componentParameters(config_dir, "floor_matcher",
@@ -314,9 +317,10 @@ MapJobResult runMapJob(const MapJobOptions& options) {
     // Data left out is reported even with --quiet.
     if (summary.skipped) {
       const std::string note = source->skippedNote();
-      common::logWarn(!note.empty() ? note
-                                    : p.recording + ": " + std::to_string(summary.skipped) +
-                                          " records skipped (unreadable or of types storey does not use)");
+      common::logWarn(!note.empty()
+                          ? note
+                          : p.recording + ": " + std::to_string(summary.skipped) +
+                                " records skipped (unreadable or of types storey does not use)");
     }
   }
   result.timings.push_back({"replay + detection + mapping", secondsSince(phase_start)});

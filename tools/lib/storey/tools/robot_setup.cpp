@@ -12,7 +12,8 @@ namespace fs = std::filesystem;
 
 RobotSetup robotSetup(const sim::Scenario& scenario) {
   RobotSetup setup;
-  for (const auto& robot : scenario.robots) setup.laser_range_noise[robot.name] = robot.model.laser.range_sigma;
+  for (const auto& robot : scenario.robots)
+    setup.laser_range_noise[robot.name] = robot.model.laser.range_sigma;
   if (scenario.robots.size() > 1) {
     for (const auto& f : scenario.building.floors) setup.floor_heights.push_back(f.height);  // by height
     for (const auto& robot : scenario.robots)
@@ -92,7 +93,8 @@ std::string writeLiveBringup(const std::string& config_dir, const std::vector<st
   };
   for (const auto& robot : robots) {
     const bool fleet = setup.start_floor.count(robot) > 0;
-    add("floor_detector", "floor_detector_" + robot, floorDetectorParameters(config_dir, robot, setup),
+    add("floor_detector", "floor_detector_" + robot,
+        floorDetectorParameters(config_dir, robot, setup),
         fleet ? ", with the building's floor heights and this robot's start floor" : "");
     add("floor_mapper", "floor_mapper_" + robot, floorMapperParameters(config_dir, robot, setup),
         setup.laser_range_noise.count(robot) ? ", with the simulated laser's range noise" : "");
