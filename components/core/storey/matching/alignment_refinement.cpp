@@ -24,15 +24,6 @@
 
 namespace storey::matching {
 
-using geometry::normalizeAngle;
-using geometry::Pose2;
-using localization::FilterState;
-using localization::LocalizationMap;
-using localization::makeWallModel;
-using localization::ParticleFilter;
-using localization::readParticleFilterOptions;
-using localization::selectBeams;
-using localization::WallModel;
 using namespace detail;  // NOLINT(google-build-using-namespace): the stages' shared helpers
 
 double refineAlignment(const grid::LikelihoodField& field, const floor::FloorGraph& graph,

@@ -15,6 +15,21 @@
 #include "storey/grid/point_map.h"
 #include "storey/matching/floor_matcher.h"
 
+namespace storey::matching {
+
+// The names every stage of the matcher uses (this header is included by the stages only).
+using geometry::normalizeAngle;
+using geometry::Pose2;
+using localization::FilterState;
+using localization::LocalizationMap;
+using localization::makeWallModel;
+using localization::ParticleFilter;
+using localization::readParticleFilterOptions;
+using localization::selectBeams;
+using localization::WallModel;
+
+}  // namespace storey::matching
+
 namespace storey::matching::detail {
 
 using geometry::Pose2;
