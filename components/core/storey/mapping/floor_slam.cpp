@@ -70,6 +70,21 @@ Pose2 withOdometryWhereDegenerate(const Pose2& matched, const Eigen::Matrix3d& m
   return Pose2(position.x(), position.y(), matched.theta());
 }
 
+Eigen::Matrix3d odometryWhereDegenerate(const Eigen::Matrix3d& match_information,
+                                        const Eigen::Matrix3d& odometry_information, double ratio) {
+  const Eigen::Matrix2d odometry_info = odometry_information.topLeftCorner<2, 2>();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> directions(
+      match_information.topLeftCorner<2, 2>());
+  Eigen::Matrix3d added = Eigen::Matrix3d::Zero();
+  for (int k = 0; k < 2; ++k) {
+    const Eigen::Vector2d v = directions.eigenvectors().col(k);
+    const double known = v.dot(odometry_info * v);
+    if (directions.eigenvalues()(k) < ratio * known)
+      added.topLeftCorner<2, 2>() += known * v * v.transpose();
+  }
+  return added;
+}
+
 // Whether a match with this covariance (map frame) claims to know its place along `offset`
 // to better than the offset's length (sigma_factor σ along it), unlike a match along a
 // bare corridor's axis, whose σ there spans such an offset.
@@ -417,9 +432,22 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
                floor::EdgeKind::kOdometry);
   Eigen::Matrix3d step_covariance = odometry_covariance;
   if (match.success) {
-    const Eigen::Matrix3d relative = rotateCovariance(match.covariance, last_pose.theta());
-    appendEdge(from, to, last_pose.between(match.pose), safeInformation(relative),
-               floor::EdgeKind::kScanMatch);
+    Eigen::Matrix3d relative = rotateCovariance(match.covariance, last_pose.theta());
+    Eigen::Matrix3d information = safeInformation(relative);
+    Pose2 measured = last_pose.between(match.pose);
+    if (!odometry_edge && !result.wide && options_.degenerate_ratio > 0.0) {
+      // Without its odometry edge, the step is known along a bare corridor's axis only as
+      // the odometry knew it: the edge carries that, or the graph comes apart there and
+      // any look-alike place along the axis fits a loop closure.
+      const Eigen::Matrix3d along = odometryWhereDegenerate(
+          information, safeInformation(odometry_covariance), options_.degenerate_ratio);
+      if (!along.isZero()) {
+        information += along;
+        relative = information.inverse();
+        measured = last_pose.between(pose);
+      }
+    }
+    appendEdge(from, to, measured, information, floor::EdgeKind::kScanMatch);
     step_covariance =
         odometry_edge
             ? Eigen::Matrix3d((relative.inverse() + odometry_covariance.inverse()).inverse())

@@ -30,6 +30,10 @@ geometry::Pose2 withOdometryWhereDegenerate(const geometry::Pose2& matched,
                                             const geometry::Pose2& odometry,
                                             const Eigen::Matrix3d& odometry_information,
                                             double ratio);
+// The odometry step's information restricted to the horizontal directions where the
+// match's information is below `ratio` times the odometry's (zero elsewhere and in heading).
+Eigen::Matrix3d odometryWhereDegenerate(const Eigen::Matrix3d& match_information,
+                                        const Eigen::Matrix3d& odometry_information, double ratio);
 // Whether `covariance` spans `offset` within sigma_factor standard deviations along it.
 bool pinsAlong(const Eigen::Matrix3d& covariance, const Eigen::Vector2d& offset,
                double sigma_factor);
