@@ -30,7 +30,6 @@
 
 namespace storey::bench {
 
-
 namespace fdds = eprosima::fastdds::dds;
 using Scan = sensor_msgs::msg::LaserScan;
 using ScanType = sensor_msgs::msg::LaserScanPubSubType;
