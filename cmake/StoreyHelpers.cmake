@@ -26,12 +26,22 @@ endfunction()
 # storey_test(NAME <name> LABEL unit|integration|scenario LIBS <targets>...
 #             [SOURCES <files>...])
 # One gtest executable per call; every TEST becomes its own ctest entry with the label.
-# Without SOURCES, every *_test.cpp beside the calling CMakeLists.txt is used. Tests that
-# name the same RESOURCE_LOCK never run at the same time (ctest --parallel).
+# Without SOURCES, every *_test.cpp beside the calling CMakeLists.txt is used; for a unit
+# executable, its *_scenario_test.cpp files (whole synthetic runs that take seconds) go to a
+# second executable (unit_X_tests: synthetic_X_tests) labelled scenario. Tests that name the same
+# RESOURCE_LOCK never run at the same time (ctest --parallel).
 function(storey_test)
   cmake_parse_arguments(ARG "" "NAME;LABEL;TIMEOUT;RESOURCE_LOCK" "LIBS;SOURCES" ${ARGN})
   if(NOT ARG_SOURCES)
     file(GLOB ARG_SOURCES CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*_test.cpp)
+    if(ARG_LABEL STREQUAL "unit")
+      file(GLOB slow CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*_scenario_test.cpp)
+      if(slow)
+        list(REMOVE_ITEM ARG_SOURCES ${slow})
+        string(REGEX REPLACE "^unit_" "synthetic_" slow_name ${ARG_NAME})
+        storey_test(NAME ${slow_name} LABEL scenario LIBS ${ARG_LIBS} SOURCES ${slow})
+      endif()
+    endif()
   endif()
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)

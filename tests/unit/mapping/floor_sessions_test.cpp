@@ -9,6 +9,7 @@
 #include <cmath>
 
 #include "bare_options.h"
+#include "floor_sessions_world.h"
 #include "synthetic_world.h"
 #include "test_support.h"
 
@@ -17,83 +18,11 @@ namespace {
 
 using geometry::Pose2;
 
-std::vector<Pose2> legs(const std::vector<Eigen::Vector2d>& waypoints, double heading0, double step = 0.2) {
-  std::vector<Pose2> poses;
-  double heading = heading0;
-  for (std::size_t i = 0; i + 1 < waypoints.size(); ++i) {
-    const Eigen::Vector2d d = waypoints[i + 1] - waypoints[i];
-    const double next = std::atan2(d.y(), d.x());
-    const double turn = geometry::angleDiff(next, heading);
-    for (int k = 1; k <= 4; ++k) poses.emplace_back(waypoints[i].x(), waypoints[i].y(), heading + turn * k / 4);
-    heading = next;
-    const int n = static_cast<int>(std::ceil(d.norm() / step));
-    for (int k = 1; k <= n; ++k)
-      poses.emplace_back(waypoints[i].x() + d.x() * k / n, waypoints[i].y() + d.y() * k / n, heading);
-  }
-  return poses;
-}
-
-struct Robot {
-  FloorSessions sessions;
-  Pose2 odometry, truth;
-  double t = 0.0;
-  Robot(const FloorSlamOptions& o, const Pose2& start) : sessions(o, "robot", 0, 0.0), truth(start) {}
-  std::vector<ScanResult> drive(const test::World& world, const std::vector<Pose2>& poses) {
-    std::vector<ScanResult> results;
-    for (const auto& p : poses) {
-      odometry = odometry * truth.between(p);
-      truth = p;
-      results.push_back(sessions.addScan(world.scan(p, t += 0.1), odometry));
-    }
-    return results;
-  }
-  // A ride: the odometry goes on (the robot turns and moves in the cabin/stairs).
-  void ride(int floor, double height, const Pose2& arrival) {
-    sessions.beginTransit();
-    arriveAt(arrival);
-    sessions.endTransit(floor, height, t);
-  }
-  // Out of the cabin at `arrival` (on the floor reached), whether or not it is decided.
-  void arriveAt(const Pose2& arrival) {
-    odometry = odometry * Pose2(0.3, 0.1, 1.0);
-    truth = arrival;
-  }
-};
-
-// Office with a corridor-like north part: asymmetric, 16 m x 10 m.
-test::World asymmetricFloor() {
-  test::World w;
-  w.addBox(0, 0, 16, 10);
-  w.addWall(0, 6, 5, 6);
-  w.addWall(6.5, 6, 16, 6);
-  w.addWall(5, 0, 5, 3.5);
-  w.addWall(10, 0, 10, 2.5);
-  w.addBox(2, 1.5, 3, 2.3);
-  w.addBox(12, 7.5, 13.5, 8.2);
-  w.addBox(7, 3, 7.6, 3.6);
-  return w;
-}
-
-// Symmetric under a 180 degree turn about (8, 5): a robot seeing part of it cannot tell
-// which half it is in.
-test::World symmetricFloor() {
-  test::World w;
-  w.addBox(0, 0, 16, 10);
-  w.addWall(0, 6, 5, 6);
-  w.addWall(16, 4, 11, 4);
-  w.addWall(5, 0, 5, 2.5);
-  w.addWall(11, 10, 11, 7.5);
-  w.addBox(2, 1.5, 3, 2.3);
-  w.addBox(13, 7.7, 14, 8.5);
-  return w;
-}
-
-test::World upperFloor() {
-  test::World w;
-  w.addBox(0, 0, 8, 6);
-  w.addBox(3, 2, 3.5, 2.5);
-  return w;
-}
+using test::asymmetricFloor;
+using test::legs;
+using test::Robot;
+using test::symmetricFloor;
+using test::upperFloor;
 
 TEST(FloorSessions, ReturningRobotIsLocalisedGloballyAndResumesItsGraph) {
   const test::World floor0 = asymmetricFloor();
@@ -138,37 +67,6 @@ TEST(FloorSessions, ReturningRobotIsLocalisedGloballyAndResumesItsGraph) {
   EXPECT_LT((last.translation() - last_expected.translation()).norm(), 0.1);
   // Every node of the chain is where it was recorded.
   for (const auto& node : graph.nodes) EXPECT_TRUE(node.pose.isFinite());
-}
-
-TEST(FloorSessions, SymmetricFloorGivesANewGraphNotAWrongTie) {
-  const test::World floor0 = symmetricFloor();
-  for (std::uint64_t seed : {1u}) {
-    FloorSlamOptions options;
-    options.relocalization.global.seed = seed;
-    const Pose2 start(1, 8, 0);
-    Robot robot(options, start);
-    // Both halves mapped: the map is as symmetric as the floor.
-    robot.drive(floor0, legs({{1, 8}, {9, 8}, {8, 5}, {15, 5}, {8, 5}, {2, 4}, {7, 3}, {8, 1}, {15, 1}}, 0.0));
-    robot.ride(1, 3.0, Pose2(1, 1, 0.5));
-    robot.drive(upperFloor(), legs({{1, 1}, {6, 1}}, 0.5));
-    // Return where the symmetric view is as good as the true one.
-    const auto back = legs({{15, 2}, {8, 2}, {8, 5}, {13, 6}}, M_PI);
-    robot.ride(0, 0.0, back.front());
-    const auto results = robot.drive(floor0, back);
-    robot.sessions.flush();
-    const auto& stats = robot.sessions.stats();
-    EXPECT_EQ(stats.global_relocalizations + stats.fallbacks, 1u) << "seed " << seed;
-    // Whatever it decided, a relocalised pose must be the true one (never the mirror).
-    for (std::size_t i = 0; i < results.size(); ++i) {
-      if (!results[i].relocalized) continue;
-      const Pose2 expected = start.between(back[i]);
-      EXPECT_LT((results[i].pose.translation() - expected.translation()).norm(), 0.1) << "seed " << seed;
-    }
-    // Here the views are symmetric all along: it must not commit.
-    EXPECT_EQ(stats.global_relocalizations, 0u) << "seed " << seed;
-    EXPECT_EQ(robot.sessions.retired().size(), 1u) << "seed " << seed;
-    EXPECT_FALSE(robot.sessions.current().floorGraph().nodes.empty());
-  }
 }
 
 // The detector decides a ride's end seconds after it, when the robot may have left the

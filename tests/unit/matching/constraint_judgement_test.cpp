@@ -37,6 +37,7 @@ using test::officePath;
 
 using test::angleError;
 using test::fastOptions;
+using test::symmetricFloor;
 using test::translationError;
 
 TEST(ConstraintJudgement, AnErrorAlongAClaimedWeakDirectionIsNotWrongAcrossItIs) {

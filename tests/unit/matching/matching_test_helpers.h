@@ -1,10 +1,12 @@
-// Shared by the matching unit tests: pose errors and the matcher's test options.
+// Shared by the matching unit tests: pose errors, the matcher's test options and a
+// floor with a twin for every pose.
 #pragma once
 
 #include <cmath>
 
 #include "storey/geometry/pose2.h"
 #include "storey/matching/floor_matcher.h"
+#include "synthetic_floor.h"
 
 namespace storey::matching::test {
 
@@ -23,4 +25,16 @@ inline FloorMatcherOptions fastOptions() {
   o.filter.coarse_beams = 20;  // as config/floor_matcher.yaml
   return o;
 }
+
+// A floor with 180-degree rotational symmetry: every pose has a twin.
+inline Walls symmetricFloor() {
+  Walls w;
+  test::addBox(&w, 0, 0, 16, 8);
+  test::addBox(&w, 3, 3, 5, 5);
+  test::addBox(&w, 11, 3, 13, 5);
+  test::addWall(&w, 8, 0, 8, 2.5);
+  test::addWall(&w, 8, 5.5, 8, 8);
+  return w;
+}
+
 }  // namespace storey::matching::test

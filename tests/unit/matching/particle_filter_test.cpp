@@ -37,6 +37,7 @@ using test::officePath;
 
 using test::angleError;
 using test::fastOptions;
+using test::symmetricFloor;
 using test::translationError;
 
 TEST(ParticleFilter, UniformInitialisationIsInFreeSpaceAndSizedByArea) {
@@ -119,6 +120,7 @@ TEST(ParticleFilter, LikelihoodIsHigherAtTheTruePose) {
   EXPECT_EQ(right.beamEvaluations(), 10u * 60u);
 }
 
+// A 10 m x 5 m frame with one wall one cell thick at x = 5 m, from y = 1 to 4 m.
 grid::GridFrame wallFrame(std::vector<std::uint8_t>* walls) {
   grid::GridFrame f;
   f.resolution = 0.05;
@@ -187,9 +189,6 @@ TEST(SolidWalls, AWallTheFloorsOwnBeamsPassedIsNotSolid) {
   EXPECT_GT(seeThroughFraction(f, walls, g, {{3, 3}}, 90, Pose2(1.0, 0.0, 0.0), 0.3), 0.9);
 }
 
-// A corridor 36 m long with a row of identical rooms every 6 m on its north side: locally
-// periodic, but its end walls tell the rooms apart.
-
 TEST(ParticleFilter, WallModelLowersExactlyTheParticlesWhoseBeamsCrossWalls) {
   const auto g = driveFloor(officeFloor(0), officePath(0), Pose2(), 0, 0.0, 3);
   const LocalizationMap map(floor::renderFloorMap(g, {}), {});
@@ -233,8 +232,5 @@ TEST(ParticleFilter, WallModelLowersExactlyTheParticlesWhoseBeamsCrossWalls) {
   EXPECT_GT(crossing_particles, 0);
   EXPECT_GT(checked, 10);
 }
-
-// A constraint claims 1/sigma_xy^2 across the direction its scans pin best and ratio
-// times that along the weak one; without a ratio it is isotropic as before.
 }  // namespace
 }  // namespace storey::matching
