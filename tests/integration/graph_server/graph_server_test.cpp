@@ -164,6 +164,39 @@ TEST_F(GraphServerTest, RestartFromJournalLosesNothing) {
   EXPECT_NEAR(after.final_chi2, before.final_chi2, 1e-9);
 }
 
+// Group commit: records accepted between two published states share one fdatasync, and
+// every one of them is in the journal by the time a state reflects it.
+TEST_F(GraphServerTest, TheJournalSyncsOncePerBatchBeforeTheStateGoesOut) {
+  const std::string journal = test::makeTempDir() + "/graph.journal";
+  const std::string params =
+      "{optimize_min_period: 0.5, journal: '" + journal + "', publish_maps: false}";
+  runtime::Context context(onDomain(204));
+  GraphServer server(context, common::ConfigNode::loadString(params), "graph_server");
+  server.configure();
+  server.activate();
+  constexpr int kGraphs = 40;
+  {
+    runtime::Publisher<storey_msgs::msg::FloorGraphUpdate,
+                       storey_msgs::msg::FloorGraphUpdatePubSubType>
+        graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
+    ASSERT_TRUE(graphs.waitForSubscribers(1, 5.0));
+    for (int g = 0; g < kGraphs; ++g) graphs.publish(makeUpdate(g, g, 3.0 * g));
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (std::chrono::steady_clock::now() < deadline && server.stats().updates_accepted < kGraphs)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_EQ(server.stats().updates_accepted, static_cast<std::uint64_t>(kGraphs));
+  ASSERT_TRUE(server.waitOptimized(10.0));
+  const GraphServerStats stats = server.stats();
+  // Each state the worker publishes is preceded by at most one sync of what came before it.
+  EXPECT_GE(stats.journal_syncs, 1u);
+  EXPECT_LE(stats.journal_syncs, stats.optimisations);
+  EXPECT_LT(stats.journal_syncs, static_cast<std::uint64_t>(kGraphs));
+  EXPECT_EQ(building::readJournal(journal).records.size(), static_cast<std::size_t>(kGraphs));
+  server.deactivate();
+  server.cleanup();
+}
+
 TEST_F(GraphServerTest, BadUpdatesAreRejectedAndCounted) {
   runtime::Context context(onDomain(203));
   GraphServer server(context, common::ConfigNode::loadString("{optimize_min_period: 0.05}"), "graph_server");

@@ -351,9 +351,11 @@ bool looksLikeJournal(const std::string& path) {
 }
 
 JournalWriter::JournalWriter(const std::string& path, bool sync)
-    : file_(path, kFileMagic, "journal", sync, [this](const std::uint8_t* payload, std::size_t size) {
-        existing_.push_back(decodeRecord(payload, size));
-      }) {}
+    : file_(path, kFileMagic, "journal", /*sync=*/false,
+            [this](const std::uint8_t* payload, std::size_t size) {
+              existing_.push_back(decodeRecord(payload, size));
+            }),
+      sync_(sync) {}
 
 void JournalWriter::append(const JournalRecord& record) { file_.append(encodeRecord(record)); }
 

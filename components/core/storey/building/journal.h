@@ -63,7 +63,9 @@ JournalReadResult readJournal(const std::string& path);
 class JournalWriter {
  public:
   // Opens (creating if needed) for appending. An existing file is first read; a torn tail
-  // is truncated away. `sync` makes every append durable (fdatasync) before returning.
+  // is truncated away. An append survives the process being killed once it returns; with
+  // `sync`, sync() makes every record appended so far durable against a power cut (one
+  // fdatasync per call: group commit), without it sync() does nothing.
   JournalWriter(const std::string& path, bool sync);
   JournalWriter(const JournalWriter&) = delete;
   JournalWriter& operator=(const JournalWriter&) = delete;
@@ -72,11 +74,16 @@ class JournalWriter {
   const std::vector<JournalRecord>& existing() const { return existing_; }
   bool hadTornTail() const { return file_.hadTornTail(); }
   void append(const JournalRecord& record);
+  void sync() {
+    if (sync_) file_.sync();
+  }
+  std::uint64_t syncs() const { return file_.syncs(); }
   const std::string& path() const { return file_.path(); }
 
  private:
   std::vector<JournalRecord> existing_;  // filled while file_ is opened (declared first)
   common::RecordFileWriter file_;
+  bool sync_;
 };
 
 // A building rebuilt from a journal (storey export, storey match): every record applied

@@ -347,7 +347,16 @@ void RecordFileWriter::append(const std::vector<std::uint8_t>& payload) {
   std::memcpy(&frame[8 + payload.size()], &crc, 4);
   if (std::fwrite(frame.data(), 1, frame.size(), file_) != frame.size() || std::fflush(file_) != 0)
     throw std::runtime_error(path_ + ": " + what_ + " write failed");
-  if (sync_ && fdatasync(fileno(file_)) != 0) throw std::runtime_error(path_ + ": " + what_ + " sync failed");
+  unsynced_ = true;
+  if (sync_) sync();
+}
+
+void RecordFileWriter::sync() {
+  if (!unsynced_) return;
+  if (fdatasync(fileno(file_)) != 0)
+    throw std::runtime_error(path_ + ": " + what_ + " sync failed");
+  unsynced_ = false;
+  ++syncs_;
 }
 
 }  // namespace storey::common

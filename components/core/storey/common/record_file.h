@@ -145,8 +145,8 @@ class RecordFileWriter {
  public:
   // Opens (creating if needed) for appending. An existing file is first read (each record
   // passed to `on_existing`); a torn tail is cut off, damage before the end is thrown
-  // (RecordFileDamaged) and the file left as it is. `sync` makes every append durable
-  // (fdatasync) before it returns.
+  // (RecordFileDamaged) and the file left as it is. Every append reaches the kernel before it
+  // returns (it survives the process being killed); `sync` makes it durable (fdatasync) too.
   RecordFileWriter(const std::string& path, const char* magic, const std::string& what, bool sync,
                    const RecordHandler& on_existing);
   ~RecordFileWriter();
@@ -155,6 +155,9 @@ class RecordFileWriter {
 
   // Throws std::invalid_argument for a payload over kMaxRecordPayload.
   void append(const std::vector<std::uint8_t>& payload);
+  // Makes every record appended so far durable (one fdatasync, none when nothing is new).
+  void sync();
+  std::uint64_t syncs() const { return syncs_; }
   bool hadTornTail() const { return had_torn_tail_; }
   std::size_t existingRecords() const { return existing_records_; }
   const std::string& path() const { return path_; }
@@ -166,6 +169,8 @@ class RecordFileWriter {
   std::FILE* file_ = nullptr;
   bool had_torn_tail_ = false;
   std::size_t existing_records_ = 0;
+  bool unsynced_ = false;
+  std::uint64_t syncs_ = 0;
 };
 
 }  // namespace storey::common

@@ -83,6 +83,17 @@ void GraphServer::onCleanup() {
   state_publisher_.reset();
 }
 
+// Group commit: the records accepted since the last sync become durable together.
+void GraphServer::syncJournal() {
+  if (!journal_) return;
+  try {
+    journal_->sync();
+    stats_.journal_syncs = journal_->syncs();
+  } catch (const std::exception& e) {
+    logWarn(str(name(), ": ", e.what()));
+  }
+}
+
 void GraphServer::stopWorker() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -90,6 +101,8 @@ void GraphServer::stopWorker() {
   }
   changed_.notify_all();
   if (worker_.joinable()) worker_.join();
+  std::lock_guard<std::mutex> lock(mutex_);
+  syncJournal();  // what was accepted is on disk when the server stops
 }
 
 namespace {
@@ -243,6 +256,7 @@ void GraphServer::workerLoop() {
       // Rate limit: gather what arrives within the period into one optimisation.
       const auto next = last + std::chrono::duration<double>(options_.optimize_min_period);
       if (changed_.wait_until(lock, next, [&] { return stop_; })) return;
+      syncJournal();  // what the state below reflects is on disk first
       work = building_;
       generation = accepted_generation_;
     }
