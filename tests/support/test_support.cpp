@@ -27,6 +27,7 @@ void writeFile(const std::string& path, const std::string& text) {
 
 std::string sourceDir() { return STOREY_SOURCE_DIR; }
 std::string binaryDir() { return STOREY_BINARY_DIR; }
+std::string highDomainQosFile() { return binaryDir() + "/tests/high_domain_qos.xml"; }
 
 std::string sharedDataPath(const std::string& relative) {
   const char* override_dir = std::getenv("STOREY_SHARED_DATA");

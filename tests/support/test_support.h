@@ -15,6 +15,9 @@ std::string sourceDir();
 std::string binaryDir();
 // Path of ../shared/data/<relative>, or "" when it does not exist.
 std::string sharedDataPath(const std::string& relative);
+// The QoS profile file for DDS tests on domains 240-249 (tests/CMakeLists.txt): storey's
+// profiles with a port mapping that reaches those domains.
+std::string highDomainQosFile();
 // A fresh, empty temporary directory (removed at process exit is not guaranteed).
 std::string makeTempDir(const std::string& prefix = "storey_test");
 

@@ -216,6 +216,15 @@ void resolveTopicTypes(Context& context, std::vector<RecordTopic>& topics, doubl
   }
 }
 
+TopicKind BagRecorder::recordKind(const RecordTopic& topic) {
+  // tf_static as ros2 bag record takes it: its publishers (tf2's static broadcaster) send
+  // each transform once, transient local, so only such a subscription gets one sent
+  // before the recording started.
+  if (topic.name.substr(topic.name.rfind('/') + 1) == "tf_static") return TopicKind::kGraph;
+  const auto known = knownTypeTable().find(topic.type);
+  return known == knownTypeTable().end() ? TopicKind::kSensor : known->second.kind;
+}
+
 BagRecorder::BagRecorder(Context& context, const std::string& output_folder,
                          const std::vector<RecordTopic>& topics)
     : bag_(output_folder) {
@@ -225,12 +234,13 @@ BagRecorder::BagRecorder(Context& context, const std::string& output_folder,
       throw std::invalid_argument("topic '" + topic.name + "': type '" + topic.type +
                                   "' is not one storey can record");
     }
-    const bool reliable = known->second.kind == TopicKind::kGraph;
+    const TopicKind kind = recordKind(topic);
+    const bool reliable = kind == TopicKind::kGraph;
     bag_.createTopic(
         {topic.name, topic.type, bag::kSerializationCdr, bag::qosProfileYaml(reliable, reliable)});
     const std::string name = topic.name;
     subscriptions_.push_back(known->second.subscribe(
-        context, name, known->second.kind,
+        context, name, kind,
         [this, name](std::vector<std::uint8_t>&& bytes) { store(name, std::move(bytes)); }));
   }
 }

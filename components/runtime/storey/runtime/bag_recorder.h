@@ -43,6 +43,10 @@ class BagRecorder {
 
   static std::vector<std::string> knownTypes();
   static std::string inferType(const std::string& topic_name);  // "" when not inferable
+  // The QoS a topic is recorded with: tf_static (any namespace) reliable and transient
+  // local, to get what was sent before the recording started, as ros2 bag record does;
+  // else by type (sensor types best effort, storey's graph types transient local).
+  static TopicKind recordKind(const RecordTopic& topic);
 
   std::uint64_t messageCount() const { return count_; }
   std::map<std::string, std::uint64_t> countsByTopic() const;
