@@ -26,6 +26,7 @@ namespace {
 constexpr int kDomain = 147;  // distinct from every other DDS test
 constexpr int kDiscoveryDomain = 148;
 constexpr int kTfStaticDomain = 240;  // on test::highDomainQosFile()'s ports
+constexpr int kOfferedQosDomain = 241;
 
 // A Context on one of the domains 240-249, whose `storey` children use the same ports.
 ContextOptions onHighDomain(int domain) {
@@ -165,6 +166,55 @@ TEST(Record, RecordsATfStaticPublishedBeforeTheRecordingStarts) {
   ASSERT_EQ(qos.size(), 1u);
   EXPECT_EQ(qos[0]["reliability"].as<int>(), 1);
   EXPECT_EQ(qos[0]["durability"].as<int>(), 1);
+}
+
+// The metadata holds the QoS the publishers offer, not the recorder's own: a reliable,
+// transient-local odometry writer and a best-effort, volatile scan writer.
+TEST(Record, RecordsTheQosThePublishersOffer) {
+  const std::string output = test::makeTempDir("record") + "/offered";
+  const ContextOptions options = onHighDomain(kOfferedQosDomain);
+  const pid_t pid =
+      spawn({STOREY_COMMAND, "record", "--topics", "/rob4/odom,/rob4/scan", "--output", output,
+             "--count", "4", "--duration", "30", "--domain", std::to_string(kOfferedQosDomain)});
+  ASSERT_GT(pid, 0);
+  {
+    Context context(options);
+    Publisher<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType> odoms(
+        context, "/rob4/odom", TopicKind::kGraph);
+    Publisher<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType> scans(
+        context, "/rob4/scan", TopicKind::kSensor);
+    ASSERT_TRUE(odoms.waitForSubscribers(1, 20.0)) << "storey record did not subscribe";
+    ASSERT_TRUE(scans.waitForSubscribers(1, 5.0));
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));  // both sides matched
+    for (int i = 0; i < 2; ++i) {
+      sensor::OdometrySample odom;
+      odom.stamp = 1.0 + i;
+      EXPECT_TRUE(odoms.publish(toMessage(odom)));
+      sensor::LaserScan scan;
+      scan.stamp = 1.0 + i;
+      scan.angle_increment = 0.1;
+      scan.range_max = 10.0;
+      scan.ranges.assign(5, 1.0f);
+      EXPECT_TRUE(scans.publish(toMessage(scan, "rob4/laser")));
+      std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    }
+    ASSERT_EQ(waitFor(pid, 30.0), 0) << "storey record failed or did not stop";
+  }
+  const YAML::Node odom_qos = offeredQos(output, "/rob4/odom");
+  ASSERT_EQ(odom_qos.size(), 1u);
+  EXPECT_EQ(odom_qos[0]["reliability"].as<int>(), 1);  // reliable
+  EXPECT_EQ(odom_qos[0]["durability"].as<int>(), 1);   // transient local
+  const YAML::Node scan_qos = offeredQos(output, "/rob4/scan");
+  ASSERT_EQ(scan_qos.size(), 1u);
+  EXPECT_EQ(scan_qos[0]["reliability"].as<int>(), 2);  // best effort
+  EXPECT_EQ(scan_qos[0]["durability"].as<int>(), 2);   // volatile
+  // The database's topics table says the same.
+  bag::BagReader bag(output);
+  for (const bag::TopicInfo& topic : bag.topics()) {
+    EXPECT_EQ(YAML::Load(topic.offered_qos_profiles)[0]["reliability"].as<int>(),
+              topic.name == "/rob4/odom" ? 1 : 2)
+        << topic.name;
+  }
 }
 
 TEST(Record, ParsesTopicListsAndInfersSensorTypes) {
