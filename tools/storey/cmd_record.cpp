@@ -20,9 +20,11 @@ int run_record(Args& args) {
              "Subscribes to the topics (ROS 2 names, DDS topics rt/<name>) and writes every\n"
              "message into a new rosbag2 bag folder, stamped with its receive time. A topic's\n"
              "type is given as NAME:TYPE, or inferred from its last name token (scan, odom,\n"
-             "pressure, imu, tf, tf_static), or else taken from a discovered publisher. Stops\n"
-             "on SIGINT/SIGTERM, after --duration, or after --count messages. Types storey\n"
-             "can record:" +
+             "pressure, imu, tf, tf_static), or else taken from a discovered publisher.\n"
+             "tf_static is subscribed reliable and transient local (transforms sent before\n"
+             "the recording started are recorded too), as ros2 bag record does; the bag\n"
+             "stores the QoS the publishers offered. Stops on SIGINT/SIGTERM, after\n"
+             "--duration, or after --count messages. Types storey can record:" +
                  known)
       .option("topics", "A,B,...", "topics to record (comma-separated)")
       .option("output", "BAG", "bag folder to create (must not exist or be empty)")

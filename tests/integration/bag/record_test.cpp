@@ -2,6 +2,7 @@
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <yaml-cpp/yaml.h>
 
 #include <chrono>
 #include <filesystem>
@@ -17,12 +18,21 @@
 #include "storey/runtime/sensor_bag.h"
 #include "storey_msgs/msg/FloorEventPubSubTypes.h"
 #include "test_support.h"
+#include "tf2_msgs/msg/TFMessagePubSubTypes.h"
 
 namespace storey::runtime {
 namespace {
 
 constexpr int kDomain = 147;  // distinct from every other DDS test
 constexpr int kDiscoveryDomain = 148;
+constexpr int kTfStaticDomain = 205;
+constexpr int kOfferedQosDomain = 207;
+
+ContextOptions onDomain(int domain) {
+  ContextOptions options;
+  options.domain_id = domain;
+  return options;
+}
 
 pid_t spawn(const std::vector<std::string>& argv) {
   const pid_t pid = fork();
@@ -112,6 +122,96 @@ TEST(Record, RecordsMessagesPublishedOverDds) {
   EXPECT_EQ(pressures, (std::vector<double>{1000, 1001, 1002, 1003}));
   EXPECT_EQ(odom_x, (std::vector<double>{0, 1, 2, 3}));
   EXPECT_EQ(reader.stats().out_of_order, 0u);
+}
+
+// The offered QoS profiles (rosbag2's YAML list) of `topic` in a bag's metadata.yaml.
+YAML::Node offeredQos(const std::string& bag_folder, const std::string& topic) {
+  const auto metadata = bag::readMetadataFile(bag_folder + "/metadata.yaml");
+  for (const bag::TopicWithCount& t : metadata.topics_with_message_count) {
+    if (t.topic.name == topic) return YAML::Load(t.topic.offered_qos_profiles);
+  }
+  ADD_FAILURE() << "no topic " << topic << " in " << bag_folder;
+  return {};
+}
+
+// A static transform published (transient local, as tf2's static broadcaster does) before
+// the recording starts is recorded: ros2 bag record subscribes to tf_static that way.
+TEST(Record, RecordsATfStaticPublishedBeforeTheRecordingStarts) {
+  const std::string output = test::makeTempDir("record") + "/tf_static";
+  Context context(onDomain(kTfStaticDomain));
+  Publisher<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType> tf_static(
+      context, "/tf_static", TopicKind::kGraph);
+  tf2_msgs::msg::TFMessage tf;
+  tf.transforms().push_back(toTransform(geometry::Pose2(0.2, 0.0, 0.0), 5.0, "base_link", "laser"));
+  ASSERT_TRUE(tf_static.publish(tf));
+  // Stops at the one message; without it, after the duration.
+  const pid_t pid =
+      spawn({STOREY_COMMAND, "record", "--topics", "tf_static", "--output", output, "--count", "1",
+             "--duration", "3", "--domain", std::to_string(kTfStaticDomain)});
+  ASSERT_GT(pid, 0);
+  ASSERT_EQ(waitFor(pid, 30.0), 0) << "storey record failed";
+  bag::BagReader bag(output);
+  ASSERT_EQ(bag.messageCount(), 1u);
+  bag::BagMessage message;
+  ASSERT_TRUE(bag.next(message));
+  const auto recorded = deserializeCdr<tf2_msgs::msg::TFMessage>(message.data);
+  ASSERT_EQ(recorded.transforms().size(), 1u);
+  EXPECT_EQ(recorded.transforms()[0].header().frame_id(), "base_link");
+  EXPECT_EQ(recorded.transforms()[0].child_frame_id(), "laser");
+  // Offered as a replay must publish it: reliable (1), transient local (1).
+  const YAML::Node qos = offeredQos(output, "/tf_static");
+  ASSERT_EQ(qos.size(), 1u);
+  EXPECT_EQ(qos[0]["reliability"].as<int>(), 1);
+  EXPECT_EQ(qos[0]["durability"].as<int>(), 1);
+}
+
+// The metadata holds the QoS the publishers offer, not the recorder's own: a reliable,
+// transient-local odometry writer and a best-effort, volatile scan writer.
+TEST(Record, RecordsTheQosThePublishersOffer) {
+  const std::string output = test::makeTempDir("record") + "/offered";
+  const ContextOptions options = onDomain(kOfferedQosDomain);
+  const pid_t pid =
+      spawn({STOREY_COMMAND, "record", "--topics", "/rob4/odom,/rob4/scan", "--output", output,
+             "--count", "4", "--duration", "30", "--domain", std::to_string(kOfferedQosDomain)});
+  ASSERT_GT(pid, 0);
+  {
+    Context context(options);
+    Publisher<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType> odoms(
+        context, "/rob4/odom", TopicKind::kGraph);
+    Publisher<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType> scans(
+        context, "/rob4/scan", TopicKind::kSensor);
+    ASSERT_TRUE(odoms.waitForSubscribers(1, 20.0)) << "storey record did not subscribe";
+    ASSERT_TRUE(scans.waitForSubscribers(1, 5.0));
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));  // both sides matched
+    for (int i = 0; i < 2; ++i) {
+      sensor::OdometrySample odom;
+      odom.stamp = 1.0 + i;
+      EXPECT_TRUE(odoms.publish(toMessage(odom)));
+      sensor::LaserScan scan;
+      scan.stamp = 1.0 + i;
+      scan.angle_increment = 0.1;
+      scan.range_max = 10.0;
+      scan.ranges.assign(5, 1.0f);
+      EXPECT_TRUE(scans.publish(toMessage(scan, "rob4/laser")));
+      std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    }
+    ASSERT_EQ(waitFor(pid, 30.0), 0) << "storey record failed or did not stop";
+  }
+  const YAML::Node odom_qos = offeredQos(output, "/rob4/odom");
+  ASSERT_EQ(odom_qos.size(), 1u);
+  EXPECT_EQ(odom_qos[0]["reliability"].as<int>(), 1);  // reliable
+  EXPECT_EQ(odom_qos[0]["durability"].as<int>(), 1);   // transient local
+  const YAML::Node scan_qos = offeredQos(output, "/rob4/scan");
+  ASSERT_EQ(scan_qos.size(), 1u);
+  EXPECT_EQ(scan_qos[0]["reliability"].as<int>(), 2);  // best effort
+  EXPECT_EQ(scan_qos[0]["durability"].as<int>(), 2);   // volatile
+  // The database's topics table says the same.
+  bag::BagReader bag(output);
+  for (const bag::TopicInfo& topic : bag.topics()) {
+    EXPECT_EQ(YAML::Load(topic.offered_qos_profiles)[0]["reliability"].as<int>(),
+              topic.name == "/rob4/odom" ? 1 : 2)
+        << topic.name;
+  }
 }
 
 TEST(Record, ParsesTopicListsAndInfersSensorTypes) {

@@ -1,5 +1,7 @@
 #include "storey/runtime/sensor_bag.h"
 
+#include <yaml-cpp/yaml.h>
+
 #include <cmath>
 #include <random>
 
@@ -232,6 +234,29 @@ TEST(SensorBag, OutOfOrderAndMalformedMessagesAreCountedNotFatal) {
   EXPECT_EQ(stamps, (std::vector<double>{1.0, 3.0, 2.0}));
   EXPECT_EQ(reader.stats().out_of_order, 1u);
   EXPECT_EQ(reader.stats().malformed, 1u);
+}
+
+// tf2's static listener subscribes reliable and transient local: a bag offering
+// /tf_static volatile replays (ros2 bag play) to a writer it cannot match.
+TEST(SensorBag, TfStaticIsOfferedReliableAndTransientLocal) {
+  const std::string folder = test::makeTempDir("sensor_bag") + "/qos";
+  std::mt19937 rng(3);
+  {
+    SensorBagWriter writer(folder);
+    writer.write("r", makeScan(1.0, rng, geometry::Pose2(0.2, 0.0, 0.0)));
+    sensor::OdometrySample odom;
+    odom.stamp = 1.0;
+    writer.write("r", odom);
+  }
+  const bag::BagMetadata metadata = bag::readMetadataFile(folder + "/metadata.yaml");
+  std::map<std::string, YAML::Node> qos;
+  for (const bag::TopicWithCount& t : metadata.topics_with_message_count)
+    qos[t.topic.name] = YAML::Load(t.topic.offered_qos_profiles);
+  ASSERT_EQ(qos.count(kTfStaticTopic), 1u);
+  EXPECT_EQ(qos[kTfStaticTopic][0]["reliability"].as<int>(), 1);  // reliable
+  EXPECT_EQ(qos[kTfStaticTopic][0]["durability"].as<int>(), 1);   // transient local
+  EXPECT_EQ(qos["/r/odom"][0]["reliability"].as<int>(), 2);       // sensors: best effort
+  EXPECT_EQ(qos["/r/odom"][0]["durability"].as<int>(), 2);        // and volatile
 }
 
 }  // namespace

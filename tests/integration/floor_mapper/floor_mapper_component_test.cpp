@@ -17,6 +17,7 @@
 #include "storey/runtime/subscription.h"
 #include "synthetic_world.h"
 #include "test_support.h"
+#include "tf2_msgs/msg/TFMessagePubSubTypes.h"
 
 namespace storey::floor_mapper {
 namespace {
@@ -150,6 +151,99 @@ TEST(FloorMapperComponent, MapsTwoFloorsAndPublishesTheirGraphs) {
   EXPECT_GE(edges, 2 * (nodes - 2));  // odometry + scan match between consecutive nodes
   component.deactivate();
   component.cleanup();
+}
+
+// Standard ROS 2 frames, without the robot's namespace: odometry of `base_frame`, the laser
+// mounted by `mounting` (parent, child, pose) on /tf_static. Returns the sensor offsets of
+// the nodes the mapper publishes.
+std::vector<Pose2> mountedOffsets(
+    int domain, const std::string& base_frame,
+    const std::vector<std::tuple<std::string, std::string, Pose2>>& mounting) {
+  runtime::Context context(onDomain(domain));
+  std::mutex mutex;
+  std::vector<Pose2> offsets;
+  UpdateSub updates(context, "fm_graphs", runtime::TopicKind::kGraph, [&](const UpdateMsg& m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (const auto& n : m.new_nodes())
+      offsets.emplace_back(n.sensor_x(), n.sensor_y(), n.sensor_theta());
+  });
+  FloorMapperComponent component(context, parametersFor("fm_robot", "fm_graphs"), "mapper");
+  component.configure();
+  component.activate();
+  runtime::Publisher<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType> tf_static(
+      context, "tf_static", runtime::TopicKind::kGraph);
+  runtime::Publisher<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType> scans(
+      context, "/fm_robot/scan", runtime::TopicKind::kSensor);
+  runtime::Publisher<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType> odom(
+      context, "/fm_robot/odom", runtime::TopicKind::kSensor);
+  runtime::Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType> events(
+      context, "/fm_robot/floor_events", runtime::TopicKind::kGraph);
+  EXPECT_TRUE(scans.waitForSubscribers(1, 5.0));
+  EXPECT_TRUE(odom.waitForSubscribers(1, 5.0));
+  EXPECT_TRUE(events.waitForSubscribers(1, 5.0));
+  tf2_msgs::msg::TFMessage tf;
+  Pose2 laser;  // the laser in base_frame
+  for (const auto& [parent, child, pose] : mounting) {
+    tf.transforms().push_back(runtime::toTransform(pose, 100.0, parent, child));
+    laser = laser * pose;
+  }
+  tf_static.publish(tf);
+  const mapping::test::World office = mapping::test::officeWorld();
+  double t = 100.0;
+  for (int i = 0; i < 6; ++i, t += 0.5) {
+    const Pose2 pose(1.5 + 0.3 * i, 1.2, 0.0);
+    sensor::OdometrySample o;
+    o.stamp = t;
+    o.pose = pose;
+    odom.publish(runtime::toMessage(o, "odom", base_frame));
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    sensor::LaserScan scan = office.scan(pose * laser, t);
+    scans.publish(runtime::toMessage(scan, "laser"));
+    storey_msgs::msg::FloorEvent progress;  // the detector has decided up to t
+    progress.robot("fm_robot");
+    progress.kind(storey_msgs::msg::FloorEvent_Constants::KIND_PROGRESS);
+    progress.stamp(runtime::toTimeMessage(t));
+    progress.decided_at(runtime::toTimeMessage(t));
+    events.publish(progress);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  // Scans whose mounting is unknown wait for it: only mounted scans become nodes here.
+  EXPECT_TRUE(waitFor([&] { return component.nodeCount() >= 1; }, 3.0)) << "no scan was mounted";
+  component.flush(1.0);
+  EXPECT_TRUE(waitFor(
+      [&] {
+        std::lock_guard<std::mutex> lock(mutex);
+        return !offsets.empty();
+      },
+      3.0));
+  component.deactivate();
+  component.cleanup();
+  std::lock_guard<std::mutex> lock(mutex);
+  return offsets;
+}
+
+TEST(FloorMapperComponent, TakesTheLaserMountingOnAPlainBaseLink) {
+  const auto offsets =
+      mountedOffsets(209, "base_link", {{"base_link", "laser", Pose2(0.2, 0.05, 0.1)}});
+  ASSERT_FALSE(offsets.empty());
+  for (const Pose2& offset : offsets) {
+    EXPECT_NEAR(offset.x(), 0.2, 1e-9);
+    EXPECT_NEAR(offset.y(), 0.05, 1e-9);
+    EXPECT_NEAR(offset.theta(), 0.1, 1e-9);
+  }
+}
+
+// base_footprint -> base_link -> laser: the mounting is the composed chain.
+TEST(FloorMapperComponent, ComposesTheMountingFromBaseFootprint) {
+  const auto offsets = mountedOffsets(210, "base_footprint",
+                                      {{"base_footprint", "base_link", Pose2(0.1, 0.0, 0.0)},
+                                       {"base_link", "laser", Pose2(0.2, 0.0, M_PI / 2)}});
+  ASSERT_FALSE(offsets.empty());
+  for (const Pose2& offset : offsets) {
+    EXPECT_NEAR(offset.x(), 0.3, 1e-9);
+    EXPECT_NEAR(offset.y(), 0.0, 1e-9);
+    EXPECT_NEAR(offset.theta(), M_PI / 2, 1e-9);
+  }
 }
 
 TEST(FloorMapperComponent, BadParametersNameTheKey) {

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <thread>
 
+#include "storey/graph_server/conversions.h"
 #include "storey/runtime/context.h"
 #include "storey/runtime/publisher.h"
 #include "storey/runtime/sensor_conversions.h"
@@ -351,6 +352,35 @@ TEST_F(GraphServerTest, AHistoryDeliveredAgainAfterARestartIsNotJournalledAgain)
   EXPECT_EQ(after.constraints().size(), before.constraints().size());
   restarted.deactivate();
   restarted.cleanup();
+}
+
+// nav2 costmaps take a published map as trinary (100 lethal, 0 free, -1 unknown): the
+// floor maps carry the same classification as the PGM files storey writes.
+TEST(GraphServerConversions, FloorMapsAreTrinary) {
+  building::FloorMap floor;
+  floor.floor_id = 0;
+  sensor::LaserScan scan;
+  scan.angle_min = -0.5;
+  scan.angle_increment = 0.01;
+  scan.range_max = 20.0;
+  scan.ranges.assign(101, 3.0f);  // a wall 3 m ahead
+  for (int i = 0; i < 10; ++i) floor.grid.insertScan(scan, Pose2(0.0, 0.0, 0.0));
+  const nav_msgs::msg::OccupancyGrid msg = toMessage(floor, 1.0);
+  const grid::GridFrame& f = floor.grid.frame();
+  ASSERT_EQ(msg.data().size(), f.cellCount());
+  std::map<int, std::size_t> counts;
+  for (const std::int8_t value : msg.data()) ++counts[value];
+  for (const auto& [value, count] : counts)
+    EXPECT_TRUE(value == -1 || value == 0 || value == 100) << count << " cells of value " << value;
+  auto valueAt = [&](double x, double y) {
+    const Eigen::Vector2i c = f.cellOf(Eigen::Vector2d(x, y));
+    return static_cast<int>(msg.data()[f.index(c.x(), c.y())]);
+  };
+  EXPECT_EQ(valueAt(3.01, 0.0), 100) << "the wall";
+  EXPECT_EQ(valueAt(1.5, 0.0), 0) << "seen free";
+  EXPECT_EQ(valueAt(-1.5, 0.0), -1) << "behind the laser";
+  EXPECT_GT(counts[100], 40u);
+  EXPECT_GT(counts[0], 500u);
 }
 
 TEST(GraphServerOptions, UnknownKeyIsAnError) {

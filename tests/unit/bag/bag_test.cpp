@@ -244,6 +244,30 @@ TEST(Bag, EmptyBagHasNoMessages) {
   ASSERT_EQ(reader.topics().size(), 1u);
 }
 
+// A recorder learns the publishers' QoS after it declared the topic: the database and
+// metadata.yaml both hold what it set last, one profile per publisher.
+TEST(Bag, OfferedQosSetLaterReplacesTheDeclaredOne) {
+  const std::string folder = test::makeTempDir("bag") + "/qos";
+  {
+    BagWriter writer(folder);
+    writer.createTopic({"/r/odom", "nav_msgs/msg/Odometry", "cdr", qosProfileYaml(false, false)});
+    writer.write("/r/odom", 5, std::vector<std::uint8_t>{0, 1, 0, 0});
+    writer.setOfferedQos("/r/odom", qosProfilesYaml({{true, true}, {false, false}}));
+    EXPECT_THROW(writer.setOfferedQos("/r/scan", ""), BagError);  // undeclared
+  }
+  const YAML::Node qos = YAML::Load(readMetadataFile(folder + "/metadata.yaml")
+                                        .topics_with_message_count[0]
+                                        .topic.offered_qos_profiles);
+  ASSERT_EQ(qos.size(), 2u);
+  EXPECT_EQ(qos[0]["reliability"].as<int>(), 1);
+  EXPECT_EQ(qos[0]["durability"].as<int>(), 1);
+  EXPECT_EQ(qos[1]["reliability"].as<int>(), 2);
+  BagReader reader(folder);
+  EXPECT_EQ(reader.topics()[0].offered_qos_profiles,
+            qosProfilesYaml({{true, true}, {false, false}}));
+  EXPECT_EQ(qosProfilesYaml({}), "");
+}
+
 TEST(Bag, WriterRejectsMisuse) {
   const std::string dir = test::makeTempDir("bag");
   std::ofstream(dir + "/occupied") << "x";

@@ -106,6 +106,18 @@ bool BagWriter::hasTopic(const std::string& name) const {
   return topics_.count(name) > 0;
 }
 
+void BagWriter::setOfferedQos(const std::string& name, const std::string& offered_qos_profiles) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!db_) throw BagError(folder_, "setOfferedQos on a closed bag");
+  const auto it = topics_.find(name);
+  if (it == topics_.end()) throw BagError(folder_, "setOfferedQos on undeclared topic " + name);
+  detail::Statement update(*db_, "UPDATE topics SET offered_qos_profiles = ? WHERE id = ?");
+  update.bind(1, offered_qos_profiles);
+  update.bind(2, it->second.id);
+  update.step();
+  it->second.info.offered_qos_profiles = offered_qos_profiles;
+}
+
 void BagWriter::write(const std::string& topic, std::int64_t stamp_ns, const std::uint8_t* data,
                       std::size_t size) {
   std::lock_guard<std::mutex> lock(mutex_);

@@ -41,6 +41,9 @@ class BagWriter {
   // different type it is an error.
   void createTopic(const TopicInfo& topic);
   bool hasTopic(const std::string& name) const;
+  // Replaces a declared topic's offered QoS profiles (in the database and the metadata):
+  // a recorder learns what the publishers offer only once it has discovered them.
+  void setOfferedQos(const std::string& name, const std::string& offered_qos_profiles);
   // Appends one message on a declared topic; stamps need not be ordered.
   void write(const std::string& topic, std::int64_t stamp_ns, const std::uint8_t* data,
              std::size_t size);

@@ -65,6 +65,15 @@ std::string qosProfileYaml(bool reliable, bool transient_local) {
   return out.str();
 }
 
+std::string qosProfilesYaml(const std::vector<OfferedQos>& profiles) {
+  std::string out;
+  for (const OfferedQos& qos : profiles) {
+    if (!out.empty()) out += "\n";
+    out += qosProfileYaml(qos.reliable, qos.transient_local);
+  }
+  return out;
+}
+
 std::string metadataToYaml(const BagMetadata& m) {
   YAML::Emitter out;
   out << YAML::BeginMap << YAML::Key << "rosbag2_bagfile_information" << YAML::Value

@@ -24,6 +24,14 @@ struct TopicInfo {
 // rosbag2's QoS profile text for a recorded topic (history/depth as ROS 2 records them).
 std::string qosProfileYaml(bool reliable, bool transient_local);
 
+// What a publisher offers, as far as rosbag2 stores it.
+struct OfferedQos {
+  bool reliable = false;
+  bool transient_local = false;
+};
+// rosbag2's list for several publishers, one profile each in order ("" for none).
+std::string qosProfilesYaml(const std::vector<OfferedQos>& profiles);
+
 struct TopicWithCount {
   TopicInfo topic;
   std::uint64_t message_count = 0;

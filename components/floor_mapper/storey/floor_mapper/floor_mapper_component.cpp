@@ -92,7 +92,7 @@ void FloorMapperComponent::onConfigure() {
   createSubscription<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType>(
       runtime::robotTopic(robot, "odom"), runtime::TopicKind::kSensor,
       [this](const nav_msgs::msg::Odometry& m) { onOdometry(m); });
-  // The laser's mounting comes, as in ROS 2, from tf_static (base_link -> laser).
+  // The laser's mounting comes, as in ROS 2, from tf_static (base_link -> laser, or a chain).
   createSubscription<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType>(
       "tf_static", runtime::TopicKind::kGraph, [this](const tf2_msgs::msg::TFMessage& m) { onTfStatic(m); });
   createSubscription<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType>(
@@ -141,15 +141,36 @@ void FloorMapperComponent::onCleanup() {
 void FloorMapperComponent::onOdometry(const nav_msgs::msg::Odometry& message) {
   const sensor::OdometrySample sample = runtime::fromMessage(message);
   std::lock_guard<std::mutex> lock(mutex_);
+  odometry_frame_ = message.child_frame_id();
   if (sequencer_) sequencer_->addOdometry(sample);
 }
 
 void FloorMapperComponent::onTfStatic(const tf2_msgs::msg::TFMessage& message) {
-  const std::string base = runtime::robotFrame(options_.robot, "base_link");
   std::lock_guard<std::mutex> lock(mutex_);
-  for (const auto& t : message.transforms())
-    if (t.header().frame_id() == base) laser_offsets_[t.child_frame_id()] = runtime::fromTransform(t);
+  for (const auto& t : message.transforms()) {
+    try {
+      frames_.set(t.header().frame_id(), t.child_frame_id(), runtime::fromTransform(t));
+    } catch (const std::invalid_argument& e) {
+      common::logWarn(str(name(), ": ignoring a tf_static transform: ", e.what()));
+    }
+  }
   passMountedScans(false);
+}
+
+// The frames a laser may be mounted on, first choice first: the frame the odometry moves
+// (its child_frame_id), then base_footprint and base_link, in the robot's namespace and
+// without one (a single robot's standard frames carry none).
+std::vector<std::string> FloorMapperComponent::baseFrames() const {
+  std::vector<std::string> bases;
+  auto add = [&](const std::string& frame) {
+    if (!frame.empty() && std::find(bases.begin(), bases.end(), frame) == bases.end())
+      bases.push_back(frame);
+  };
+  add(odometry_frame_);
+  for (const char* leaf : {"base_footprint", "base_link"})
+    add(runtime::robotFrame(options_.robot, leaf));
+  for (const char* leaf : {"base_footprint", "base_link"}) add(leaf);
+  return bases;
 }
 
 // tf_static and the scans are separate topics: after a restart, a durable scan history can
@@ -165,17 +186,20 @@ void FloorMapperComponent::onScan(const sensor_msgs::msg::LaserScan& message) {
 
 void FloorMapperComponent::passMountedScans(bool all) {
   constexpr std::size_t kMaxUnmounted = 400;
-  const std::string base = runtime::robotFrame(options_.robot, "base_link");
+  const std::vector<std::string> bases = baseFrames();
   while (!unmounted_.empty()) {
     auto& [frame, scan] = unmounted_.front();
-    auto mounting = laser_offsets_.find(frame);
-    if (mounting != laser_offsets_.end()) {
-      scan.sensor_offset = mounting->second;
-    } else if (frame != base && !all && unmounted_.size() <= kMaxUnmounted) {
+    // A laser frame that is itself a base frame needs no tf_static.
+    if (const auto mounting = frames_.poseInFirstOf(frame, bases)) {
+      scan.sensor_offset = *mounting;
+    } else if (!all && unmounted_.size() <= kMaxUnmounted) {
       return;
-    } else if (frame != base && !mounting_warned_) {
-      common::logWarn(str(name(), ": no tf_static mounting of laser frame '", frame, "' on ", base,
-                          "; its scans are taken as if at base_link"));
+    } else if (!mounting_warned_) {
+      std::string names;
+      for (const std::string& base : bases) names += (names.empty() ? "" : ", ") + base;
+      common::logWarn(str(name(), ": no tf_static mounting of laser frame '", frame,
+                          "' on the robot's base (", names,
+                          "); its scans are taken as if at the base"));
       mounting_warned_ = true;
     }
     sequencer_->addScan(std::move(scan));

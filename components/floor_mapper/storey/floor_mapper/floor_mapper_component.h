@@ -13,10 +13,12 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "nav_msgs/msg/OdometryPubSubTypes.h"
 #include "sensor_msgs/msg/LaserScanPubSubTypes.h"
 #include "storey/floor/floor_event.h"
+#include "storey/geometry/frame_tree.h"
 #include "storey/mapping/floor_sessions.h"
 #include "storey/mapping/input_log.h"
 #include "storey/mapping/input_sequencer.h"
@@ -79,6 +81,7 @@ class FloorMapperComponent : public runtime::Component {
   void addScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry);
   void applyFloorEvent(const floor::FloorEvent& event);
   void passMountedScans(bool all);  // with mutex_ held
+  std::vector<std::string> baseFrames() const;  // with mutex_ held
 
   FloorMapperComponentOptions options_;
   mutable std::mutex mutex_;
@@ -88,7 +91,8 @@ class FloorMapperComponent : public runtime::Component {
   // Scans (laser frame, scan) waiting for their laser's mounting from tf_static.
   std::deque<std::pair<std::string, sensor::LaserScan>> unmounted_;
   bool mounting_warned_ = false;
-  std::map<std::string, geometry::Pose2> laser_offsets_;  // laser frame -> mounting on base_link
+  geometry::FrameTree frames_;             // from tf_static
+  std::string odometry_frame_;             // the odometry's child_frame_id, once one arrived
   std::map<int, std::uint32_t> sequence_;  // per floor graph
   std::shared_ptr<runtime::Publisher<storey_msgs::msg::FloorGraphUpdate,
                                      storey_msgs::msg::FloorGraphUpdatePubSubType>>

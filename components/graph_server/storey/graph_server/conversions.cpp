@@ -124,12 +124,24 @@ nav_msgs::msg::OccupancyGrid toMessage(const building::FloorMap& floor, double s
   msg.info().origin().position().z(floor.height);
   msg.info().origin().orientation().w(1.0);
   msg.data().resize(f.cellCount());
+  // Trinary, as nav2's map_server publishes a trinary map: 100 occupied, 0 free, -1
+  // unknown. The classification (and its thresholds) is the PGM files' (renderGrey), so
+  // the live map equals the saved one served by map_server.
   for (int cy = 0; cy < f.height; ++cy)
     for (int cx = 0; cx < f.width; ++cx) {
-      const float l = floor.grid.logOddsAt(cx, cy);
-      // ROS convention: -1 unknown, else occupancy probability in percent.
-      msg.data()[f.index(cx, cy)] =
-          l == 0.0f ? std::int8_t(-1) : static_cast<std::int8_t>(std::lround(100.0 * floor.grid.probabilityAt(cx, cy)));
+      std::int8_t value = -1;
+      switch (floor.grid.stateAt(cx, cy)) {
+        case grid::CellState::kOccupied:
+          value = 100;
+          break;
+        case grid::CellState::kFree:
+          value = 0;
+          break;
+        case grid::CellState::kUnknown:
+          value = -1;
+          break;
+      }
+      msg.data()[f.index(cx, cy)] = value;
     }
   return msg;
 }

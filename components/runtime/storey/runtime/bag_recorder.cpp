@@ -1,8 +1,6 @@
 #include "storey/runtime/bag_recorder.h"
 
 #include <chrono>
-#include <condition_variable>
-#include <fastdds/dds/domain/DomainParticipantListener.hpp>
 #include <functional>
 #include <sstream>
 #include <stdexcept>
@@ -149,62 +147,35 @@ std::vector<RecordTopic> parseRecordTopics(const std::string& list) {
   return topics;
 }
 
-namespace {
-
-// Collects the type of every DDS writer discovered, by DDS topic name.
-class WriterTypes : public eprosima::fastdds::dds::DomainParticipantListener {
- public:
-  void on_publisher_discovery(eprosima::fastdds::dds::DomainParticipant*,
-                              eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) override {
-    if (info.status != eprosima::fastrtps::rtps::WriterDiscoveryInfo::DISCOVERED_WRITER) return;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      types_[info.info.topicName().to_string()] = info.info.typeName().to_string();
-    }
-    changed_.notify_all();
-  }
-
-  // Waits until every name has a type or the deadline passes.
-  std::map<std::string, std::string> waitFor(const std::vector<std::string>& dds_names,
-                                             double timeout_s) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    changed_.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] {
-      for (const std::string& name : dds_names) {
-        if (!types_.count(name)) return false;
-      }
-      return true;
-    });
-    return types_;
-  }
-
- private:
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::map<std::string, std::string> types_;
-};
-
-}  // namespace
-
 void resolveTopicTypes(Context& context, std::vector<RecordTopic>& topics, double timeout_s) {
   std::vector<std::string> wanted;
   for (const RecordTopic& topic : topics) {
     if (topic.type.empty()) wanted.push_back(Context::ddsTopicName(topic.name));
   }
   if (wanted.empty()) return;
-  WriterTypes listener;
-  // Discovery callbacks are not filtered by the status mask.
-  context.participant().set_listener(&listener, eprosima::fastdds::dds::StatusMask::none());
-  const std::map<std::string, std::string> found = listener.waitFor(wanted, timeout_s);
-  context.participant().set_listener(nullptr);
+  auto typeOf = [](const std::vector<DiscoveredWriter>& writers, const std::string& dds_name) {
+    for (const DiscoveredWriter& writer : writers) {
+      if (writer.topic == dds_name) return writer.type;
+    }
+    return std::string();
+  };
+  const std::vector<DiscoveredWriter> found = context.waitForWriters(
+      [&](const std::vector<DiscoveredWriter>& writers) {
+        for (const std::string& name : wanted) {
+          if (typeOf(writers, name).empty()) return false;
+        }
+        return true;
+      },
+      timeout_s);
   std::string missing;
   for (RecordTopic& topic : topics) {
     if (!topic.type.empty()) continue;
-    const auto it = found.find(Context::ddsTopicName(topic.name));
-    if (it == found.end()) {
+    const std::string type = typeOf(found, Context::ddsTopicName(topic.name));
+    if (type.empty()) {
       missing += (missing.empty() ? "" : ", ") + topic.name;
       continue;
     }
-    topic.type = rosTypeName(it->second);
+    topic.type = rosTypeName(type);
     if (!knownTypeTable().count(topic.type)) {
       throw std::invalid_argument("topic '" + topic.name + "' has type '" + topic.type +
                                   "', which storey cannot record; known: " + joinedKnownTypes());
@@ -216,21 +187,33 @@ void resolveTopicTypes(Context& context, std::vector<RecordTopic>& topics, doubl
   }
 }
 
+TopicKind BagRecorder::recordKind(const RecordTopic& topic) {
+  // tf_static as ros2 bag record takes it: its publishers (tf2's static broadcaster) send
+  // each transform once, transient local, so only such a subscription gets one sent
+  // before the recording started.
+  if (topic.name.substr(topic.name.rfind('/') + 1) == "tf_static") return TopicKind::kGraph;
+  const auto known = knownTypeTable().find(topic.type);
+  return known == knownTypeTable().end() ? TopicKind::kSensor : known->second.kind;
+}
+
 BagRecorder::BagRecorder(Context& context, const std::string& output_folder,
                          const std::vector<RecordTopic>& topics)
-    : bag_(output_folder) {
+    : context_(context), bag_(output_folder) {
   for (const RecordTopic& topic : topics) {
     const auto known = knownTypeTable().find(topic.type);
     if (known == knownTypeTable().end()) {
       throw std::invalid_argument("topic '" + topic.name + "': type '" + topic.type +
                                   "' is not one storey can record");
     }
-    const bool reliable = known->second.kind == TopicKind::kGraph;
+    const TopicKind kind = recordKind(topic);
+    // Until close() knows the publishers' QoS, the subscription's (which they match).
+    const bool reliable = kind == TopicKind::kGraph;
     bag_.createTopic(
         {topic.name, topic.type, bag::kSerializationCdr, bag::qosProfileYaml(reliable, reliable)});
+    topics_.push_back({topic, kind});
     const std::string name = topic.name;
     subscriptions_.push_back(known->second.subscribe(
-        context, name, known->second.kind,
+        context, name, kind,
         [this, name](std::vector<std::uint8_t>&& bytes) { store(name, std::move(bytes)); }));
   }
 }
@@ -261,8 +244,30 @@ int BagRecorder::matchedPublishers() const {
   return matched;
 }
 
+std::vector<bag::OfferedQos> BagRecorder::offeredQos(const RecordTopic& topic,
+                                                     TopicKind kind) const {
+  // The writers this recording's subscription could match: a reliable, transient-local
+  // subscription matches only reliable, transient-local writers; a best-effort one any.
+  const std::string dds_name = Context::ddsTopicName(topic.name);
+  const bool need_strict = kind == TopicKind::kGraph;
+  std::vector<bag::OfferedQos> offered;
+  for (const DiscoveredWriter& writer : context_.discoveredWriters()) {
+    if (writer.topic != dds_name || rosTypeName(writer.type) != topic.type) continue;
+    if (need_strict && !(writer.reliable && writer.transient_local)) continue;
+    offered.push_back({writer.reliable, writer.transient_local});
+  }
+  return offered;
+}
+
 void BagRecorder::close() {
   subscriptions_.clear();  // no callback runs after this
+  if (!bag_.isOpen()) return;
+  // What the publishers offered (as ros2 bag record stores it, one profile each), so a
+  // replay publishes as they did; a topic nobody published keeps the subscription's.
+  for (const auto& [topic, kind] : topics_) {
+    const std::vector<bag::OfferedQos> offered = offeredQos(topic, kind);
+    if (!offered.empty()) bag_.setOfferedQos(topic.name, bag::qosProfilesYaml(offered));
+  }
   bag_.close();
 }
 

@@ -8,6 +8,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "storey/bag/bag_writer.h"
@@ -43,17 +44,25 @@ class BagRecorder {
 
   static std::vector<std::string> knownTypes();
   static std::string inferType(const std::string& topic_name);  // "" when not inferable
+  // The QoS a topic is recorded with: tf_static (any namespace) reliable and transient
+  // local, to get what was sent before the recording started, as ros2 bag record does;
+  // else by type (sensor types best effort, storey's graph types transient local).
+  static TopicKind recordKind(const RecordTopic& topic);
 
   std::uint64_t messageCount() const { return count_; }
   std::map<std::string, std::uint64_t> countsByTopic() const;
   int matchedPublishers() const;  // summed over the topics
-  // Unsubscribes and writes metadata.yaml. Idempotent.
+  // Unsubscribes and writes metadata.yaml, with each topic's QoS as its publishers offered
+  // it. Idempotent.
   void close();
 
  private:
   void store(const std::string& topic, std::vector<std::uint8_t>&& bytes);
+  std::vector<bag::OfferedQos> offeredQos(const RecordTopic& topic, TopicKind kind) const;
 
+  Context& context_;
   bag::BagWriter bag_;
+  std::vector<std::pair<RecordTopic, TopicKind>> topics_;
   std::vector<std::unique_ptr<SubscriptionBase>> subscriptions_;
   std::atomic<std::uint64_t> count_{0};
   mutable std::mutex counts_mutex_;

@@ -5,9 +5,11 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstdlib>
 #include <fstream>
 #include <set>
+#include <sstream>
 
 #include "storey/common/log.h"
 
@@ -85,9 +87,12 @@ SecurityOptions resolveSecurity(const ContextOptions& options) {
   }
 }
 
+}  // namespace
+
 // Logs (debug) every remote participant this one discovers, drops or loses, so a process
-// that matches nobody can be told apart from one that matched and got nothing.
-class DiscoveryLogger : public fdds::DomainParticipantListener {
+// that matches nobody can be told apart from one that matched and got nothing; and keeps
+// every writer discovered, with its QoS (what `storey record` stores as offered).
+class DiscoveryListener : public fdds::DomainParticipantListener {
  public:
   void on_participant_discovery(fdds::DomainParticipant* participant,
                                 eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) override {
@@ -101,9 +106,49 @@ class DiscoveryLogger : public fdds::DomainParticipantListener {
                                  info.info.m_participantName.to_string(), " (",
                                  info.info.m_guid.guidPrefix, ")"));
   }
-};
 
-}  // namespace
+  void on_publisher_discovery(fdds::DomainParticipant*,
+                              eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) override {
+    using Info = eprosima::fastrtps::rtps::WriterDiscoveryInfo;
+    if (info.status != Info::DISCOVERED_WRITER && info.status != Info::CHANGED_QOS_WRITER) return;
+    DiscoveredWriter writer;
+    writer.topic = info.info.topicName().to_string();
+    writer.type = info.info.typeName().to_string();
+    writer.reliable = info.info.m_qos.m_reliability.kind == fdds::RELIABLE_RELIABILITY_QOS;
+    writer.transient_local = info.info.m_qos.m_durability.kind != fdds::VOLATILE_DURABILITY_QOS;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      std::ostringstream guid;
+      guid << info.info.guid();
+      const auto [it, added] = index_.emplace(guid.str(), writers_.size());
+      if (added) {
+        writers_.push_back(std::move(writer));
+      } else {
+        writers_[it->second] = std::move(writer);
+      }
+    }
+    changed_.notify_all();
+  }
+
+  std::vector<DiscoveredWriter> writers() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return writers_;
+  }
+
+  std::vector<DiscoveredWriter> waitFor(
+      const std::function<bool(const std::vector<DiscoveredWriter>&)>& done, double timeout_s) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait_for(lock, std::chrono::duration<double>(timeout_s),
+                      [&] { return done(writers_); });
+    return writers_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  std::vector<DiscoveredWriter> writers_;
+  std::map<std::string, std::size_t> index_;  // GUID -> position in writers_
+};
 
 int resolveDomainId(int requested) {
   if (requested >= 0) return requested;
@@ -144,10 +189,11 @@ Context::Context(const ContextOptions& options) {
   for (const auto& [name, value] : securityProperties(security)) {
     qos.properties().properties().emplace_back(name, value);
   }
-  discovery_logger_ = std::make_unique<DiscoveryLogger>();
+  discovery_listener_ = std::make_unique<DiscoveryListener>();
   // Discovery callbacks do not depend on the mask; none keeps every other status on the
   // entities' own listeners.
-  participant_ = factory->create_participant(domain_id_, qos, discovery_logger_.get(), fdds::StatusMask::none());
+  participant_ = factory->create_participant(domain_id_, qos, discovery_listener_.get(),
+                                             fdds::StatusMask::none());
   if (!participant_) {
     std::string why;
     if (security.enabled()) {
@@ -185,6 +231,15 @@ Context::~Context() {
     participant_->delete_contained_entities();
     fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
   }
+}
+
+std::vector<DiscoveredWriter> Context::discoveredWriters() const {
+  return discovery_listener_->writers();
+}
+
+std::vector<DiscoveredWriter> Context::waitForWriters(
+    const std::function<bool(const std::vector<DiscoveredWriter>&)>& done, double timeout_s) {
+  return discovery_listener_->waitFor(done, timeout_s);
 }
 
 fdds::Topic* Context::topicFor(const std::string& name, const TypeFactory& factory) {

@@ -10,6 +10,7 @@
 #include <mutex>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "storey/runtime/dds.h"
 #include "storey/runtime/executor.h"
@@ -56,6 +57,16 @@ struct ContextOptions {
 // The domain id ContextOptions{domain_id} resolves to (environment included).
 int resolveDomainId(int requested);
 
+// A DDS writer the participant discovered, with the QoS it offers.
+struct DiscoveredWriter {
+  std::string topic;  // DDS name, "rt/robot1/odom"
+  std::string type;   // DDS type name
+  bool reliable = false;
+  bool transient_local = false;  // transient local or a stronger durability
+};
+
+class DiscoveryListener;
+
 class Context {
  public:
   explicit Context(const ContextOptions& options = {});
@@ -95,6 +106,13 @@ class Context {
 
   static std::string profileName(TopicKind kind, bool writer);
 
+  // Every writer discovered since the participant started (those gone since included), in
+  // discovery order.
+  std::vector<DiscoveredWriter> discoveredWriters() const;
+  // Waits up to timeout_s until done(discoveredWriters()) holds; returns the writers then.
+  std::vector<DiscoveredWriter> waitForWriters(
+      const std::function<bool(const std::vector<DiscoveredWriter>&)>& done, double timeout_s);
+
  private:
   using TypeFactory = std::function<eprosima::fastdds::dds::TopicDataType*()>;
   eprosima::fastdds::dds::Topic* topicFor(const std::string& name, const TypeFactory& factory);
@@ -108,7 +126,7 @@ class Context {
   bool isolated_ = false;
   std::unique_ptr<Executor> executor_;
   // Declared before participant_: it must outlive the participant that calls it.
-  std::unique_ptr<eprosima::fastdds::dds::DomainParticipantListener> discovery_logger_;
+  std::unique_ptr<DiscoveryListener> discovery_listener_;
   eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
   eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;

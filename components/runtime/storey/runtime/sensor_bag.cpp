@@ -66,7 +66,10 @@ void SensorBagWriter::close() {
 
 void SensorBagWriter::declare(const std::string& topic, const std::string& type, bool reliable) {
   if (!bag_.hasTopic(topic)) {
-    bag_.createTopic({topic, type, bag::kSerializationCdr, bag::qosProfileYaml(reliable, false)});
+    // tf_static as tf2's static broadcaster offers it (its listener is transient local).
+    const bool transient_local = topic == kTfStaticTopic;
+    bag_.createTopic(
+        {topic, type, bag::kSerializationCdr, bag::qosProfileYaml(reliable, transient_local)});
   }
 }
 
