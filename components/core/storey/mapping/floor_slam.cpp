@@ -437,10 +437,14 @@ ScanResult FloorSlam::addScan(const sensor::LaserScan& scan, const Pose2& odomet
     Pose2 measured = last_pose.between(match.pose);
     if (!odometry_edge && !result.wide && options_.degenerate_ratio > 0.0) {
       // Without its odometry edge, the step is known along a bare corridor's axis only as
-      // the odometry knew it: the edge carries that, or the graph comes apart there and
-      // any look-alike place along the axis fits a loop closure.
-      const Eigen::Matrix3d along = odometryWhereDegenerate(
-          information, safeInformation(odometry_covariance), options_.degenerate_ratio);
+      // the odometry knew it, to within how far the odometry missed the match (a stall or
+      // a slip): the edge carries that, or the graph comes apart there and any look-alike
+      // place along the axis fits a loop closure.
+      const double missed = (match.pose.translation() - prediction.pose.translation()).norm();
+      Eigen::Matrix3d doubted = odometry_covariance;
+      doubted.topLeftCorner<2, 2>() += missed * missed * Eigen::Matrix2d::Identity();
+      const Eigen::Matrix3d along =
+          odometryWhereDegenerate(information, safeInformation(doubted), options_.degenerate_ratio);
       if (!along.isZero()) {
         information += along;
         relative = information.inverse();
