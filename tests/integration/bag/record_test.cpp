@@ -25,8 +25,8 @@ namespace {
 
 constexpr int kDomain = 147;  // distinct from every other DDS test
 constexpr int kDiscoveryDomain = 148;
-constexpr int kTfStaticDomain = 205;
-constexpr int kOfferedQosDomain = 207;
+constexpr int kTfStaticDomain = 50;
+constexpr int kOfferedQosDomain = 51;
 
 ContextOptions onDomain(int domain) {
   ContextOptions options;

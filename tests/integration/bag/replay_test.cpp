@@ -16,7 +16,7 @@
 namespace storey::tools {
 namespace {
 
-constexpr int kDomain = 208;  // distinct from every other DDS test
+constexpr int kDomain = 52;  // distinct from every other DDS test
 
 // tf2's static listener is reliable and transient local and joins whenever it starts: the
 // replayed mounting must still reach it after it was published.

@@ -224,7 +224,7 @@ std::vector<Pose2> mountedOffsets(
 
 TEST(FloorMapperComponent, TakesTheLaserMountingOnAPlainBaseLink) {
   const auto offsets =
-      mountedOffsets(209, "base_link", {{"base_link", "laser", Pose2(0.2, 0.05, 0.1)}});
+      mountedOffsets(53, "base_link", {{"base_link", "laser", Pose2(0.2, 0.05, 0.1)}});
   ASSERT_FALSE(offsets.empty());
   for (const Pose2& offset : offsets) {
     EXPECT_NEAR(offset.x(), 0.2, 1e-9);
@@ -235,7 +235,7 @@ TEST(FloorMapperComponent, TakesTheLaserMountingOnAPlainBaseLink) {
 
 // base_footprint -> base_link -> laser: the mounting is the composed chain.
 TEST(FloorMapperComponent, ComposesTheMountingFromBaseFootprint) {
-  const auto offsets = mountedOffsets(210, "base_footprint",
+  const auto offsets = mountedOffsets(54, "base_footprint",
                                       {{"base_footprint", "base_link", Pose2(0.1, 0.0, 0.0)},
                                        {"base_link", "laser", Pose2(0.2, 0.0, M_PI / 2)}});
   ASSERT_FALSE(offsets.empty());

@@ -171,7 +171,7 @@ TEST_F(GraphServerTest, TheJournalSyncsOncePerBatchBeforeTheStateGoesOut) {
   const std::string journal = test::makeTempDir() + "/graph.journal";
   const std::string params =
       "{optimize_min_period: 0.5, journal: '" + journal + "', publish_maps: false}";
-  runtime::Context context(onDomain(204));
+  runtime::Context context(onDomain(55));
   GraphServer server(context, common::ConfigNode::loadString(params), "graph_server");
   server.configure();
   server.activate();

@@ -75,6 +75,13 @@ TEST(MapJob, BundledBuildingIsMappedAndAligned) {
   }
   EXPECT_GT(ground, 1000);
   EXPECT_GT(upper, 1000);
+  // The report's numbers are for people: no exponent notation, and every phase timed,
+  // the outputs included.
+  const std::string report = test::readFile((fs::path(out) / "report.html").string());
+  EXPECT_EQ(report.find("e-0"), std::string::npos);
+  EXPECT_EQ(report.find("e-1"), std::string::npos);
+  EXPECT_EQ(report.find("<td>-0.000</td>"), std::string::npos);
+  EXPECT_NE(report.find("<td style=\"text-align:left\">outputs"), std::string::npos);
 }
 
 TEST(MapJob, SameSeedGivesTheSameBuilding) {

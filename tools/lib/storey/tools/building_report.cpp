@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -60,6 +61,17 @@ void drawLine(grid::Image& image, int x0, int y0, int x1, int y1, const std::arr
       y0 += sy;
     }
   }
+}
+
+// A number for people: fixed notation with `decimals` places (millimetres for metres, hundredths
+// for degrees), never an exponent, and no minus sign on a zero.
+std::string fixedText(double value, int decimals) {
+  if (!std::isfinite(value)) return "-";
+  std::ostringstream text;
+  text << std::fixed << std::setprecision(decimals) << value;
+  std::string s = text.str();
+  if (s.find_first_not_of("-0.") == std::string::npos && s.front() == '-') s.erase(0, 1);
+  return s;
 }
 
 std::string html(const std::string& text) {
@@ -148,6 +160,7 @@ grid::Image renderGraph(const building::BuildingGraph& graph, const building::Bu
 BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const building::BuildingGraph& graph,
                                            const building::BuildingSolution& solution,
                                            const BuildingOutputOptions& options, const ReportExtras& extras) {
+  const auto outputs_start = std::chrono::steady_clock::now();
   fs::create_directories(dir);
   BuildingOutputSummary summary;
   auto add = [&](const std::string& name) { summary.files.push_back((fs::path(dir) / name).string()); };
@@ -189,8 +202,9 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
   }
 
   std::ofstream out(fs::path(dir) / "report.html");
-  if (!out) throw std::runtime_error((fs::path(dir) / "report.html").string() + ": cannot open for writing");
-  out << std::setprecision(4);
+  if (!out)
+    throw std::runtime_error((fs::path(dir) / "report.html").string() +
+                             ": cannot open for writing");
   out << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>" << html(extras.title)
       << "</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:auto}"
          "table{border-collapse:collapse}td,th{border:1px solid #aaa;padding:3px 8px;text-align:right}"
@@ -200,29 +214,34 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
   out << "<h2>Floors</h2>\n<table><tr><th>floor graph</th><th>robot</th><th>floor</th><th>height [m]</th>"
          "<th>x [m]</th><th>y [m]</th><th>&theta; [deg]</th><th>aligned</th><th>nodes</th></tr>\n";
   for (const auto& p : solution.placements)
-    out << "<tr><td>" << p.graph_id << "</td><td>" << html(p.robot) << "</td><td>" << p.floor_id << "</td><td>"
-        << p.height << "</td><td>" << p.transform.x() << "</td><td>" << p.transform.y() << "</td><td>"
-        << p.transform.theta() * 180 / M_PI << "</td><td>" << (p.aligned ? "yes" : "no") << "</td><td>"
+    out << "<tr><td>" << p.graph_id << "</td><td>" << html(p.robot) << "</td><td>" << p.floor_id
+        << "</td><td>" << fixedText(p.height, 2) << "</td><td>" << fixedText(p.transform.x(), 3)
+        << "</td><td>" << fixedText(p.transform.y(), 3) << "</td><td>"
+        << fixedText(p.transform.theta() * 180 / M_PI, 2) << "</td><td>"
+        << (p.aligned ? "yes" : "no") << "</td><td>"
         << graph.floorGraphs().at(p.graph_id).nodes.size() << "</td></tr>\n";
   out << "</table>\n<h2>Inter-floor constraints</h2>\n<table><tr><th>floors</th><th>constraints</th></tr>\n";
   for (const auto& [pair, count] : per_pair)
     out << "<tr><td>" << pair.first << " &ndash; " << pair.second << "</td><td>" << count << "</td></tr>\n";
   if (per_pair.empty()) out << "<tr><td colspan=2>none</td></tr>\n";
-  out << "</table>\n<p>&chi;&sup2; " << solution.initial_chi2 << " &rarr; " << solution.final_chi2 << " in "
-      << solution.iterations << " iterations.</p>\n";
+  out << "</table>\n<p>&chi;&sup2; " << fixedText(solution.initial_chi2, 1) << " &rarr; "
+      << fixedText(solution.final_chi2, 1) << " in " << solution.iterations << " iterations.</p>\n";
   auto evaluation_table = [&](const eval::Evaluation& e, const std::string& caption) {
     out << "<h3>" << html(caption) << "</h3>\n<table><tr><th>floor</th><th>poses</th><th>alignment error [m]</th>"
            "<th>alignment error [deg]</th><th>ATE rmse [m]</th></tr>\n";
     for (const auto& f : e.floors)
-      out << "<tr><td>" << html(f.floor) << "</td><td>" << f.poses << "</td><td>" << f.residual_translation
-          << "</td><td>" << f.residual_rotation * 180 / M_PI << "</td><td>" << f.ate_rmse << "</td></tr>\n";
+      out << "<tr><td>" << html(f.floor) << "</td><td>" << f.poses << "</td><td>"
+          << fixedText(f.residual_translation, 3) << "</td><td>"
+          << fixedText(f.residual_rotation * 180 / M_PI, 2) << "</td><td>"
+          << fixedText(f.ate_rmse, 3) << "</td></tr>\n";
     out << "</table>\n";
     if (!e.corridors.empty()) {
       out << "<table><tr><th>corridor</th><th>true [m]</th><th>estimated [m]</th><th>error [%]</th></tr>\n";
       for (const auto& c : e.corridors)
         if (c.measured)
-          out << "<tr><td>" << html(c.name) << "</td><td>" << c.true_length << "</td><td>" << c.estimated_length
-              << "</td><td>" << (c.ratio - 1.0) * 100 << "</td></tr>\n";
+          out << "<tr><td>" << html(c.name) << "</td><td>" << fixedText(c.true_length, 2)
+              << "</td><td>" << fixedText(c.estimated_length, 2) << "</td><td>"
+              << fixedText((c.ratio - 1.0) * 100, 2) << "</td></tr>\n";
       out << "</table>\n";
     }
   };
@@ -232,21 +251,27 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
   if (extras.evaluation) evaluation_table(*extras.evaluation, "With inter-floor constraints");
   if (!extras.timings.empty()) {
     out << "<h2>Timings</h2>\n<table><tr><th>phase</th><th>seconds</th></tr>\n";
+    std::vector<Timing> timings = extras.timings;
+    timings.push_back(
+        {"outputs (maps, graph, OctoMap, pictures, this report)",
+         std::chrono::duration<double>(std::chrono::steady_clock::now() - outputs_start).count()});
     double total = 0;
-    for (const auto& t : extras.timings) {
-      out << "<tr><td style=\"text-align:left\">" << html(t.phase) << "</td><td>" << t.seconds << "</td></tr>\n";
+    for (const auto& t : timings) {
+      out << "<tr><td style=\"text-align:left\">" << html(t.phase) << "</td><td>"
+          << fixedText(t.seconds, 2) << "</td></tr>\n";
       total += t.seconds;
     }
     out << "</table>\n";
     if (extras.recording_seconds > 0 && total > 0)
-      out << "<p>Real-time factor: " << extras.recording_seconds / total << " (" << extras.recording_seconds
-          << " s of recording in " << total << " s)</p>\n";
+      out << "<p>Real-time factor: " << fixedText(extras.recording_seconds / total, 1) << " ("
+          << fixedText(extras.recording_seconds, 1) << " s of recording in " << fixedText(total, 2)
+          << " s)</p>\n";
   }
   for (const auto& note : extras.notes) out << "<p>" << html(note) << "</p>\n";
   out << "<h2>Pictures</h2>\n";
   for (const auto& [id, floor] : floors)
-    out << "<figure><img src=\"floor_" << id << ".png\"><figcaption>floor " << id << " (height " << floor.height
-        << " m)</figcaption></figure>\n";
+    out << "<figure><img src=\"floor_" << id << ".png\"><figcaption>floor " << id << " (height "
+        << fixedText(floor.height, 2) << " m)</figcaption></figure>\n";
   out << "<figure><img src=\"overlay.png\"><figcaption>all floors overlaid (cf. the paper's Fig. 4)</figcaption></figure>\n"
       << "<figure><img src=\"graph_before.png\"><figcaption>graph without inter-floor constraints</figcaption></figure>\n"
       << "<figure><img src=\"graph_after.png\"><figcaption>graph with inter-floor constraints (black)</figcaption></figure>\n";
