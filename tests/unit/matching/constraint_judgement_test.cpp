@@ -22,23 +22,7 @@ namespace storey::matching {
 namespace {
 
 using eval::SimulatedFloors;
-
 using geometry::Pose2;
-using localization::FilterState;
-using localization::LocalizationMap;
-using localization::makeWallModel;
-using localization::ParticleFilter;
-using localization::ParticleFilterOptions;
-using localization::selectBeams;
-using localization::WallModel;
-using test::driveFloor;
-using test::officeFloor;
-using test::officePath;
-
-using test::angleError;
-using test::fastOptions;
-using test::symmetricFloor;
-using test::translationError;
 
 TEST(ConstraintJudgement, AnErrorAlongAClaimedWeakDirectionIsNotWrongAcrossItIs) {
   FloorMatcherOptions o;

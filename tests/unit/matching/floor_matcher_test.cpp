@@ -21,22 +21,14 @@
 namespace storey::matching {
 namespace {
 
-using eval::SimulatedFloors;
-
 using geometry::Pose2;
-using localization::FilterState;
 using localization::LocalizationMap;
-using localization::makeWallModel;
 using localization::ParticleFilter;
-using localization::ParticleFilterOptions;
-using localization::selectBeams;
-using localization::WallModel;
+using test::angleError;
 using test::driveFloor;
+using test::fastOptions;
 using test::officeFloor;
 using test::officePath;
-
-using test::angleError;
-using test::fastOptions;
 using test::symmetricFloor;
 using test::translationError;
 

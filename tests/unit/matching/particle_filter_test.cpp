@@ -21,23 +21,18 @@
 namespace storey::matching {
 namespace {
 
-using eval::SimulatedFloors;
-
 using geometry::Pose2;
 using localization::FilterState;
 using localization::LocalizationMap;
-using localization::makeWallModel;
 using localization::ParticleFilter;
 using localization::ParticleFilterOptions;
-using localization::selectBeams;
 using localization::WallModel;
+using localization::makeWallModel;
+using localization::selectBeams;
+using test::angleError;
 using test::driveFloor;
 using test::officeFloor;
 using test::officePath;
-
-using test::angleError;
-using test::fastOptions;
-using test::symmetricFloor;
 using test::translationError;
 
 TEST(ParticleFilter, UniformInitialisationIsInFreeSpaceAndSizedByArea) {
