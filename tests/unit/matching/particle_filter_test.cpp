@@ -24,11 +24,11 @@ namespace {
 using geometry::Pose2;
 using localization::FilterState;
 using localization::LocalizationMap;
+using localization::makeWallModel;
 using localization::ParticleFilter;
 using localization::ParticleFilterOptions;
-using localization::WallModel;
-using localization::makeWallModel;
 using localization::selectBeams;
+using localization::WallModel;
 using test::angleError;
 using test::driveFloor;
 using test::officeFloor;
