@@ -7,7 +7,10 @@
 
 #include "geometry_msgs/msg/PoseStamped.h"
 #include "storey/bag/bag_error.h"
+#include "storey/bag/bag_reader.h"
+#include "storey/runtime/sensor_conversions.h"
 #include "test_support.h"
+#include "tf2_msgs/msg/TFMessage.h"
 
 namespace storey::runtime {
 namespace {
@@ -257,6 +260,60 @@ TEST(SensorBag, TfStaticIsOfferedReliableAndTransientLocal) {
   EXPECT_EQ(qos[kTfStaticTopic][0]["durability"].as<int>(), 1);   // transient local
   EXPECT_EQ(qos["/r/odom"][0]["reliability"].as<int>(), 2);       // sensors: best effort
   EXPECT_EQ(qos["/r/odom"][0]["durability"].as<int>(), 2);        // and volatile
+}
+
+// RViz and Foxglove place a robot by /tf (odom -> base_link, REP 105) and its sensors by
+// /tf_static: a bag storey writes carries both, every static transform in each tf_static
+// message (a late listener keeps only the last one), and reads back without skipping.
+TEST(SensorBag, OdometryIsOnTfAndEveryMountingOnTfStatic) {
+  const std::string folder = test::makeTempDir("sensor_bag") + "/tf";
+  std::mt19937 rng(4);
+  {
+    SensorBagWriter writer(folder);
+    writer.write("r", makeScan(1.0, rng, geometry::Pose2(0.2, 0.05, 0.1)));
+    sensor::ImuSample imu;
+    imu.stamp = 1.0;
+    writer.write("r", imu);
+    for (int k = 0; k < 3; ++k) {
+      sensor::OdometrySample odom;
+      odom.stamp = 1.0 + k;
+      odom.pose = geometry::Pose2(0.5 * k, 0.1, 0.2 * k);
+      writer.write("r", odom);
+    }
+  }
+  bag::BagReader bag(folder);
+  std::vector<tf2_msgs::msg::TFMessage> tf, tf_static;
+  bag::BagMessage message;
+  while (bag.next(message)) {
+    const std::string& topic = bag.topics()[message.topic_index].name;
+    if (topic != kTfTopic && topic != kTfStaticTopic) continue;
+    tf2_msgs::msg::TFMessage m;
+    deserializeCdr(message.data.data(), message.data.size(), m, kTfMessageType);
+    (topic == kTfTopic ? tf : tf_static).push_back(m);
+  }
+  ASSERT_EQ(tf.size(), 3u);
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_EQ(tf[k].transforms().size(), 1u);
+    const auto& t = tf[k].transforms()[0];
+    EXPECT_EQ(t.header().frame_id(), "r/odom");
+    EXPECT_EQ(t.child_frame_id(), "r/base_link");
+    const geometry::Pose2 pose = fromTransform(t);
+    EXPECT_NEAR(pose.x(), 0.5 * k, 1e-9);
+    EXPECT_NEAR(pose.theta(), 0.2 * k, 1e-9);
+  }
+  ASSERT_FALSE(tf_static.empty());
+  std::map<std::string, std::string> last;  // child -> parent, in the last message
+  for (const auto& t : tf_static.back().transforms())
+    last[t.child_frame_id()] = t.header().frame_id();
+  EXPECT_EQ(last, (std::map<std::string, std::string>{{"r/imu", "r/base_link"},
+                                                      {"r/laser", "r/base_link"}}));
+  SensorBagReader reader(folder);
+  SensorRecord record;
+  while (reader.next(record)) {
+  }
+  EXPECT_EQ(reader.stats().skipped, 0u);
+  EXPECT_TRUE(reader.stats().skipped_topics.empty());
+  EXPECT_EQ(reader.robots(), (std::vector<std::string>{"r"}));
 }
 
 }  // namespace

@@ -86,26 +86,37 @@ void SensorBagWriter::write(const std::string& robot, const sensor::LaserScan& s
   std::lock_guard<std::mutex> lock(mutex_);
   const std::string topic = robotTopic(robot, "scan");
   const std::string laser_frame = robotFrame(robot, "laser");
-  // Publish the mounting once, and again whenever it changes (tf_static keeps the latest).
-  const auto known = laser_offsets_.find(robot);
-  const geometry::Pose2& offset = scan.sensor_offset;
-  if (known == laser_offsets_.end() || known->second.x() != offset.x() ||
-      known->second.y() != offset.y() || known->second.theta() != offset.theta()) {
-    tf2_msgs::msg::TFMessage tf;
-    tf.transforms().push_back(
-        toTransform(offset, scan.stamp, robotFrame(robot, "base_link"), laser_frame));
-    declare(kTfStaticTopic, kTfMessageType, true);
-    serializeCdrInto(tf, buffer_);
-    bag_.write(kTfStaticTopic, stampToNanoseconds(scan.stamp), buffer_);
-    laser_offsets_[robot] = offset;
-  }
+  writeStatic(robotFrame(robot, "base_link"), laser_frame, scan.sensor_offset, scan.stamp);
   writeSensor(topic, kLaserScanType, scan.stamp, toMessage(scan, laser_frame));
+}
+
+void SensorBagWriter::writeStatic(const std::string& parent, const std::string& child,
+                                  const geometry::Pose2& pose, double stamp) {
+  const auto known = static_frames_.find(child);
+  if (known != static_frames_.end() && known->second.first == parent &&
+      known->second.second.x() == pose.x() && known->second.second.y() == pose.y() &&
+      known->second.second.theta() == pose.theta())
+    return;
+  static_frames_[child] = {parent, pose};
+  tf2_msgs::msg::TFMessage tf;
+  for (const auto& [frame, mounting] : static_frames_)
+    tf.transforms().push_back(toTransform(mounting.second, stamp, mounting.first, frame));
+  declare(kTfStaticTopic, kTfMessageType, true);
+  serializeCdrInto(tf, buffer_);
+  bag_.write(kTfStaticTopic, stampToNanoseconds(stamp), buffer_);
 }
 
 void SensorBagWriter::write(const std::string& robot, const sensor::OdometrySample& odom) {
   std::lock_guard<std::mutex> lock(mutex_);
   writeSensor(robotTopic(robot, "odom"), kOdometryType, odom.stamp,
               toMessage(odom, robotFrame(robot, "odom"), robotFrame(robot, "base_link")));
+  // The same pose as odom -> base_link on /tf (REP 105), so tools can place the robot.
+  tf2_msgs::msg::TFMessage tf;
+  tf.transforms().push_back(toTransform(odom.pose, odom.stamp, robotFrame(robot, "odom"),
+                                        robotFrame(robot, "base_link")));
+  declare(kTfTopic, kTfMessageType, true);
+  serializeCdrInto(tf, buffer_);
+  bag_.write(kTfTopic, stampToNanoseconds(odom.stamp), buffer_);
 }
 
 void SensorBagWriter::write(const std::string& robot, const sensor::PressureSample& pressure) {
@@ -116,6 +127,9 @@ void SensorBagWriter::write(const std::string& robot, const sensor::PressureSamp
 
 void SensorBagWriter::write(const std::string& robot, const sensor::ImuSample& imu) {
   std::lock_guard<std::mutex> lock(mutex_);
+  // The simulated and logged IMUs sit at the robot's base.
+  writeStatic(robotFrame(robot, "base_link"), robotFrame(robot, "imu"), geometry::Pose2(),
+              imu.stamp);
   writeSensor(robotTopic(robot, "imu"), kImuType, imu.stamp,
               toMessage(imu, robotFrame(robot, "imu")));
 }
@@ -138,6 +152,8 @@ SensorBagReader::SensorBagReader(const std::string& path) : bag_(path) {
       state.kind = Kind::kImu;
     } else if (info.type == kTfMessageType && info.name == kTfStaticTopic) {
       state.kind = Kind::kTfStatic;
+    } else if (info.type == kTfMessageType && info.name == kTfTopic) {
+      state.kind = Kind::kTf;  // what the odometry topics carry: not needed
     }
     if (state.kind == Kind::kOther) stats_.skipped_topics.push_back(info.name);
     topics_.push_back(std::move(state));
@@ -147,7 +163,8 @@ SensorBagReader::SensorBagReader(const std::string& path) : bag_(path) {
 std::vector<std::string> SensorBagReader::robots() const {
   std::set<std::string> names;
   for (const TopicState& t : topics_) {
-    if (t.kind != Kind::kOther && t.kind != Kind::kTfStatic) names.insert(t.robot);
+    if (t.kind != Kind::kOther && t.kind != Kind::kTfStatic && t.kind != Kind::kTf)
+      names.insert(t.robot);
   }
   return {names.begin(), names.end()};
 }
@@ -165,6 +182,8 @@ bool SensorBagReader::next(SensorRecord& record) {
       const std::uint8_t* data = message.data.data();
       const std::size_t size = message.data.size();
       switch (topic.kind) {
+        case Kind::kTf:
+          continue;
         case Kind::kTfStatic: {
           tf2_msgs::msg::TFMessage tf;
           deserializeCdr(data, size, tf, kTfMessageType);

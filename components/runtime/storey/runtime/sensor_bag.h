@@ -32,6 +32,7 @@ inline constexpr const char* kFluidPressureType = "sensor_msgs/msg/FluidPressure
 inline constexpr const char* kImuType = "sensor_msgs/msg/Imu";
 inline constexpr const char* kTfMessageType = "tf2_msgs/msg/TFMessage";
 inline constexpr const char* kTfStaticTopic = "/tf_static";
+inline constexpr const char* kTfTopic = "/tf";
 
 // "/<robot>/<leaf>", or "/<leaf>" for robot "". Throws std::invalid_argument for a robot
 // name that is not a ROS 2 namespace (tokens of letters, digits, '_', joined by '/').
@@ -69,11 +70,17 @@ class SensorBagWriter {
   void declare(const std::string& topic, const std::string& type, bool reliable);
   template <typename Msg>
   void writeSensor(const std::string& topic, const char* type, double stamp, const Msg& msg);
+  // `child` mounted at `pose` on `parent` on /tf_static, when new or changed; each message
+  // holds every static transform so far, as tf2's static broadcaster sends them (a
+  // listener that joins late keeps only the last message).
+  void writeStatic(const std::string& parent, const std::string& child, const geometry::Pose2& pose,
+                   double stamp);
 
   std::mutex mutex_;
   bag::BagWriter bag_;
   std::vector<std::uint8_t> buffer_;
-  std::map<std::string, geometry::Pose2> laser_offsets_;  // robot -> offset last published
+  std::map<std::string, std::pair<std::string, geometry::Pose2>>
+      static_frames_;  // child -> parent, pose
 };
 
 using SensorData = std::variant<sensor::LaserScan, sensor::OdometrySample, sensor::PressureSample,
@@ -89,7 +96,7 @@ struct SensorRecord {
 
 struct SensorBagStats {
   std::uint64_t yielded = 0;
-  std::uint64_t skipped = 0;       // messages on topics of other types (/tf_static excluded)
+  std::uint64_t skipped = 0;  // messages on topics of other types (/tf_static and /tf excluded)
   std::uint64_t malformed = 0;     // messages that did not decode; skipped with a warning
   std::uint64_t out_of_order = 0;  // header stamp earlier than the previous on its topic
   std::vector<std::string> skipped_topics;
@@ -111,7 +118,7 @@ class SensorBagReader {
   bag::BagReader& bag() { return bag_; }
 
  private:
-  enum class Kind { kOther, kScan, kOdometry, kPressure, kImu, kTfStatic };
+  enum class Kind { kOther, kScan, kOdometry, kPressure, kImu, kTfStatic, kTf };
   struct TopicState {
     Kind kind = Kind::kOther;
     std::string robot;
