@@ -23,12 +23,15 @@ TEST(BagInfo, PrintsTopicsTypesCountsAndDuration) {
   ASSERT_EQ(status, 0) << out;
   EXPECT_NE(out.find("walk_0.db3"), std::string::npos) << out;
   EXPECT_NE(out.find("Duration:    5.000 s"), std::string::npos) << out;
-  EXPECT_NE(out.find("Messages:    22"), std::string::npos) << out;
+  // Each odometry sample is also on /tf (odom -> base_link).
+  EXPECT_NE(out.find("Messages:    33"), std::string::npos) << out;
   EXPECT_NE(out.find("schema 3, humble"), std::string::npos) << out;
   EXPECT_NE(out.find("/r1/pressure  sensor_msgs/msg/FluidPressure        11  cdr  2.0 Hz"),
             std::string::npos)
       << out;
   EXPECT_NE(out.find("/r1/odom      nav_msgs/msg/Odometry                11"), std::string::npos)
+      << out;
+  EXPECT_NE(out.find("/tf           tf2_msgs/msg/TFMessage               11"), std::string::npos)
       << out;
 }
 
