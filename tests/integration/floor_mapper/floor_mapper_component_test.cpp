@@ -44,6 +44,17 @@ common::ConfigNode parametersFor(const std::string& robot, const std::string& to
   return common::ConfigNode::loadString(text, "floor_mapper.yaml");
 }
 
+// The floor detector's progress: it has decided up to `decided_at` (the mapper holds scans
+// until then).
+storey_msgs::msg::FloorEvent progressEvent(const std::string& robot, double decided_at) {
+  storey_msgs::msg::FloorEvent m;
+  m.robot(robot);
+  m.kind(storey_msgs::msg::FloorEvent_Constants::KIND_PROGRESS);
+  m.stamp(runtime::toTimeMessage(decided_at));
+  m.decided_at(runtime::toTimeMessage(decided_at));
+  return m;
+}
+
 bool waitFor(const std::function<bool()>& done, double seconds) {
   const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   while (!done()) {
@@ -79,14 +90,7 @@ TEST(FloorMapperComponent, MapsTwoFloorsAndPublishesTheirGraphs) {
   double t = 100.0;
   // The test plays the floor detector too: its progress, on the events topic, lets the
   // mapper pass scans on (it holds them until the detector has decided past them).
-  auto progress = [&](double decided_at) {
-    storey_msgs::msg::FloorEvent m;
-    m.robot("fm_robot");
-    m.kind(storey_msgs::msg::FloorEvent_Constants::KIND_PROGRESS);
-    m.stamp(runtime::toTimeMessage(decided_at));
-    m.decided_at(runtime::toTimeMessage(decided_at));
-    events.publish(m);
-  };
+  auto progress = [&](double decided_at) { events.publish(progressEvent("fm_robot", decided_at)); };
   auto drive = [&](double y) {
     for (int i = 0; i < 12; ++i) {
       const Pose2 pose(1.5 + 0.3 * i, y, 0.0);
@@ -199,12 +203,7 @@ std::vector<Pose2> mountedOffsets(
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
     sensor::LaserScan scan = office.scan(pose * laser, t);
     scans.publish(runtime::toMessage(scan, "laser"));
-    storey_msgs::msg::FloorEvent progress;  // the detector has decided up to t
-    progress.robot("fm_robot");
-    progress.kind(storey_msgs::msg::FloorEvent_Constants::KIND_PROGRESS);
-    progress.stamp(runtime::toTimeMessage(t));
-    progress.decided_at(runtime::toTimeMessage(t));
-    events.publish(progress);
+    events.publish(progressEvent("fm_robot", t));
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   // Scans whose mounting is unknown wait for it: only mounted scans become nodes here.

@@ -351,7 +351,7 @@ bool looksLikeJournal(const std::string& path) {
 }
 
 JournalWriter::JournalWriter(const std::string& path, bool sync)
-    : file_(path, kFileMagic, "journal", /*sync=*/false,
+    : file_(path, kFileMagic, "journal",
             [this](const std::uint8_t* payload, std::size_t size) {
               existing_.push_back(decodeRecord(payload, size));
             }),

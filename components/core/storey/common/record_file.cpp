@@ -308,9 +308,9 @@ RecordFileScan salvageRecordFile(const std::string& in, const std::string& out, 
   return scan;
 }
 
-RecordFileWriter::RecordFileWriter(const std::string& path, const char* magic, const std::string& what, bool sync,
-                                   const RecordHandler& on_existing)
-    : path_(path), what_(what), sync_(sync) {
+RecordFileWriter::RecordFileWriter(const std::string& path, const char* magic,
+                                   const std::string& what, const RecordHandler& on_existing)
+    : path_(path), what_(what) {
   std::uint64_t valid = 0;
   const std::string kind = fileKind(path);
   if (!kind.empty()) {
@@ -348,7 +348,6 @@ void RecordFileWriter::append(const std::vector<std::uint8_t>& payload) {
   if (std::fwrite(frame.data(), 1, frame.size(), file_) != frame.size() || std::fflush(file_) != 0)
     throw std::runtime_error(path_ + ": " + what_ + " write failed");
   unsynced_ = true;
-  if (sync_) sync();
 }
 
 void RecordFileWriter::sync() {

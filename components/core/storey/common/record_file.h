@@ -146,8 +146,8 @@ class RecordFileWriter {
   // Opens (creating if needed) for appending. An existing file is first read (each record
   // passed to `on_existing`); a torn tail is cut off, damage before the end is thrown
   // (RecordFileDamaged) and the file left as it is. Every append reaches the kernel before it
-  // returns (it survives the process being killed); `sync` makes it durable (fdatasync) too.
-  RecordFileWriter(const std::string& path, const char* magic, const std::string& what, bool sync,
+  // returns (it survives the process being killed); sync() makes it durable.
+  RecordFileWriter(const std::string& path, const char* magic, const std::string& what,
                    const RecordHandler& on_existing);
   ~RecordFileWriter();
   RecordFileWriter(const RecordFileWriter&) = delete;
@@ -165,7 +165,6 @@ class RecordFileWriter {
  private:
   std::string path_;
   std::string what_;
-  bool sync_;
   std::FILE* file_ = nullptr;
   bool had_torn_tail_ = false;
   std::size_t existing_records_ = 0;

@@ -95,10 +95,12 @@ LoggedInput decodeLoggedInput(const std::uint8_t* data, std::size_t size) {
 
 InputLog::InputLog(const std::string& path, const std::function<void(const LoggedInput&)>& on_existing) {
   file_ = std::make_unique<common::RecordFileWriter>(
-      path, kFileMagic, "input log", false, [&](const std::uint8_t* payload, std::size_t size) {
+      path, kFileMagic, "input log", [&](const std::uint8_t* payload, std::size_t size) {
         const LoggedInput input = decodeLoggedInput(payload, size);
-        if (input.is_scan) last_scan_stamp_ = input.scan.stamp;
-        else last_event_decided_at_ = input.event.decided_at;
+        if (input.is_scan)
+          last_scan_stamp_ = input.scan.stamp;
+        else
+          last_event_decided_at_ = input.event.decided_at;
         on_existing(input);
       });
 }

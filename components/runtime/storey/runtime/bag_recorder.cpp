@@ -15,6 +15,7 @@
 #include "sensor_msgs/msg/LaserScanPubSubTypes.h"
 #include "storey/bag/metadata.h"
 #include "storey/runtime/bag_cdr.h"
+#include "storey/runtime/sensor_bag.h"
 #include "storey_msgs/msg/BuildingStatePubSubTypes.h"
 #include "storey_msgs/msg/FloorEventPubSubTypes.h"
 #include "storey_msgs/msg/FloorGraphUpdatePubSubTypes.h"
@@ -191,7 +192,7 @@ TopicKind BagRecorder::recordKind(const RecordTopic& topic) {
   // tf_static as ros2 bag record takes it: its publishers (tf2's static broadcaster) send
   // each transform once, transient local, so only such a subscription gets one sent
   // before the recording started.
-  if (topic.name.substr(topic.name.rfind('/') + 1) == "tf_static") return TopicKind::kGraph;
+  if (isTfStaticTopic(topic.name)) return TopicKind::kGraph;
   const auto known = knownTypeTable().find(topic.type);
   return known == knownTypeTable().end() ? TopicKind::kSensor : known->second.kind;
 }

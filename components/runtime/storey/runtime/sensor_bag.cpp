@@ -66,20 +66,10 @@ void SensorBagWriter::close() {
 
 void SensorBagWriter::declare(const std::string& topic, const std::string& type, bool reliable) {
   if (!bag_.hasTopic(topic)) {
-    // tf_static as tf2's static broadcaster offers it (its listener is transient local).
-    const bool transient_local = topic == kTfStaticTopic;
+    const bool transient_local = isTfStaticTopic(topic);
     bag_.createTopic(
         {topic, type, bag::kSerializationCdr, bag::qosProfileYaml(reliable, transient_local)});
   }
-}
-
-template <typename Msg>
-void SensorBagWriter::writeSensor(const std::string& topic, const char* type, double stamp,
-                                  const Msg& msg) {
-  const std::int64_t ns = stampToNanoseconds(stamp);
-  declare(topic, type, false);
-  serializeCdrInto(msg, buffer_);
-  bag_.write(topic, ns, buffer_);
 }
 
 void SensorBagWriter::write(const std::string& robot, const sensor::LaserScan& scan) {
@@ -87,7 +77,7 @@ void SensorBagWriter::write(const std::string& robot, const sensor::LaserScan& s
   const std::string topic = robotTopic(robot, "scan");
   const std::string laser_frame = robotFrame(robot, "laser");
   writeStatic(robotFrame(robot, "base_link"), laser_frame, scan.sensor_offset, scan.stamp);
-  writeSensor(topic, kLaserScanType, scan.stamp, toMessage(scan, laser_frame));
+  writeLocked(topic, kLaserScanType, scan.stamp, toMessage(scan, laser_frame));
 }
 
 void SensorBagWriter::writeStatic(const std::string& parent, const std::string& child,
@@ -101,27 +91,24 @@ void SensorBagWriter::writeStatic(const std::string& parent, const std::string& 
   tf2_msgs::msg::TFMessage tf;
   for (const auto& [frame, mounting] : static_frames_)
     tf.transforms().push_back(toTransform(mounting.second, stamp, mounting.first, frame));
-  declare(kTfStaticTopic, kTfMessageType, true);
-  serializeCdrInto(tf, buffer_);
-  bag_.write(kTfStaticTopic, stampToNanoseconds(stamp), buffer_);
+  writeLocked(kTfStaticTopic, kTfMessageType, stamp, tf, /*reliable=*/true);
 }
 
 void SensorBagWriter::write(const std::string& robot, const sensor::OdometrySample& odom) {
   std::lock_guard<std::mutex> lock(mutex_);
-  writeSensor(robotTopic(robot, "odom"), kOdometryType, odom.stamp,
-              toMessage(odom, robotFrame(robot, "odom"), robotFrame(robot, "base_link")));
+  const std::string odom_frame = robotFrame(robot, "odom");
+  const std::string base_frame = robotFrame(robot, "base_link");
+  writeLocked(robotTopic(robot, "odom"), kOdometryType, odom.stamp,
+              toMessage(odom, odom_frame, base_frame));
   // The same pose as odom -> base_link on /tf (REP 105), so tools can place the robot.
   tf2_msgs::msg::TFMessage tf;
-  tf.transforms().push_back(toTransform(odom.pose, odom.stamp, robotFrame(robot, "odom"),
-                                        robotFrame(robot, "base_link")));
-  declare(kTfTopic, kTfMessageType, true);
-  serializeCdrInto(tf, buffer_);
-  bag_.write(kTfTopic, stampToNanoseconds(odom.stamp), buffer_);
+  tf.transforms().push_back(toTransform(odom.pose, odom.stamp, odom_frame, base_frame));
+  writeLocked(kTfTopic, kTfMessageType, odom.stamp, tf, /*reliable=*/true);
 }
 
 void SensorBagWriter::write(const std::string& robot, const sensor::PressureSample& pressure) {
   std::lock_guard<std::mutex> lock(mutex_);
-  writeSensor(robotTopic(robot, "pressure"), kFluidPressureType, pressure.stamp,
+  writeLocked(robotTopic(robot, "pressure"), kFluidPressureType, pressure.stamp,
               toMessage(pressure, robotFrame(robot, "base_link")));
 }
 
@@ -130,7 +117,7 @@ void SensorBagWriter::write(const std::string& robot, const sensor::ImuSample& i
   // The simulated and logged IMUs sit at the robot's base.
   writeStatic(robotFrame(robot, "base_link"), robotFrame(robot, "imu"), geometry::Pose2(),
               imu.stamp);
-  writeSensor(robotTopic(robot, "imu"), kImuType, imu.stamp,
+  writeLocked(robotTopic(robot, "imu"), kImuType, imu.stamp,
               toMessage(imu, robotFrame(robot, "imu")));
 }
 

@@ -34,6 +34,12 @@ inline constexpr const char* kTfMessageType = "tf2_msgs/msg/TFMessage";
 inline constexpr const char* kTfStaticTopic = "/tf_static";
 inline constexpr const char* kTfTopic = "/tf";
 
+// A tf_static topic in any namespace: reliable and transient local, as tf2's static
+// broadcaster offers it and its listener asks for it.
+inline bool isTfStaticTopic(const std::string& name) {
+  return name.substr(name.rfind('/') + 1) == "tf_static";
+}
+
 // "/<robot>/<leaf>", or "/<leaf>" for robot "". Throws std::invalid_argument for a robot
 // name that is not a ROS 2 namespace (tokens of letters, digits, '_', joined by '/').
 std::string robotTopic(const std::string& robot, const std::string& leaf);
@@ -57,9 +63,7 @@ class SensorBagWriter {
   void writeMessage(const std::string& topic, const std::string& ros_type, double stamp,
                     const T& message, bool reliable = true) {
     std::lock_guard<std::mutex> lock(mutex_);
-    declare(topic, ros_type, reliable);
-    serializeCdrInto(message, buffer_);
-    bag_.write(topic, stampToNanoseconds(stamp), buffer_);
+    writeLocked(topic, ros_type, stamp, message, reliable);
   }
 
   void close();
@@ -68,8 +72,14 @@ class SensorBagWriter {
 
  private:
   void declare(const std::string& topic, const std::string& type, bool reliable);
+  // Declares the topic on first use (sensors best effort), then writes; with mutex_ held.
   template <typename Msg>
-  void writeSensor(const std::string& topic, const char* type, double stamp, const Msg& msg);
+  void writeLocked(const std::string& topic, const std::string& type, double stamp, const Msg& msg,
+                   bool reliable = false) {
+    declare(topic, type, reliable);
+    serializeCdrInto(msg, buffer_);
+    bag_.write(topic, stampToNanoseconds(stamp), buffer_);
+  }
   // `child` mounted at `pose` on `parent` on /tf_static, when new or changed; each message
   // holds every static transform so far, as tf2's static broadcaster sends them (a
   // listener that joins late keeps only the last message).

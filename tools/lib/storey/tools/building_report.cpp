@@ -63,17 +63,6 @@ void drawLine(grid::Image& image, int x0, int y0, int x1, int y1, const std::arr
   }
 }
 
-// A number for people: fixed notation with `decimals` places (millimetres for metres, hundredths
-// for degrees), never an exponent, and no minus sign on a zero.
-std::string fixedText(double value, int decimals) {
-  if (!std::isfinite(value)) return "-";
-  std::ostringstream text;
-  text << std::fixed << std::setprecision(decimals) << value;
-  std::string s = text.str();
-  if (s.find_first_not_of("-0.") == std::string::npos && s.front() == '-') s.erase(0, 1);
-  return s;
-}
-
 std::string html(const std::string& text) {
   std::string out;
   for (char c : text) {
@@ -86,6 +75,17 @@ std::string html(const std::string& text) {
 }
 
 }  // namespace
+
+// A number for people: fixed notation with `decimals` places (millimetres for metres, hundredths
+// for degrees), never an exponent, and no minus sign on a zero.
+std::string fixedText(double value, int decimals) {
+  if (!std::isfinite(value)) return "-";
+  std::ostringstream text;
+  text << std::fixed << std::setprecision(decimals) << value;
+  std::string s = text.str();
+  if (s.find_first_not_of("-0.") == std::string::npos && s.front() == '-') s.erase(0, 1);
+  return s;
+}
 
 std::vector<eval::PoseRow> trajectoryRows(const building::BuildingGraph& graph,
                                           const building::BuildingSolution& solution) {

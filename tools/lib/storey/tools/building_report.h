@@ -55,6 +55,10 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
                                            const building::BuildingSolution& solution,
                                            const BuildingOutputOptions& options, const ReportExtras& extras);
 
+// A number for people, in the report and the experiment tables: fixed notation with
+// `decimals` places, never an exponent, no minus sign on a zero, "-" when not finite.
+std::string fixedText(double value, int decimals);
+
 // The optimised node poses as trajectory rows (building frame; floor = floor id).
 std::vector<eval::PoseRow> trajectoryRows(const building::BuildingGraph& graph,
                                           const building::BuildingSolution& solution);

@@ -29,17 +29,11 @@ namespace {
 constexpr double kDeg = 180.0 / M_PI;
 constexpr int kMaxDomain = 232;  // Fast DDS: higher ids give out-of-range ports
 
-std::string fixed(double value, int precision) {
-  std::ostringstream out;
-  out << std::fixed << std::setprecision(precision) << value;
-  return out.str();
-}
-
 // "mean ± std (worst)" of a statistic, scaled.
 std::string cell(const Statistic& s, double scale, int precision) {
   if (s.count == 0) return "-";
-  return fixed(s.mean * scale, precision) + " ± " + fixed(s.std * scale, precision) + " (" +
-         fixed(s.worst * scale, precision) + ")";
+  return fixedText(s.mean * scale, precision) + " ± " + fixedText(s.std * scale, precision) + " (" +
+         fixedText(s.worst * scale, precision) + ")";
 }
 
 // The true pose of `robot` at `stamp`, if ground truth has one within the tolerance.
@@ -326,26 +320,29 @@ ExperimentTable summariseExperiment(const ExperimentSpec& spec, const Experiment
                             worst->rotation_with.worst / goals.floor_rotation)
         worst = &f;
     }
-    std::string text = "every floor within " + fixed(goals.floor_translation, 2) + " m / " +
-                       fixed(goals.floor_rotation * kDeg, 1) + " deg in every run: " + std::to_string(met) + " of " +
+    std::string text = "every floor within " + fixedText(goals.floor_translation, 2) + " m / " +
+                       fixedText(goals.floor_rotation * kDeg, 1) +
+                       " deg in every run: " + std::to_string(met) + " of " +
                        std::to_string(table.floors.size()) + " floors";
     if (worst)
-      text += "; worst " + worst->floor + ": " + fixed(worst->translation_with.worst, 3) + " m, " +
-              fixed(worst->rotation_with.worst * kDeg, 2) + " deg";
+      text += "; worst " + worst->floor + ": " + fixedText(worst->translation_with.worst, 3) +
+              " m, " + fixedText(worst->rotation_with.worst * kDeg, 2) + " deg";
     table.verdicts.push_back({text, !table.floors.empty() && met == table.floors.size()});
   }
   for (const auto& goal : spec.goal_corridors) {
     const CorridorRow* row = nullptr;
     for (const auto& c : table.corridors)
       if (c.name == goal) row = &c;
-    std::string text = goal + " length error below " + fixed(goals.corridor_error * 100, 1) + " % in every run: ";
+    std::string text = goal + " length error below " + fixedText(goals.corridor_error * 100, 1) +
+                       " % in every run: ";
     if (!row) {
       table.verdicts.push_back({text + "never measured", false});
       continue;
     }
-    text += "mean |error| " + fixed(row->abs_error_with.mean * 100, 2) + " %, worst " +
-            fixed(row->abs_error_with.worst * 100, 2) + " % (without inter-floor constraints: mean " +
-            fixed(row->abs_error_without.mean * 100, 2) + " %)";
+    text += "mean |error| " + fixedText(row->abs_error_with.mean * 100, 2) + " %, worst " +
+            fixedText(row->abs_error_with.worst * 100, 2) +
+            " % (without inter-floor constraints: mean " +
+            fixedText(row->abs_error_without.mean * 100, 2) + " %)";
     if (row->unmeasured) text += ", not measured in " + std::to_string(row->unmeasured) + " runs";
     table.verdicts.push_back({text, row->goal_met});
   }
@@ -447,12 +444,14 @@ std::vector<ExperimentTable> runExperiments(const ExperimentOptions& options) {
         if (options.progress) {
           std::size_t wrong = 0;
           for (const auto& c : figures.constraints) wrong += c.judgement.wrong;
-          options.progress("[" + std::to_string(done) + "/" + std::to_string(tasks.size()) + "] " +
-                           figures.experiment + " seed " + std::to_string(figures.seed) + ": " +
-                           fixed(figures.seconds, 1) + " s, " + std::to_string(figures.constraints.size()) +
-                           " inter-floor constraints (" + std::to_string(wrong) + " wrong), ATE " +
-                           fixed(figures.without.ate_rmse, 3) + " m -> " + fixed(figures.with.ate_rmse, 3) +
-                           " m (" + fixed(std::chrono::duration<double>(now - t0).count(), 0) + " s elapsed)");
+          options.progress(
+              "[" + std::to_string(done) + "/" + std::to_string(tasks.size()) + "] " +
+              figures.experiment + " seed " + std::to_string(figures.seed) + ": " +
+              fixedText(figures.seconds, 1) + " s, " + std::to_string(figures.constraints.size()) +
+              " inter-floor constraints (" + std::to_string(wrong) + " wrong), ATE " +
+              fixedText(figures.without.ate_rmse, 3) + " m -> " +
+              fixedText(figures.with.ate_rmse, 3) + " m (" +
+              fixedText(std::chrono::duration<double>(now - t0).count(), 0) + " s elapsed)");
         }
         results[i] = std::move(figures);
         try {
@@ -485,7 +484,7 @@ std::string toMarkdown(const std::vector<ExperimentTable>& tables) {
   for (const auto& t : tables) {
     out << "## " << t.spec.name << ": " << t.runs.size() << " seeds";
     if (!t.runs.empty()) out << " (" << t.runs.front().seed << "-" << t.runs.back().seed << ")";
-    out << ", " << fixed(t.seconds, 0) << " s\n\n";
+    out << ", " << fixedText(t.seconds, 0) << " s\n\n";
     if (t.spec.paper.empty())
       out << "Not one of the paper's experiments: every floor is judged against the alignment goal.\n\n";
     else
@@ -498,11 +497,13 @@ std::string toMarkdown(const std::vector<ExperimentTable>& tables) {
            "deg | goal |\n";
     out << "|---|---|---|---|---|---|---|---|---|\n";
     for (const auto& f : t.floors) {
-      out << "| " << f.floor << " | " << cell(f.translation_without, 1, 3) << " | " << cell(f.rotation_without, kDeg, 2)
-          << " | " << cell(f.translation_with, 1, 3) << " | " << cell(f.rotation_with, kDeg, 2) << " | "
-          << fixed(f.constraints.mean, 1) << " | " << f.wrong << " | "
+      out << "| " << f.floor << " | " << cell(f.translation_without, 1, 3) << " | "
+          << cell(f.rotation_without, kDeg, 2) << " | " << cell(f.translation_with, 1, 3) << " | "
+          << cell(f.rotation_with, kDeg, 2) << " | " << fixedText(f.constraints.mean, 1) << " | "
+          << f.wrong << " | "
           << (f.constraint_rotation.count
-                  ? fixed(f.constraint_rotation.mean * kDeg, 2) + " ± " + fixed(f.constraint_rotation.std * kDeg, 2)
+                  ? fixedText(f.constraint_rotation.mean * kDeg, 2) + " ± " +
+                        fixedText(f.constraint_rotation.std * kDeg, 2)
                   : std::string("-"))
           << " | " << (t.spec.floor_goal ? (f.goal_met ? "met" : "**no**") : "-") << " |\n";
     }
@@ -512,17 +513,20 @@ std::string toMarkdown(const std::vector<ExperimentTable>& tables) {
       for (const auto& c : t.corridors) {
         auto percent = [](const Statistic& s, const Statistic& abs) {
           if (s.count == 0) return std::string("-");
-          return fixed(s.mean * 100, 2) + " ± " + fixed(s.std * 100, 2) + " (" + fixed(abs.worst * 100, 2) + ")";
+          return fixedText(s.mean * 100, 2) + " ± " + fixedText(s.std * 100, 2) + " (" +
+                 fixedText(abs.worst * 100, 2) + ")";
         };
-        out << "| " << c.name << " | " << c.floor << " | " << fixed(c.true_length, 1) << " | "
-            << percent(c.error_without, c.abs_error_without) << " | " << percent(c.error_with, c.abs_error_with)
-            << " | " << (c.goal ? (c.goal_met ? "met" : "**no**") : "-") << " |\n";
+        out << "| " << c.name << " | " << c.floor << " | " << fixedText(c.true_length, 1) << " | "
+            << percent(c.error_without, c.abs_error_without) << " | "
+            << percent(c.error_with, c.abs_error_with) << " | "
+            << (c.goal ? (c.goal_met ? "met" : "**no**") : "-") << " |\n";
       }
     }
     out << "\nGoals:\n";
     for (const auto& [text, met] : t.verdicts) out << "- " << (met ? "met: " : "**NOT met**: ") << text << "\n";
     out << "\nRuns:";
-    for (const auto& r : t.runs) out << " seed " << r.seed << " " << fixed(r.seconds, 0) << " s;";
+    for (const auto& r : t.runs)
+      out << " seed " << r.seed << " " << fixedText(r.seconds, 0) << " s;";
     out << "\n\n";
   }
   return out.str();
