@@ -41,7 +41,8 @@ double sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
 
 }  // namespace
 
-FloorDetector::FloorDetector(const FloorDetectorOptions& options) : options_(options) {
+FloorDetector::FloorDetector(const FloorDetectorOptions& options)
+    : options_(options), imu_height_(options.imu) {
   if (options_.floors.heights.empty()) {
     floors_.push_back(Floor{0, 0.0, 1, true});
     current_floor_ = 0;
@@ -83,6 +84,10 @@ void FloorDetector::rejectLog(const std::string& what, std::size_t& counter) {
 
 bool FloorDetector::addPressure(const sensor::PressureSample& sample) {
   const auto& b = options_.barometer;
+  if (!options_.sensors.barometer) {
+    rejectLog("pressure sample: sensors.barometer is false", stats_.rejected_pressure);
+    return false;
+  }
   if (!std::isfinite(sample.stamp)) {
     rejectLog("pressure sample with a non-finite stamp", stats_.rejected_pressure);
     return false;
@@ -103,18 +108,32 @@ bool FloorDetector::addPressure(const sensor::PressureSample& sample) {
               stats_.rejected_pressure);
     return false;
   }
+  last_pressure_ = sample.pascal;
+  return addHeight(sample.stamp, pressureHeight(sample.pascal, b.temperature_kelvin));
+}
+
+void FloorDetector::takeImuHeights() {
+  for (const auto& h : imu_height_.take()) {
+    if (resume_pending_ && h.t <= resumed_.saved_at) {
+      ++stats_.before_resume;
+      continue;
+    }
+    addHeight(h.t, h.height);
+  }
+}
+
+bool FloorDetector::addHeight(double stamp, double h) {
+  const auto& b = options_.barometer;
   ++stats_.pressure_samples;
   const std::size_t first_new_event = events_.size();
-  if (resume_pending_) applyResume(sample.stamp);
-  if (stats_.pressure_samples > 1 && sample.stamp - last_pressure_stamp_ > b.max_gap) {
-    handleGap(last_pressure_stamp_, sample.stamp);
+  if (resume_pending_) applyResume(stamp);
+  if (stats_.pressure_samples > 1 && stamp - last_pressure_stamp_ > b.max_gap) {
+    handleGap(last_pressure_stamp_, stamp);
   }
-  last_pressure_stamp_ = sample.stamp;
-  last_pressure_ = sample.pascal;
+  last_pressure_stamp_ = stamp;
 
-  const double h = pressureHeight(sample.pascal, b.temperature_kelvin);
-  raw_.push_back({sample.stamp, h});
-  while (raw_.size() > 1 && raw_.front().t < sample.stamp - b.median_window) raw_.pop_front();
+  raw_.push_back({stamp, h});
+  while (raw_.size() > 1 && raw_.front().t < stamp - b.median_window) raw_.pop_front();
 
   // Hampel filter: the window's centre sample passes unless it lies more than three robust
   // standard deviations from the window's median (a door slam), then the median replaces
@@ -128,8 +147,8 @@ bool FloorDetector::addPressure(const sensor::PressureSample& sample) {
   const TimedValue& centre = raw_[raw_.size() / 2];
   const bool outlier = std::abs(centre.value - median) > kHampelSigmas * 1.4826 * mad;
   filtered_.push_back({centre.t, outlier ? median : centre.value});
-  processFiltered(sample.stamp);
-  for (std::size_t i = first_new_event; i < events_.size(); ++i) events_[i].decided_at = sample.stamp;
+  processFiltered(stamp);
+  for (std::size_t i = first_new_event; i < events_.size(); ++i) events_[i].decided_at = stamp;
   return true;
 }
 
@@ -332,15 +351,22 @@ void FloorDetector::endTransit(int floor_index, bool changed, bool created, doub
   const double motion_end = quiet_since_;
   const double duration = std::max(motion_end - onset_, 1e-3);
 
-  // Uncertainty: both plateaus, weather drift over the ride, the temperature's scale.
-  const double height_per_pascal = scaleHeight(b.temperature_kelvin) / last_pressure_;
-  const double drift = b.max_drift_rate / 3600.0 * height_per_pascal * duration;
-  const double scale = std::abs(dh) * b.temperature_uncertainty_kelvin / b.temperature_kelvin;
+  // Uncertainty: both plateaus and the sensor's own over the ride: for the barometer the
+  // weather drift and the temperature's scale, for the IMU what its integration gathered.
+  double sensor_variance = 0.0;
+  if (options_.sensors.barometer) {
+    const double height_per_pascal = scaleHeight(b.temperature_kelvin) / last_pressure_;
+    const double drift = b.max_drift_rate / 3600.0 * height_per_pascal * duration;
+    const double scale = std::abs(dh) * b.temperature_uncertainty_kelvin / b.temperature_kelvin;
+    sensor_variance = drift * drift + scale * scale;
+  } else {
+    sensor_variance = imu_height_.variance(onset_ - mw, motion_end + mw);
+  }
   // After a ride that stayed on the floor (a half landing) this ride continues from the
   // offset it left: the change reported is from the floor the robot left.
   const double stddev =
       std::sqrt(start_height_stddev_ * start_height_stddev_ + end.stddev * end.stddev +
-                drift * drift + scale * scale + offset_stddev_ * offset_stddev_);
+                sensor_variance + offset_stddev_ * offset_stddev_);
   const double change = height_offset_ + dh;
 
   Evidence e;
@@ -423,8 +449,9 @@ void FloorDetector::endTransit(int floor_index, bool changed, bool created, doub
 
 void FloorDetector::handleGap(double gap_start, double gap_end) {
   ++stats_.gaps;
-  common::logWarn(str("floor_detector: no pressure between t=", gap_start, " and t=", gap_end, " (",
-                      gap_end - gap_start, " s); filter restarted"));
+  common::logWarn(str("floor_detector: no ", options_.sensors.barometer ? "pressure" : "IMU height",
+                      " between t=", gap_start, " and t=", gap_end, " (", gap_end - gap_start,
+                      " s); filter restarted"));
   raw_.clear();
   velocity_valid_ = false;
   if (state_ == State::kOnFloor) {
@@ -448,7 +475,8 @@ void FloorDetector::handleGap(double gap_start, double gap_end) {
 }
 
 bool FloorDetector::addImu(const sensor::ImuSample& sample) {
-  if (!options_.corroboration.use_imu) return true;
+  const bool heights = !options_.sensors.barometer;
+  if (!options_.corroboration.use_imu && !heights) return true;
   if (!std::isfinite(sample.stamp) || !sample.linear_acceleration.allFinite()) {
     rejectLog("IMU sample with non-finite values", stats_.rejected_other);
     return false;
@@ -458,7 +486,12 @@ bool FloorDetector::addImu(const sensor::ImuSample& sample) {
     return false;
   }
   last_imu_stamp_ = sample.stamp;
-  imu_.push_back({sample.stamp, sample.linear_acceleration.z()});
+  if (heights) {
+    imu_height_.addImu(sample.stamp, sample.linear_acceleration);
+    takeImuHeights();
+    if (!options_.corroboration.use_imu) return true;
+  }
+  imu_.push_back({sample.stamp, sample.linear_acceleration.norm()});
   if (state_ == State::kOnFloor) {
     while (imu_.front().t < sample.stamp - historySeconds()) imu_.pop_front();
   } else if (imu_.size() > kMaxSamplesKept) {
@@ -468,7 +501,8 @@ bool FloorDetector::addImu(const sensor::ImuSample& sample) {
 }
 
 bool FloorDetector::addOdometry(const sensor::OdometrySample& sample) {
-  if (!options_.corroboration.use_odometry) return true;
+  const bool heights = !options_.sensors.barometer;
+  if (!options_.corroboration.use_odometry && !heights) return true;
   const auto& t = sample.pose.translation();
   if (!std::isfinite(sample.stamp) || !std::isfinite(t.x()) || !std::isfinite(t.y())) {
     rejectLog("odometry sample with non-finite values", stats_.rejected_other);
@@ -479,6 +513,11 @@ bool FloorDetector::addOdometry(const sensor::OdometrySample& sample) {
     return false;
   }
   last_odom_stamp_ = sample.stamp;
+  if (heights) {
+    imu_height_.addOdometry(sample.stamp, t.x(), t.y(), sample.pose.theta());
+    takeImuHeights();
+    if (!options_.corroboration.use_odometry) return true;
+  }
   odom_.push_back({sample.stamp, t.x(), t.y()});
   if (state_ == State::kOnFloor) {
     while (odom_.front().t < sample.stamp - historySeconds()) odom_.pop_front();

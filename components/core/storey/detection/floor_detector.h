@@ -4,8 +4,10 @@
 // optional, corroborate a ride and tell an elevator from stairs. Arrival heights are
 // matched to known floors (seen before, or from the building's configuration).
 //
-// Pressure samples drive the clock; feed every stream in time order per stream (streams
-// may interleave with a lag of a few seconds). No DDS here: see components/floor_detector.
+// Pressure samples drive the clock; on a robot without a barometer (sensors.barometer
+// false) the heights ImuHeight derives from the IMU and odometry take their place. Feed
+// every stream in time order per stream (streams may interleave with a lag of a few
+// seconds). No DDS here: see components/floor_detector.
 #pragma once
 
 #include <deque>
@@ -14,6 +16,7 @@
 
 #include "storey/detection/barometer.h"
 #include "storey/detection/floor_detector_options.h"
+#include "storey/detection/imu_height.h"
 #include "storey/floor/floor_event.h"
 #include "storey/sensor/laser_scan.h"
 
@@ -116,6 +119,7 @@ class FloorDetector {
     double span = 0.0;
   };
 
+  bool addHeight(double stamp, double height);  // the clock: a barometric or IMU height
   void processFiltered(double now);
   void onVelocity(double t_v, double v, double now);
   void beginCandidate(double t_v, double v);
@@ -144,6 +148,10 @@ class FloorDetector {
   std::vector<FloorEvent> events_;
   FloorDetectorStats stats_;
 
+  // Heights from the IMU and odometry, for a robot without a barometer.
+  ImuHeight imu_height_;
+  void takeImuHeights();
+
   // Barometer filter.
   double last_pressure_stamp_ = -1e300;
   std::deque<TimedValue> raw_;       // raw heights within the median window
@@ -167,7 +175,7 @@ class FloorDetector {
   std::vector<TimedValue> transit_velocity_;  // baro vertical velocity during the ride
 
   // Corroborating streams (trimmed to a few seconds while on a floor).
-  std::deque<TimedValue> imu_;  // vertical acceleration including gravity
+  std::deque<TimedValue> imu_;  // |specific force|: gravity and the vertical acceleration
   std::deque<OdomPoint> odom_;
   std::deque<sensor::LaserScan> scans_;
   // Similarity of each scan to the one about a second before it (trimmed like imu_).

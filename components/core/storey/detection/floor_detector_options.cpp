@@ -11,6 +11,17 @@ constexpr double kUnbounded = std::numeric_limits<double>::infinity();
 FloorDetectorOptions readFloorDetectorOptions(const common::ConfigNode& node) {
   FloorDetectorOptions o;
   {
+    const common::ConfigNode n = node.child("sensors");
+    o.sensors.barometer = n.get<bool>("barometer");
+    n.finish();
+  }
+  {
+    const common::ConfigNode n = node.child("imu");
+    o.imu.accel_noise_density = n.getDouble("accel_noise_density", 1e-6, 10.0);
+    o.imu.accel_bias_walk = n.getDouble("accel_bias_walk", 0.0, 10.0);
+    n.finish();
+  }
+  {
     const common::ConfigNode b = node.child("barometer");
     o.barometer.temperature_kelvin = b.getDouble("temperature_kelvin", 150.0, 350.0);
     o.barometer.temperature_uncertainty_kelvin =
@@ -74,6 +85,8 @@ FloorDetectorOptions readFloorDetectorOptions(const common::ConfigNode& node) {
     o.corroboration.scan.relative_tolerance = c.getDouble("scan_relative_tolerance", 0.0, 1.0);
     c.finish();
   }
+  o.imu.stationary_speed = o.corroboration.stationary_speed;
+  o.imu.cabin_min_speed = o.corroboration.elevator_min_speed;
   node.finish();
   return o;
 }

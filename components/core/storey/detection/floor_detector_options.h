@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "storey/common/config.h"
+#include "storey/detection/imu_height.h"
 #include "storey/detection/scan_similarity.h"
 
 namespace storey::detection {
@@ -51,8 +52,18 @@ struct CorroborationOptions {
   ScanSimilarityOptions scan;
 };
 
+// What the robot carries. Without a barometer the heights come from the IMU and the
+// odometry (ImuHeight) and feed the same ride logic.
+struct SensorOptions {
+  bool barometer = true;
+};
+
 struct FloorDetectorOptions {
+  SensorOptions sensors;
   BarometerOptions barometer;
+  // The accelerometer's figures; its stationary_speed and cabin_min_speed are the
+  // corroboration's stationary_speed and elevator_min_speed.
+  ImuHeightOptions imu;
   TransitOptions transit;
   FloorIdentityOptions floors;
   CorroborationOptions corroboration;

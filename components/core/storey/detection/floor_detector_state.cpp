@@ -74,6 +74,11 @@ void FloorDetector::resume(const FloorDetectorState& state, double max_resume_ga
   resumed_ = state;
   max_resume_gap_ = max_resume_gap;
   resume_pending_ = true;
+  // IMU heights are relative: they go on from the reference (a ride made while the
+  // detector was stopped is not seen).
+  if (!options_.sensors.barometer && state.reference_valid) {
+    imu_height_.setHeight(state.reference_height);
+  }
 }
 
 // At the first pressure sample after resume(): compare what comes with the saved

@@ -95,6 +95,8 @@ MotionState Trajectory::at(double t) const {
       state.z = p.z0 + slope * s;
       state.vz = slope * v;
       state.az = slope * a;
+      state.pitch = std::atan(slope);
+      state.travelled = s;
       break;
     }
     case Piece::Kind::kLift:
@@ -126,7 +128,7 @@ class MissionPlanner {
       switch (step.kind) {
         case MissionStep::Kind::kGo:
           driveTo(building_.floors[floor_].frame.transformPoint(step.target), floorScene(""),
-                  motion_.speed);
+                  motion_.speed, step.rise);
           break;
         case MissionStep::Kind::kWait:
           wait(step.seconds, floorScene(""));

@@ -43,6 +43,8 @@ struct MotionState {
   double omega = 0.0;    // yaw rate
   double a = 0.0;        // forward acceleration
   double vz = 0.0, az = 0.0;
+  double pitch = 0.0;      // nose up on a slope (stairs, a ramp), rad
+  double travelled = 0.0;  // m driven along the current straight piece (horizontal)
   int floor = 0;  // floor index the robot counts as on
   int scene = 0;  // index into Trajectory::scenes
 };

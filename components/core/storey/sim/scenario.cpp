@@ -25,6 +25,7 @@ MissionStep readStep(const common::ConfigNode& node) {
     const std::vector<double> v = node.getDoubles("go");
     if (v.size() != 2) node.fail("go", "expected a waypoint [x, y]");
     step.target = {v[0], v[1]};
+    if (node.has("rise")) step.rise = node.getDouble("rise", -2.0, 2.0);
   }
   if (node.has("wait")) {
     ++kinds;
@@ -131,16 +132,24 @@ RobotModel readRobotModel(const common::ConfigNode& node) {
     n.finish();
   }
   {
-    const auto n = node.child("barometer");
-    model.barometer.rate = n.getDouble("rate", 0.1, 1000.0);
-    model.barometer.sigma = n.getDouble("sigma", 0.0, 1000.0);
-    n.finish();
+    // A robot without a barometer has no `barometer` section.
+    model.barometer.present = node.has("barometer");
+    if (model.barometer.present) {
+      const auto n = node.child("barometer");
+      model.barometer.rate = n.getDouble("rate", 0.1, 1000.0);
+      model.barometer.sigma = n.getDouble("sigma", 0.0, 1000.0);
+      n.finish();
+    }
   }
   {
     const auto n = node.child("imu");
     model.imu.rate = n.getDouble("rate", 0.1, 2000.0);
     model.imu.accel_sigma = n.getDouble("accel_sigma", 0.0, 10.0);
     model.imu.gyro_sigma = n.getDouble("gyro_sigma", 0.0, 10.0);
+    // Optional: without them the accelerometer has no bias and stairs do not shake it.
+    model.imu.accel_bias_sigma = n.getDouble("accel_bias_sigma", 0.0, 0.0, 1.0);
+    model.imu.accel_bias_time = n.getDouble("accel_bias_time", 300.0, 1.0, 1e6);
+    model.imu.stairs_vibration = n.getDouble("stairs_vibration", 0.0, 0.0, 20.0);
     n.finish();
   }
   {

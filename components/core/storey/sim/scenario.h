@@ -39,14 +39,21 @@ struct OdometryOptions {
 };
 
 struct BarometerOptions {
+  bool present = true;  // false: the robot carries none (no pressure samples)
   double rate = 10.0;
   double sigma = 3.0;  // Pa
 };
 
 struct ImuOptions {
   double rate = 50.0;
-  double accel_sigma = 0.05;  // m/s^2
+  double accel_sigma = 0.05;  // m/s^2, white noise per sample
   double gyro_sigma = 0.005;  // rad/s
+  // Accelerometer bias per axis: a first-order Gauss-Markov process (a MEMS part's bias
+  // instability) with this standard deviation and correlation time.
+  double accel_bias_sigma = 0.0;   // m/s^2
+  double accel_bias_time = 300.0;  // s
+  // Bumps on stairs: a vertical and forward oscillation of this amplitude, once a step.
+  double stairs_vibration = 0.0;  // m/s^2
 };
 
 struct MotionOptions {
@@ -76,6 +83,7 @@ struct MissionStep {
   enum class Kind { kGo, kWait, kElevator, kStairs };
   Kind kind = Kind::kGo;
   Eigen::Vector2d target = Eigen::Vector2d::Zero();  // kGo: floor frame of the current floor
+  double rise = 0.0;  // kGo: height climbed on the way (a ramp within the floor), m
   double seconds = 0.0;                              // kWait
   std::string shaft;                                 // kElevator, kStairs
   std::string to_floor;                              // kElevator, kStairs

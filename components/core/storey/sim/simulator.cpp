@@ -23,8 +23,11 @@ enum Stream : std::uint64_t {
   kOdometryStream,
   kPressureStream,
   kImuStream,
-  kOdometryStallStream
+  kOdometryStallStream,
+  kImuBiasStream
 };
+// Stairs rattle the robot once a step of this depth.
+constexpr double kStepDepth = 0.3;  // m
 constexpr std::uint64_t kWeatherStream = 0xA7;
 
 std::uint64_t streamSeed(std::uint64_t seed, std::size_t robot, Stream stream) {
@@ -76,7 +79,7 @@ void fillRanges(const RayCaster& caster, const LaserOptions& laser, const geomet
 }
 
 RobotRun simulateRobot(const Scenario& scenario, std::size_t index, std::uint64_t seed,
-                       double drift, double max_duration,
+                       double drift, double max_duration, bool without_barometer,
                        std::vector<std::unique_ptr<RayCaster>>* casters,
                        std::vector<SceneKey>* caster_keys) {
   const Building& building = scenario.building;
@@ -159,7 +162,9 @@ RobotRun simulateRobot(const Scenario& scenario, std::size_t index, std::uint64_
             transit.odometry_heading_error = error;
         ++next_ride;
       }
-      estimate = estimate * geometry::Pose2(delta.x() * scale, delta.y() * scale, dtheta);
+      // Wheels measure the distance along a slope, not its horizontal projection.
+      const double along = scale / std::cos(state.pitch);
+      estimate = estimate * geometry::Pose2(delta.x() * along, delta.y() * along, dtheta);
       sensor::OdometrySample sample;
       sample.stamp = t;
       sample.pose = estimate;
@@ -182,7 +187,7 @@ RobotRun simulateRobot(const Scenario& scenario, std::size_t index, std::uint64_
   }
 
   // Barometer: standard atmosphere at the true height, weather drift, white noise.
-  {
+  if (model.barometer.present && !without_barometer) {
     Rng noise(streamSeed(seed, index, kPressureStream));
     const double sigma = model.barometer.sigma;
     for (double t : sampleTimes(start, end, model.barometer.rate)) {
@@ -196,19 +201,36 @@ RobotRun simulateRobot(const Scenario& scenario, std::size_t index, std::uint64_
     }
   }
 
-  // IMU: body-frame specific force (gravity included) and yaw rate.
+  // IMU: body-frame specific force (gravity included) and yaw rate; on a slope the body
+  // pitches. The accelerometer's bias wanders (Gauss-Markov, its own stream).
   {
     Rng noise(streamSeed(seed, index, kImuStream));
+    Rng bias_noise(streamSeed(seed, index, kImuBiasStream));
     const ImuOptions& o = model.imu;
+    Eigen::Vector3d bias(bias_noise.gaussian(), bias_noise.gaussian(), bias_noise.gaussian());
+    bias *= o.accel_bias_sigma;
+    const double decay = std::exp(-1.0 / (o.rate * o.accel_bias_time));
+    const double kick = o.accel_bias_sigma * std::sqrt(1.0 - decay * decay);
     for (double t : sampleTimes(start, end, o.rate)) {
       const MotionState state = trajectory.at(t);
       sensor::ImuSample sample;
       sample.stamp = t;
       const double n1 = noise.gaussian(), n2 = noise.gaussian(), n3 = noise.gaussian();
       const double n4 = noise.gaussian(), n5 = noise.gaussian(), n6 = noise.gaussian();
+      const double c = std::cos(state.pitch), s = std::sin(state.pitch);
+      double forward = state.a * c + (kGravity + state.az) * s;
+      double up = -state.a * s + (kGravity + state.az) * c;
+      if (state.pitch != 0.0 && o.stairs_vibration > 0.0) {
+        const double bump = o.stairs_vibration * std::sin(2.0 * 3.14159265358979323846 *
+                                                          state.travelled / (kStepDepth * c));
+        forward += 0.5 * bump;
+        up += bump;
+      }
       sample.linear_acceleration =
-          Eigen::Vector3d(state.a + n1 * o.accel_sigma, state.v * state.omega + n2 * o.accel_sigma,
-                          kGravity + state.az + n3 * o.accel_sigma);
+          Eigen::Vector3d(forward + n1 * o.accel_sigma, state.v * state.omega + n2 * o.accel_sigma,
+                          up + n3 * o.accel_sigma) +
+          bias;
+      for (int k = 0; k < 3; ++k) bias[k] = decay * bias[k] + kick * bias_noise.gaussian();
       sample.angular_velocity =
           Eigen::Vector3d(n4 * o.gyro_sigma, n5 * o.gyro_sigma, state.omega + n6 * o.gyro_sigma);
       run.imu.push_back(sample);
@@ -250,7 +272,8 @@ Simulation simulate(const Scenario& scenario, const SimulateOptions& options) {
         std::find(options.robots.begin(), options.robots.end(), name) == options.robots.end())
       continue;
     result.robots.push_back(simulateRobot(scenario, i, options.seed, result.pressure_drift,
-                                          options.max_duration, &casters, &keys));
+                                          options.max_duration, options.without_barometer, &casters,
+                                          &keys));
   }
   return result;
 }

@@ -50,6 +50,7 @@ struct SimulateOptions {
   std::uint64_t seed = 0;
   std::vector<std::string> robots;  // simulate only these ("" / empty: all)
   double max_duration = 0.0;        // stop each robot after this many seconds (0: whole mission)
+  bool without_barometer = false;   // every robot as if it carried no barometer
 };
 
 Simulation simulate(const Scenario& scenario, const SimulateOptions& options);
