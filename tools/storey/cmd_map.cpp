@@ -35,6 +35,8 @@ int run_map(Args& args) {
       .option("domain", "ID",
               "DDS domain id of the job's private participant (default: ROS_DOMAIN_ID, else 0)",
               "-1")
+      .flag("no-barometer",
+            "a simulated building's robots carry no barometer (floor changes from the IMU)")
       .option("resolution", "M", "resolution of the floor maps", "0.05")
       .option("voxel", "M", "OctoMap resolution", "0.1")
       .flag("quiet", "print only the summary");
@@ -56,6 +58,7 @@ int run_map(Args& args) {
   options.outputs.octomap.resolution =
       args.getDouble("voxel", tools::kVoxelRange[0], tools::kVoxelRange[1]);
   options.quiet = args.flagSet("quiet");
+  options.without_barometer = args.flagSet("no-barometer");
   if (args.has("output")) {
     options.output_dir = args.get("output");
   } else {

@@ -37,23 +37,25 @@ std::vector<std::string> splitList(const std::string& text) {
 }  // namespace
 
 int run_simulate(Args& args) {
-  args.usage("SCENARIO.yaml --output DIR",
-             "Simulates the robots of a scenario (config/buildings/*.yaml) and writes into DIR:\n"
-             "  bag/            rosbag2 (sqlite3) with /<robot>/scan, odom, pressure, imu\n"
-             "  ground_truth/   trajectory.csv, floors.yaml, transits.csv, corridors.yaml\n"
-             "  pictures/       floor_<id>.png, overlay_<a>_<b>.png, overlay_all.png\n"
-             "  baseline_odometry/trajectory.csv   dead reckoning, for `storey evaluate`\n"
-             "  scenario.yaml   a copy of the scenario file\n"
-             "  live/           live.yaml, a bringup that maps the bag live as a deployment does\n"
-             "                  (`storey launch DIR/live/live.yaml`, then `storey replay DIR/bag`),\n"
-             "                  with the parameters `storey map` gives these robots\n"
-             "The same scenario and seed give the same output.")
+  args.usage(
+          "SCENARIO.yaml --output DIR",
+          "Simulates the robots of a scenario (config/buildings/*.yaml) and writes into DIR:\n"
+          "  bag/            rosbag2 (sqlite3) with /<robot>/scan, odom, pressure, imu\n"
+          "  ground_truth/   trajectory.csv, floors.yaml, transits.csv, corridors.yaml\n"
+          "  pictures/       floor_<id>.png, overlay_<a>_<b>.png, overlay_all.png\n"
+          "  baseline_odometry/trajectory.csv   dead reckoning, for `storey evaluate`\n"
+          "  scenario.yaml   a copy of the scenario file\n"
+          "  live/           live.yaml, a bringup that maps the bag live as a deployment does\n"
+          "                  (`storey launch DIR/live/live.yaml`, then `storey replay DIR/bag`),\n"
+          "                  with the parameters `storey map` gives these robots\n"
+          "The same scenario and seed give the same output.")
       .option("output", "DIR", "output folder (must not hold a bag already)")
       .option("seed", "N", "seed of every random choice", "1")
       .option("robot", "NAMES", "simulate only these robots (comma-separated)")
       .option("max-duration", "SECONDS", "stop each robot after this long (0: whole mission)", "0")
       .option("config", "DIR", "component parameter files for live/ (floor_detector.yaml, ...)",
               "the shipped config/")
+      .flag("no-barometer", "the robots carry no barometer (no pressure topic)")
       .flag("no-bag", "skip the bag (ground truth and pictures only)")
       .flag("no-pictures", "skip the pictures");
   if (!args.parse()) return 0;
@@ -67,6 +69,7 @@ int run_simulate(Args& args) {
   options.seed = static_cast<std::uint64_t>(seed);
   if (args.has("robot")) options.robots = splitList(args.get("robot"));
   options.max_duration = args.getDouble("max-duration");
+  options.without_barometer = args.flagSet("no-barometer");
   if (options.max_duration < 0.0) throw UsageError("--max-duration must not be negative");
 
   namespace fs = std::filesystem;
@@ -87,7 +90,9 @@ int run_simulate(Args& args) {
     std::vector<std::string> robots;
     for (const auto& robot : run.robots) robots.push_back(robot.name);
     const std::string config_dir = args.has("config") ? args.get("config") : tools::defaultConfigDir();
-    tools::writeLiveBringup(config_dir, robots, tools::robotSetup(scenario), (fs::path(out) / "live").string(),
+    tools::RobotSetup setup = tools::robotSetup(scenario);
+    if (options.without_barometer) setup.without_barometer.insert(robots.begin(), robots.end());
+    tools::writeLiveBringup(config_dir, robots, setup, (fs::path(out) / "live").string(),
                             (fs::path(out) / "bag").string());
   }
 

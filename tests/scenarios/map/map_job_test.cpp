@@ -22,6 +22,7 @@
 #include "storey/eval/trajectory.h"
 #include "storey/io/carmen.h"
 #include "storey/runtime/context.h"
+#include "storey/runtime/sensor_bag.h"
 #include "storey/runtime/subscription.h"
 #include "storey/sim/ground_truth.h"
 #include "storey/sim/scenario.h"
@@ -82,6 +83,25 @@ TEST(MapJob, BundledBuildingIsMappedAndAligned) {
   EXPECT_EQ(report.find("e-1"), std::string::npos);
   EXPECT_EQ(report.find("<td>-0.000</td>"), std::string::npos);
   EXPECT_NE(report.find("<td style=\"text-align:left\">outputs"), std::string::npos);
+}
+
+// A robot without a barometer (its bag has no pressure topic): the floor detector takes
+// heights from the IMU and odometry, and every floor still meets the 0.05 m / 0.2 degree
+// goal.
+TEST(MapJob, ARobotWithoutABarometerIsMappedFromItsImu) {
+  const std::string out = test::makeTempDir("storey_map_imu");
+  MapJobOptions options = bundled(56, out);
+  options.without_barometer = true;
+  const MapJobResult result = runMapJob(options);
+  EXPECT_FALSE(runtime::SensorBagReader(out + "/recording/bag").sensorsOf("robot1").pressure);
+  EXPECT_EQ(result.outputs.floors, 2u);
+  EXPECT_GE(result.outputs.constraints, 3u);
+  ASSERT_TRUE(result.evaluation.has_value());
+  ASSERT_EQ(result.evaluation->floors.size(), 2u);
+  for (const auto& floor : result.evaluation->floors) {
+    EXPECT_LT(floor.residual_rotation * 180 / M_PI, 0.2) << floor.floor;
+    EXPECT_LT(floor.residual_translation, 0.05) << floor.floor;
+  }
 }
 
 TEST(MapJob, SameSeedGivesTheSameBuilding) {

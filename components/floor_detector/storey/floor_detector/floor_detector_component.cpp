@@ -84,15 +84,21 @@ void FloorDetectorComponent::onConfigure() {
       runtime::robotTopic(robot, "imu"), runtime::TopicKind::kSensor,
       [this, active](const sensor_msgs::msg::Imu& m) {
         if (!active()) return;
-        std::lock_guard<std::mutex> lock(mutex_);
-        detector_->addImu(runtime::fromMessage(m));
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          detector_->addImu(runtime::fromMessage(m));
+        }
+        if (!options_.detector.sensors.barometer) publishEvents();  // the IMU is the clock
       });
   createSubscription<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType>(
       runtime::robotTopic(robot, "odom"), runtime::TopicKind::kSensor,
       [this, active](const nav_msgs::msg::Odometry& m) {
         if (!active()) return;
-        std::lock_guard<std::mutex> lock(mutex_);
-        detector_->addOdometry(runtime::fromMessage(m));
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          detector_->addOdometry(runtime::fromMessage(m));
+        }
+        if (!options_.detector.sensors.barometer) publishEvents();  // IMU samples wait for it
       });
   createSubscription<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType>(
       runtime::robotTopic(robot, "scan"), runtime::TopicKind::kSensor,
@@ -112,11 +118,13 @@ void FloorDetectorComponent::onCleanup() {
     const auto& s = detector_->stats();
     const std::uint64_t received = pressure_subscription_ ? pressure_subscription_->receivedCount() : 0;
     const int writers = pressure_subscription_ ? pressure_subscription_->matchedCount() : 0;
-    common::logInfo(str(name(), ": ", received, " pressure samples received from ", writers, " writer(s) (",
-                        s.pressure_samples, " processed, ", s.rejected_pressure, " rejected, ", s.before_resume,
-                        " before the resumed state), ", dropped_inactive_.load(),
-                        " samples dropped while inactive, ", published_,
-                        " floor events published, processed until t=", detector_->processedUntil()));
+    common::logInfo(
+        str(name(), ": ", received, " pressure samples received from ", writers, " writer(s) (",
+            s.pressure_samples,
+            options_.detector.sensors.barometer ? " processed, " : " IMU heights processed, ",
+            s.rejected_pressure, " rejected, ", s.before_resume, " before the resumed state), ",
+            dropped_inactive_.load(), " samples dropped while inactive, ", published_,
+            " floor events published, processed until t=", detector_->processedUntil()));
   }
   pressure_subscription_.reset();
   detector_.reset();

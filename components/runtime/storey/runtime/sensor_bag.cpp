@@ -156,6 +156,18 @@ std::vector<std::string> SensorBagReader::robots() const {
   return {names.begin(), names.end()};
 }
 
+SensorBagReader::Sensors SensorBagReader::sensorsOf(const std::string& robot) const {
+  Sensors s;
+  for (const TopicState& t : topics_) {
+    if (t.robot != robot) continue;
+    s.scan = s.scan || t.kind == Kind::kScan;
+    s.odometry = s.odometry || t.kind == Kind::kOdometry;
+    s.pressure = s.pressure || t.kind == Kind::kPressure;
+    s.imu = s.imu || t.kind == Kind::kImu;
+  }
+  return s;
+}
+
 bool SensorBagReader::next(SensorRecord& record) {
   bag::BagMessage message;
   while (bag_.next(message)) {

@@ -122,6 +122,11 @@ class SensorBagReader {
 
   // Robots with at least one sensor topic, sorted.
   std::vector<std::string> robots() const;
+  // Which sensors a robot's topics hold (by type).
+  struct Sensors {
+    bool scan = false, odometry = false, pressure = false, imu = false;
+  };
+  Sensors sensorsOf(const std::string& robot) const;
   // Throws bag::BagError for a corrupt database (records returned before stay valid).
   bool next(SensorRecord& record);
   const SensorBagStats& stats() const { return stats_; }

@@ -178,7 +178,10 @@ MapJobResult runMapJob(const MapJobOptions& options) {
       if (inputs.size() > 1) throw std::invalid_argument(input.path + ": a simulated building must be the only input");
       const sim::Scenario scenario = sim::loadScenario(input.path);
       say("simulating " + scenario.name + " (seed " + std::to_string(options.seed) + ")");
-      const sim::Simulation run = sim::simulate(scenario, options.seed);
+      sim::SimulateOptions simulate_options;
+      simulate_options.seed = options.seed;
+      simulate_options.without_barometer = options.without_barometer;
+      const sim::Simulation run = sim::simulate(scenario, simulate_options);
       const fs::path recording = fs::path(options.output_dir) / "recording";
       fs::remove_all(recording);
       fs::create_directories(recording);
@@ -203,15 +206,34 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   // 2. Robots and which of them need floor detection.
   std::vector<std::string> robots;
   std::map<std::string, const PreparedInput*> robot_input;
+  // What each robot carries decides its floor detector: pressure, else the IMU (with the
+  // odometry), else none (the robot's recording is one floor).
+  std::set<std::string> without_height;
   for (const auto& p : prepared) {
     std::vector<std::string> found;
-    if (isCarmenLog(p.recording)) found = {p.robot};
-    else found = runtime::SensorBagReader(p.recording).robots();
+    std::map<std::string, runtime::SensorBagReader::Sensors> sensors;
+    if (isCarmenLog(p.recording)) {
+      found = {p.robot};
+      sensors[p.robot].scan = sensors[p.robot].odometry = true;
+    } else {
+      const runtime::SensorBagReader reader(p.recording);
+      found = reader.robots();
+      for (const auto& r : found) sensors[r] = reader.sensorsOf(r);
+    }
     if (found.empty()) throw std::runtime_error(p.recording + ": no robot's sensor data found");
     for (const auto& r : found) {
       if (robot_input.count(r)) throw std::invalid_argument("robot '" + r + "' appears in two inputs");
       robots.push_back(r);
       robot_input[r] = &p;
+      if (p.floor || sensors[r].pressure) continue;
+      if (sensors[r].imu) {
+        setup.without_barometer.insert(r);
+        say("robot " + r +
+            ": no barometer in the recording; floor changes from its IMU and odometry");
+      } else {
+        without_height.insert(r);
+        say("robot " + r + ": no barometer or IMU in the recording; mapped as one floor");
+      }
     }
   }
 
@@ -245,6 +267,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   for (const auto& robot : robots) {
     const PreparedInput& p = *robot_input[robot];
     if (p.floor) setup.recorded_floor[robot] = {*p.floor, p.height.value_or(0.0)};
+    if (without_height.count(robot)) setup.recorded_floor[robot] = {0, 0.0};
   }
 
   // 3. The components, all in this process.
@@ -261,7 +284,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   const std::string journal = (fs::path(options.output_dir) / "journal.bin").string();
   fs::remove(journal);
   for (const auto& robot : robots) {
-    if (!robot_input[robot]->floor) {
+    if (!robot_input[robot]->floor && !without_height.count(robot)) {
       pipeline.push_back(registry.create("floor_detector", context,
                                          common::ConfigNode(floorDetectorParameters(config_dir, robot, setup),
                                                             parameterFilePath(config_dir, "floor_detector"), ""),

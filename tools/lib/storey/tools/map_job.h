@@ -45,6 +45,7 @@ struct MapJobOptions {
   std::optional<RobotFloors> robot_floors;  // recordings only: every recorded robot listed
   std::string output_dir = "out";
   std::uint64_t seed = 1;        // simulator and every component's random choices
+  bool without_barometer = false;  // a simulated building's robots carry no barometer
   int domain_id = -1;            // -1: ROS_DOMAIN_ID, else 0
   std::string config_dir;        // component parameter files; "" -> the shipped config/
   BuildingOutputOptions outputs;

@@ -12,8 +12,10 @@ namespace fs = std::filesystem;
 
 RobotSetup robotSetup(const sim::Scenario& scenario) {
   RobotSetup setup;
-  for (const auto& robot : scenario.robots)
+  for (const auto& robot : scenario.robots) {
     setup.laser_range_noise[robot.name] = robot.model.laser.range_sigma;
+    if (!robot.model.barometer.present) setup.without_barometer.insert(robot.name);
+  }
   if (scenario.robots.size() > 1) {
     for (const auto& f : scenario.building.floors) setup.floor_heights.push_back(f.height);  // by height
     for (const auto& robot : scenario.robots)
@@ -35,6 +37,7 @@ YAML::Node parameterFile(const std::string& config_dir, const std::string& kind)
 YAML::Node floorDetectorParameters(const std::string& config_dir, const std::string& robot, const RobotSetup& setup) {
   YAML::Node n = parameterFile(config_dir, "floor_detector");
   n["robot"] = robot;
+  if (setup.without_barometer.count(robot)) n["detector"]["sensors"]["barometer"] = false;
   const auto start = setup.start_floor.find(robot);
   if (start != setup.start_floor.end()) {
     YAML::Node floors = n["detector"]["floors"];

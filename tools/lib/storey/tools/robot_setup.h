@@ -8,6 +8,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,8 @@ struct RobotSetup {
     double height = 0.0;
   };
   std::map<std::string, RecordedFloor> recorded_floor;
+  // Robots that carry no barometer: their floor_detector takes heights from the IMU.
+  std::set<std::string> without_barometer;
 };
 
 // What a simulated building's robots are mapped with.
