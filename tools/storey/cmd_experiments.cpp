@@ -12,26 +12,30 @@ extern const char* const summary_experiments =
     "reproduce the paper's experiments (tower10 x 9 seeds, featureless x 10) and print the tables";
 
 int run_experiments(Args& args) {
-  args.usage("[--experiment tower10|featureless|all|BUILDING] [--seeds N] [--output DIR]",
-             "Runs the main job (`storey map`) on the simulated buildings of the paper's experiments,\n"
-             "once per seed, evaluates every run against ground truth with and without inter-floor\n"
-             "constraints and prints the tables:\n"
-             "  tower10      per floor, the alignment error (Fig. 9); goal: every floor within\n"
-             "               0.05 m / 0.2 deg in every run;\n"
-             "  featureless  floor B's corridor length error (Fig. 10; paper: 14.2 % without,\n"
-             "               5.8 % with); goal: below 1 % in every run;\n"
-             "  BUILDING     any other building of config/buildings/ (e.g. office4, glass3,\n"
-             "               corridors3), 3 seeds by default; goal: every floor within\n"
-             "               0.05 m / 0.2 deg in every run.\n"
-             "Every run's outputs go to DIR/<experiment>/seed_<n>/ (report.html, overlay.png, ...);\n"
-             "the tables to DIR/experiments.md and DIR/experiments.csv (one row per run and floor).")
+  args.usage(
+          "[--experiment tower10|featureless|all|BUILDING] [--seeds N] [--output DIR]",
+          "Runs the main job (`storey map`) on the simulated buildings of the paper's "
+          "experiments,\n"
+          "once per seed, evaluates every run against ground truth with and without inter-floor\n"
+          "constraints and prints the tables:\n"
+          "  tower10      per floor, the alignment error (Fig. 9); goal: every floor within\n"
+          "               0.05 m / 0.2 deg in every run;\n"
+          "  featureless  floor B's corridor length error (Fig. 10; paper: 14.2 % without,\n"
+          "               5.8 % with); goal: below 1 % in every run;\n"
+          "  BUILDING     any other building of config/buildings/ (e.g. office4, glass3,\n"
+          "               corridors3), 3 seeds by default; goal: every floor within\n"
+          "               0.05 m / 0.2 deg in every run.\n"
+          "Every run's outputs go to DIR/<experiment>/seed_<n>/ (report.html, overlay.png, ...);\n"
+          "the tables to DIR/experiments.md and DIR/experiments.csv (one row per run and floor).")
       .option("experiment", "NAME", "tower10, featureless, all, or a building's name", "all")
       .option("seeds", "N", "seeds per experiment (0: the paper's 9 and 10)", "0")
       .option("first-seed", "N", "the first seed", "1")
       .option("output", "DIR", "output folder", "out/experiments")
       .option("config", "DIR", "component parameter files and buildings/", "the shipped config/")
-      .option("domain", "ID", "DDS domain id of the first job (default: ROS_DOMAIN_ID, else 0)", "-1")
+      .option("domain", "ID", "DDS domain id of the first job (default: ROS_DOMAIN_ID, else 0)",
+              "-1")
       .option("jobs", "N", "runs at the same time (job k uses domain ID+k)", "1")
+      .flag("no-barometer", "the robots carry no barometer (floor changes from the IMU)")
       .flag("verbose", "let the components log their progress");
   if (!args.parse()) return 0;
   tools::ExperimentOptions options;
@@ -46,6 +50,7 @@ int run_experiments(Args& args) {
   options.output_dir = args.get("output");
   if (args.has("config")) options.config_dir = args.get("config");
   options.domain_id = static_cast<int>(args.getInt("domain"));
+  options.without_barometer = args.flagSet("no-barometer");
   if (!args.flagSet("verbose") && common::logLevel() < common::LogLevel::kWarn)
     common::setLogLevel(common::LogLevel::kWarn);
   options.progress = [](const std::string& line) { std::cerr << line << std::endl; };

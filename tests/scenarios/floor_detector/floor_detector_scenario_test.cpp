@@ -133,6 +133,17 @@ void report(const char* what, const Totals& t) {
               what, t.exact_runs, t.runs, t.transits, rmse, t.mode_correct, t.matched);
 }
 
+// Runs the seeds, prints the totals and expects every run exact (and, with corroborating
+// sensors, every mode right).
+void expectExact(const sim::Scenario& scenario, Sensors sensors, const std::string& what) {
+  common::setLogLevel(common::LogLevel::kWarn);
+  Totals totals;
+  runSeeds(scenario, seedCount(), sensors, totals);
+  report(what.c_str(), totals);
+  EXPECT_EQ(totals.exact_runs, totals.runs) << what;
+  if (sensors != Sensors::kBarometerOnly) EXPECT_EQ(totals.mode_correct, totals.matched) << what;
+}
+
 // The bundled building, with the weather drift raised to 1 hPa/h.
 sim::Scenario small2() {
   sim::Scenario scenario =
@@ -142,20 +153,11 @@ sim::Scenario small2() {
 }
 
 TEST(FloorDetectorScenario, Small2AllSensorsSeeds) {
-  common::setLogLevel(common::LogLevel::kWarn);
-  Totals totals;
-  runSeeds(small2(), seedCount(), Sensors::kAll, totals);
-  report("small2, all sensors", totals);
-  EXPECT_EQ(totals.exact_runs, totals.runs);
-  EXPECT_EQ(totals.mode_correct, totals.matched);
+  expectExact(small2(), Sensors::kAll, "small2, all sensors");
 }
 
 TEST(FloorDetectorScenario, Small2BarometerOnlySeeds) {
-  common::setLogLevel(common::LogLevel::kWarn);
-  Totals totals;
-  runSeeds(small2(), seedCount(), Sensors::kBarometerOnly, totals);
-  report("small2, barometer only", totals);
-  EXPECT_EQ(totals.exact_runs, totals.runs);
+  expectExact(small2(), Sensors::kBarometerOnly, "small2, barometer only");
 }
 
 // A four-storey tower with uneven storeys, long waits (drift), elevator rides over
@@ -221,44 +223,25 @@ robots:
 }
 
 TEST(FloorDetectorScenario, TowerAllSensorsSeeds) {
-  common::setLogLevel(common::LogLevel::kWarn);
-  Totals totals;
-  runSeeds(tower(), seedCount(), Sensors::kAll, totals);
-  report("tower4, all sensors", totals);
-  EXPECT_EQ(totals.exact_runs, totals.runs);
-  EXPECT_EQ(totals.mode_correct, totals.matched);
+  expectExact(tower(), Sensors::kAll, "tower4, all sensors");
 }
 
 TEST(FloorDetectorScenario, TowerBarometerOnlySeeds) {
-  common::setLogLevel(common::LogLevel::kWarn);
-  Totals totals;
-  runSeeds(tower(), seedCount(), Sensors::kBarometerOnly, totals);
-  report("tower4, barometer only", totals);
-  EXPECT_EQ(totals.exact_runs, totals.runs);
+  expectExact(tower(), Sensors::kBarometerOnly, "tower4, barometer only");
 }
 
 // A noisier barometer (3 Pa, 25 cm per sample) and only the barometer.
 TEST(FloorDetectorScenario, TowerNoisyBarometerOnlySeeds) {
-  common::setLogLevel(common::LogLevel::kWarn);
   sim::Scenario scenario = tower();
   for (auto& robot : scenario.robots) robot.model.barometer.sigma = 3.0;
-  Totals totals;
-  runSeeds(scenario, seedCount(), Sensors::kBarometerOnly, totals);
-  report("tower4, 3 Pa barometer only", totals);
-  EXPECT_EQ(totals.exact_runs, totals.runs);
+  expectExact(scenario, Sensors::kBarometerOnly, "tower4, 3 Pa barometer only");
 }
-
 TEST(FloorDetectorScenario, TowerWithoutBarometerSeeds) {
-  common::setLogLevel(common::LogLevel::kWarn);
-  Totals totals;
-  runSeeds(tower(), seedCount(), Sensors::kWithoutBarometer, totals);
-  report("tower4, no barometer", totals);
-  EXPECT_EQ(totals.exact_runs, totals.runs);
+  expectExact(tower(), Sensors::kWithoutBarometer, "tower4, no barometer");
 }
 
 // Every bundled building, its robots without a barometer.
 TEST(FloorDetectorScenario, EveryBundledBuildingWithoutBarometerSeeds) {
-  common::setLogLevel(common::LogLevel::kWarn);
   std::vector<std::string> files;
   for (const auto& entry :
        std::filesystem::directory_iterator(storey::test::sourceDir() + "/config/buildings")) {
@@ -267,25 +250,18 @@ TEST(FloorDetectorScenario, EveryBundledBuildingWithoutBarometerSeeds) {
   std::sort(files.begin(), files.end());
   ASSERT_GE(files.size(), 9u);
   for (const auto& file : files) {
-    Totals totals;
-    runSeeds(sim::loadScenario(file), seedCount(), Sensors::kWithoutBarometer, totals);
-    report(std::filesystem::path(file).stem().c_str(), totals);
-    EXPECT_EQ(totals.exact_runs, totals.runs) << file;
+    expectExact(sim::loadScenario(file), Sensors::kWithoutBarometer,
+                std::filesystem::path(file).stem().string());
   }
 }
 
 // A fleet mixing both kinds: the second robot carries no barometer.
 TEST(FloorDetectorScenario, FleetMixingRobotsWithAndWithoutBarometer) {
-  common::setLogLevel(common::LogLevel::kWarn);
   sim::Scenario scenario =
       sim::loadScenario(storey::test::sourceDir() + "/config/buildings/fleet.yaml");
   ASSERT_GE(scenario.robots.size(), 2u);
   scenario.robots[1].model.barometer.present = false;
-  Totals totals;
-  runSeeds(scenario, seedCount(), Sensors::kAll, totals);
-  report("fleet, mixed", totals);
-  EXPECT_EQ(totals.exact_runs, totals.runs);
+  expectExact(scenario, Sensors::kAll, "fleet, mixed");
 }
-
 }  // namespace
 }  // namespace storey::detection

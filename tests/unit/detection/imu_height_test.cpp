@@ -141,6 +141,10 @@ TEST(ImuHeight, StairsAreClimbedFromPitchAndDistance) {
   const double height = run(h, 35.0, stairs);
   // 2.5 m along a 30 degree slope.
   EXPECT_NEAR(height, 1.25, 0.06);
+  // The stated uncertainty holds the wheels' distance error (5 % of it by default).
+  const double sigma = std::sqrt(h.variance(0.0, 35.0));
+  EXPECT_GE(sigma, 0.05 * 1.2);
+  EXPECT_LT(sigma, 0.1);
 }
 
 TEST(ImuHeight, DrivingOnTheLevelWithATiltedMountingKeepsTheHeight) {

@@ -22,6 +22,11 @@ FloorDetectorOptions readFloorDetectorOptions(const common::ConfigNode& node) {
     n.finish();
   }
   {
+    const common::ConfigNode n = node.child("odometry");
+    o.imu.odometry_translation_per_meter = n.getDouble("translation_per_meter", 0.0, 1.0);
+    n.finish();
+  }
+  {
     const common::ConfigNode b = node.child("barometer");
     o.barometer.temperature_kelvin = b.getDouble("temperature_kelvin", 150.0, 350.0);
     o.barometer.temperature_uncertainty_kelvin =

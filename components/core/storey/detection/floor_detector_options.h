@@ -61,8 +61,8 @@ struct SensorOptions {
 struct FloorDetectorOptions {
   SensorOptions sensors;
   BarometerOptions barometer;
-  // The accelerometer's figures; its stationary_speed and cabin_min_speed are the
-  // corroboration's stationary_speed and elevator_min_speed.
+  // The accelerometer's and the odometry's figures; its stationary_speed and
+  // cabin_min_speed are the corroboration's stationary_speed and elevator_min_speed.
   ImuHeightOptions imu;
   TransitOptions transit;
   FloorIdentityOptions floors;

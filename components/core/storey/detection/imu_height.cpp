@@ -68,8 +68,9 @@ std::vector<HeightSample> ImuHeight::take() {
 
 double ImuHeight::variance(double t0, double t1) const {
   double v = 0.0;
+  const double k = options_.odometry_translation_per_meter;
   for (const auto& s : segments_) {
-    if (s.t1 >= t0 && s.t0 <= t1) v += s.variance;
+    if (s.t1 >= t0 && s.t0 <= t1) v += s.variance + k * k * s.slope_height * s.slope_height;
   }
   return v;
 }
@@ -227,7 +228,7 @@ void ImuHeight::endRide(double t_end) {
   height_ = height_at_onset_ + ride_h_ - k * ride_v_ * duration;
   const double variance =
       n2 * t3 * (1.0 / 3.0 - k + k * k) + q * t5 * (1.0 / 20.0 - k / 4.0 + k * k / 3.0);
-  segments_.push_back({ride_onset_, last_pulse_, variance});
+  segments_.push_back({ride_onset_, last_pulse_, variance, 0.0});
   if (segments_.size() > 1000) segments_.erase(segments_.begin());
   ride_ = false;
   window_.clear();
@@ -268,10 +269,12 @@ void ImuHeight::closeBlock(double t) {
       const double bias = options_.accel_bias_walk * std::sqrt(kLevelTime) / kGravity;
       const double noise = options_.accel_noise_density / std::sqrt(span) / kGravity;
       const double variance = (bias * bias + noise * noise) * along * along;
-      if (!segments_.empty() && segments_.back().t1 >= block_start_ - 1e-9)
-        segments_.back() = {segments_.back().t0, t, segments_.back().variance + variance};
-      else
-        segments_.push_back({block_start_, t, variance});
+      if (segments_.empty() || segments_.back().t1 < block_start_ - 1e-9)
+        segments_.push_back({block_start_, block_start_, 0.0});
+      Segment& segment = segments_.back();
+      segment.t1 = t;
+      segment.variance += variance;
+      segment.slope_height += sine * along;
       height_ += sine * along;
     }
   }

@@ -22,6 +22,9 @@ namespace storey::detection {
 struct ImuHeightOptions {
   double accel_noise_density = 0.003;  // m/s^2/sqrt(Hz), white noise
   double accel_bias_walk = 0.0016;     // m/s^2/sqrt(s), the bias's random walk
+  // The wheels' distance error per metre driven (slip): a flight's height is off by the
+  // same fraction.
+  double odometry_translation_per_meter = 0.05;
   // The detector's corroboration values: slower than stationary_speed is standing; no
   // cabin cruises slower than cabin_min_speed.
   double stationary_speed = 0.05;  // m/s
@@ -61,6 +64,7 @@ class ImuHeight {
   };
   struct Segment {
     double t0, t1, variance;
+    double slope_height = 0.0;  // height gained on a slope (its odometry error scales it)
   };
 
   void process(const Imu& s);

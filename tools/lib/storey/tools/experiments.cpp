@@ -86,6 +86,7 @@ RunFigures runOne(const ExperimentSpec& spec, std::uint64_t seed, int domain,
   job.config_dir = options.config_dir;
   job.quiet = true;
   job.keep_graph = true;
+  job.without_barometer = options.without_barometer;
   const MapJobResult result = runMapJob(job);
   if (!result.evaluation || !result.evaluation_unaligned || !result.graph || result.ground_truth_dir.empty())
     throw std::runtime_error(spec.name + " seed " + std::to_string(seed) + ": the map job gave no evaluation");

@@ -55,6 +55,7 @@ struct ExperimentOptions {
   std::string config_dir;                      // "" -> the shipped config/
   int domain_id = -1;  // runs of worker k use domain_id + k (-1: ROS_DOMAIN_ID, else 0)
   int jobs = 1;        // runs at the same time, each its own DDS pipeline and domain
+  bool without_barometer = false;  // the robots carry no barometer (floor changes from the IMU)
   ExperimentGoals goals;
   // Called after each run (from the worker's thread, serialised): progress.
   std::function<void(const std::string& line)> progress;
