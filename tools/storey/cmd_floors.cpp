@@ -42,7 +42,8 @@ void printEvent(const detection::FloorEvent& e) {
 int run_floors(Args& args) {
   args.usage("BAG [--ground-truth DIR]",
              "Runs the floor detector over every robot of a rosbag2 recording (its\n"
-             "/<robot>/pressure, imu, odom and scan topics) and prints each floor change:\n"
+             "/<robot>/pressure, imu, odom and scan topics; a robot without pressure gets its\n"
+             "heights from the IMU and odometry) and prints each floor change:\n"
              "interval, floors, height change and its std-dev, mode, confidence.\n"
              "With --ground-truth (a `storey simulate` ground_truth folder) it also prints,\n"
              "per robot and in total, missed, spurious and wrong floors and the RMSE of the\n"
@@ -70,7 +71,10 @@ int run_floors(Args& args) {
   std::map<std::string, std::vector<detection::FloorEvent>> events;
   for (const auto& robot : reader.robots()) {
     if (!only.empty() && !only.count(robot)) continue;
-    detectors[robot] = std::make_unique<detection::FloorDetector>(options);
+    // What the robot carries: without a pressure topic the heights come from the IMU.
+    detection::FloorDetectorOptions robot_options = options;
+    robot_options.sensors.barometer = reader.sensorsOf(robot).pressure;
+    detectors[robot] = std::make_unique<detection::FloorDetector>(robot_options);
     events[robot];
   }
   for (const auto& name : only) {
@@ -99,10 +103,12 @@ int run_floors(Args& args) {
   for (const auto& [robot, detector] : detectors) {
     const auto& list = events[robot];
     const auto& stats = detector->stats();
-    std::printf("%s: %zu pressure samples (%zu rejected, %zu gaps)\n", robot.c_str(),
-                stats.pressure_samples, stats.rejected_pressure, stats.gaps);
+    const bool barometer = detector->options().sensors.barometer;
+    std::printf("%s: %zu %s (%zu rejected, %zu gaps)\n", robot.c_str(), stats.pressure_samples,
+                barometer ? "pressure samples" : "heights from the IMU and odometry",
+                stats.rejected_pressure, stats.gaps);
     if (stats.pressure_samples == 0) {
-      std::printf("  no pressure: floor changes cannot be detected\n");
+      std::printf("  no pressure and no IMU: floor changes cannot be detected\n");
     }
     std::string sequence =
         std::to_string(list.empty() ? detector->currentFloor() : list.front().from_floor);

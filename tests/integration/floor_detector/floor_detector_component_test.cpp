@@ -87,6 +87,35 @@ void publishRide(runtime::Context& context, const std::string& robot) {
   }
 }
 
+// The same ride for a robot without a barometer: IMU (50 Hz) and odometry (20 Hz, standing).
+void publishImuRide(runtime::Context& context, const std::string& robot) {
+  runtime::Publisher<sensor_msgs::msg::Imu, sensor_msgs::msg::ImuPubSubType> imu(
+      context, "/" + robot + "/imu", runtime::TopicKind::kSensor);
+  runtime::Publisher<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType> odom(
+      context, "/" + robot + "/odom", runtime::TopicKind::kSensor);
+  ASSERT_TRUE(imu.waitForSubscribers(1, 5.0));
+  ASSERT_TRUE(odom.waitForSubscribers(1, 5.0));
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  for (int step = 0; step <= 750; ++step) {
+    const double t = 100.0 + step * 0.1;
+    for (int k = 0; k < 2; ++k) {
+      sensor::OdometrySample sample;
+      sample.stamp = t + 0.05 * k;
+      odom.publish(runtime::toMessage(sample, "odom", "base_link"));
+    }
+    for (int k = 0; k < 5; ++k) {
+      sensor::ImuSample sample;
+      sample.stamp = t + 0.02 * k;
+      sample.linear_acceleration = Eigen::Vector3d(
+          noise(rng), noise(rng),
+          detection::kStandardGravity + rideAcceleration(sample.stamp - 100.0) + noise(rng));
+      imu.publish(runtime::toMessage(sample));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(4));
+  }
+}
+
 bool waitFor(const std::function<bool()>& done, double seconds) {
   const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   while (!done()) {
@@ -168,6 +197,47 @@ TEST(FloorDetectorComponent, PublishesTheRideAndLateSubscribersGetIt) {
       5.0));
   component.deactivate();
   component.cleanup();
+}
+
+TEST(FloorDetectorComponent, ARobotWithoutABarometerPublishesTheRideFromItsImu) {
+  runtime::Context context(onDomain(59));
+  std::mutex mutex;
+  std::vector<EventMsg> received;
+  double progress = 0.0;
+  EventSub events(context, "/fd_imu/floor_events", runtime::TopicKind::kGraph,
+                  [&](const EventMsg& m) {
+                    std::lock_guard<std::mutex> lock(mutex);
+                    progress = runtime::fromTimeMessage(m.decided_at());
+                    if (m.kind() != storey_msgs::msg::FloorEvent_Constants::KIND_PROGRESS)
+                      received.push_back(m);
+                  });
+  std::ifstream in(test::sourceDir() + "/config/floor_detector.yaml");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  std::string text = buffer.str();
+  for (const auto& [from, to] :
+       {std::pair<std::string, std::string>{"robot: robot1", "robot: fd_imu"},
+        {"barometer: true", "barometer: false"}})
+    text.replace(text.find(from), from.size(), to);
+  FloorDetectorComponent component(
+      context, common::ConfigNode::loadString(text, "floor_detector.yaml"), "detector");
+  component.configure();
+  component.activate();
+  publishImuRide(context, "fd_imu");
+  ASSERT_TRUE(waitFor(
+      [&] {
+        std::lock_guard<std::mutex> lock(mutex);
+        return received.size() >= 2 && progress >= 174.0;
+      },
+      10.0));
+  std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_EQ(received.size(), 2u);
+  namespace k = storey_msgs::msg::FloorEvent_Constants;
+  EXPECT_EQ(received[0].kind(), k::KIND_TRANSIT_STARTED);
+  EXPECT_EQ(received[1].kind(), k::KIND_TRANSIT_ENDED);
+  EXPECT_EQ(received[1].floor_id(), 1);
+  EXPECT_NEAR(received[1].height_change(), 3.0, 0.25);
+  EXPECT_EQ(received[1].mode(), k::MODE_ELEVATOR);
 }
 
 TEST(FloorDetectorComponent, NothingIsProcessedBeforeActivation) {

@@ -86,6 +86,12 @@ TEST(FloorDetectorOptions, DefaultsEqualTheShippedFile) {
   EXPECT_EQ(f.floors.match_tolerance, d.floors.match_tolerance);
   EXPECT_EQ(f.floors.heights, d.floors.heights);
   EXPECT_EQ(f.floors.initial_floor, d.floors.initial_floor);
+  EXPECT_EQ(f.sensors.barometer, d.sensors.barometer);
+  EXPECT_EQ(f.imu.accel_noise_density, d.imu.accel_noise_density);
+  EXPECT_EQ(f.imu.accel_bias_walk, d.imu.accel_bias_walk);
+  EXPECT_EQ(f.imu.odometry_translation_per_meter, d.imu.odometry_translation_per_meter);
+  EXPECT_EQ(f.imu.stationary_speed, d.imu.stationary_speed);
+  EXPECT_EQ(f.imu.cabin_min_speed, d.imu.cabin_min_speed);
   EXPECT_EQ(f.corroboration.use_imu, d.corroboration.use_imu);
   EXPECT_EQ(f.corroboration.use_odometry, d.corroboration.use_odometry);
   EXPECT_EQ(f.corroboration.use_scan, d.corroboration.use_scan);
