@@ -59,7 +59,7 @@ TEST(FloorDetectorOptions, ShippedFileLoadsStrictly) {
   const FloorDetectorOptions o = shippedOptions();
   EXPECT_DOUBLE_EQ(o.barometer.temperature_kelvin, 288.15);
   EXPECT_TRUE(o.floors.heights.empty());
-  EXPECT_TRUE(o.corroboration.use_imu);
+  EXPECT_TRUE(o.sensors.imu);
 }
 
 // `storey floors` without --config uses the struct's defaults: they must be the file's.
@@ -92,9 +92,9 @@ TEST(FloorDetectorOptions, DefaultsEqualTheShippedFile) {
   EXPECT_EQ(f.imu.odometry_translation_per_meter, d.imu.odometry_translation_per_meter);
   EXPECT_EQ(f.imu.stationary_speed, d.imu.stationary_speed);
   EXPECT_EQ(f.imu.cabin_min_speed, d.imu.cabin_min_speed);
-  EXPECT_EQ(f.corroboration.use_imu, d.corroboration.use_imu);
-  EXPECT_EQ(f.corroboration.use_odometry, d.corroboration.use_odometry);
-  EXPECT_EQ(f.corroboration.use_scan, d.corroboration.use_scan);
+  EXPECT_EQ(f.sensors.imu, d.sensors.imu);
+  EXPECT_EQ(f.sensors.odometry, d.sensors.odometry);
+  EXPECT_EQ(f.sensors.scan, d.sensors.scan);
   EXPECT_EQ(f.corroboration.elevator_min_speed, d.corroboration.elevator_min_speed);
   EXPECT_EQ(f.corroboration.stairs_max_speed, d.corroboration.stairs_max_speed);
   EXPECT_EQ(f.corroboration.stationary_speed, d.corroboration.stationary_speed);
@@ -139,6 +139,16 @@ TEST(FloorDetectorOptions, UnknownKeyAndBadValuesNameTheKey) {
   heights.replace(heights.find("heights: []"), std::string("heights: []").size(),
                   "heights: [0.0, 4.0, 3.0]");
   EXPECT_THROW(load(heights), common::ConfigError);
+  // Neither a barometer nor an IMU: nothing to detect floor changes from.
+  std::string neither = text;
+  neither.replace(neither.find("barometer: true"), 15, "barometer: false");
+  neither.replace(neither.find("    imu: true"), 13, "    imu: false");
+  try {
+    load(neither);
+    FAIL() << "a robot without barometer and IMU accepted";
+  } catch (const common::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("sensors.barometer"), std::string::npos) << e.what();
+  }
 }
 
 TEST(FloorDetector, TwoHoursOfWeatherDriftOnOneFloorChangeNothing) {

@@ -393,9 +393,9 @@ void FloorDetector::endTransit(int floor_index, bool changed, bool created, doub
   const double typical_speed = core_speeds.empty() ? 0.0 : medianOf(core_speeds);
   if (typical_speed >= c.elevator_min_speed) e.elevator_votes += 1.0;
   if (typical_speed <= c.stairs_max_speed) e.stairs_votes += 1.0;
-  if (c.use_imu) imuEvidence(onset_, motion_end, e);
-  if (c.use_odometry) odometryEvidence(core_start, core_end, e);
-  if (c.use_scan) scanEvidence(core_start, core_end, e);
+  if (options_.sensors.imu) imuEvidence(onset_, motion_end, e);
+  if (options_.sensors.odometry) odometryEvidence(core_start, core_end, e);
+  if (options_.sensors.scan) scanEvidence(core_start, core_end, e);
 
   Floor& reached = floors_[floor_index];
   if (changed && !created && !reached.configured) {
@@ -475,8 +475,8 @@ void FloorDetector::handleGap(double gap_start, double gap_end) {
 }
 
 bool FloorDetector::addImu(const sensor::ImuSample& sample) {
+  if (!options_.sensors.imu) return true;
   const bool heights = !options_.sensors.barometer;
-  if (!options_.corroboration.use_imu && !heights) return true;
   if (!std::isfinite(sample.stamp) || !sample.linear_acceleration.allFinite()) {
     rejectLog("IMU sample with non-finite values", stats_.rejected_other);
     return false;
@@ -489,7 +489,6 @@ bool FloorDetector::addImu(const sensor::ImuSample& sample) {
   if (heights) {
     imu_height_.addImu(sample.stamp, sample.linear_acceleration);
     takeImuHeights();
-    if (!options_.corroboration.use_imu) return true;
   }
   imu_.push_back({sample.stamp, sample.linear_acceleration.norm()});
   if (state_ == State::kOnFloor) {
@@ -501,8 +500,8 @@ bool FloorDetector::addImu(const sensor::ImuSample& sample) {
 }
 
 bool FloorDetector::addOdometry(const sensor::OdometrySample& sample) {
+  if (!options_.sensors.odometry) return true;
   const bool heights = !options_.sensors.barometer;
-  if (!options_.corroboration.use_odometry && !heights) return true;
   const auto& t = sample.pose.translation();
   if (!std::isfinite(sample.stamp) || !std::isfinite(t.x()) || !std::isfinite(t.y())) {
     rejectLog("odometry sample with non-finite values", stats_.rejected_other);
@@ -516,7 +515,6 @@ bool FloorDetector::addOdometry(const sensor::OdometrySample& sample) {
   if (heights) {
     imu_height_.addOdometry(sample.stamp, t.x(), t.y(), sample.pose.theta());
     takeImuHeights();
-    if (!options_.corroboration.use_odometry) return true;
   }
   odom_.push_back({sample.stamp, t.x(), t.y()});
   if (state_ == State::kOnFloor) {
@@ -528,7 +526,7 @@ bool FloorDetector::addOdometry(const sensor::OdometrySample& sample) {
 }
 
 bool FloorDetector::addScan(const sensor::LaserScan& scan) {
-  if (!options_.corroboration.use_scan) return true;
+  if (!options_.sensors.scan) return true;
   const std::string problem = scan.validate();
   if (!std::isfinite(scan.stamp) || !problem.empty()) {
     rejectLog(str("scan at t=", scan.stamp, ": ", problem.empty() ? "bad stamp" : problem),

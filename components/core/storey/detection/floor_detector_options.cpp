@@ -13,6 +13,12 @@ FloorDetectorOptions readFloorDetectorOptions(const common::ConfigNode& node) {
   {
     const common::ConfigNode n = node.child("sensors");
     o.sensors.barometer = n.get<bool>("barometer");
+    o.sensors.imu = n.get<bool>("imu");
+    o.sensors.odometry = n.get<bool>("odometry");
+    o.sensors.scan = n.get<bool>("scan");
+    if (!o.sensors.barometer && !o.sensors.imu) {
+      n.fail("barometer", "a robot needs a barometer or an IMU to detect floor changes");
+    }
     n.finish();
   }
   {
@@ -77,9 +83,6 @@ FloorDetectorOptions readFloorDetectorOptions(const common::ConfigNode& node) {
   }
   {
     const common::ConfigNode c = node.child("corroboration");
-    o.corroboration.use_imu = c.get<bool>("use_imu");
-    o.corroboration.use_odometry = c.get<bool>("use_odometry");
-    o.corroboration.use_scan = c.get<bool>("use_scan");
     o.corroboration.elevator_min_speed = c.getDouble("elevator_min_speed", 0.0, 100.0);
     o.corroboration.stairs_max_speed = c.getDouble("stairs_max_speed", 0.0, 100.0);
     o.corroboration.stationary_speed = c.getDouble("stationary_speed", 0.0, 100.0);

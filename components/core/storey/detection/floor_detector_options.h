@@ -40,9 +40,6 @@ struct FloorIdentityOptions {
 };
 
 struct CorroborationOptions {
-  bool use_imu = true;
-  bool use_odometry = true;
-  bool use_scan = true;
   double elevator_min_speed = 0.3;      // m/s typical (median) vertical speed: elevator-like
   double stairs_max_speed = 0.2;        // m/s typical (median) vertical speed: stairs-like
   double stationary_speed = 0.05;       // m/s mean planar odometry speed: standing still
@@ -52,10 +49,14 @@ struct CorroborationOptions {
   ScanSimilarityOptions scan;
 };
 
-// What the robot carries. Without a barometer the heights come from the IMU and the
-// odometry (ImuHeight) and feed the same ride logic.
+// What the robot carries; the detector reads only these. Without a barometer the heights
+// come from the IMU and the odometry (ImuHeight) and feed the same ride logic; a robot
+// needs one of the two.
 struct SensorOptions {
   bool barometer = true;
+  bool imu = true;
+  bool odometry = true;
+  bool scan = true;
 };
 
 struct FloorDetectorOptions {
