@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <mutex>
 #include <thread>
 
 #include "storey/graph_server/conversions.h"
@@ -25,7 +26,8 @@ runtime::ContextOptions onDomain(int domain) {
 }
 
 // A floor graph of `count` nodes along a line, in its own frame.
-storey_msgs::msg::FloorGraphUpdate makeUpdate(int graph_id, int floor_id, double height) {
+storey_msgs::msg::FloorGraphUpdate makeUpdate(int graph_id, int floor_id, double height,
+                                              double first_stamp = 10.0) {
   storey_msgs::msg::FloorGraphUpdate u;
   u.robot("robot_a");
   u.floor_graph_id(graph_id);
@@ -35,7 +37,7 @@ storey_msgs::msg::FloorGraphUpdate makeUpdate(int graph_id, int floor_id, double
     storey_msgs::msg::FloorGraphNode n;
     n.node_id(i);
     n.floor_graph_id(graph_id);
-    n.stamp(runtime::toTimeMessage(10.0 + i));
+    n.stamp(runtime::toTimeMessage(first_stamp + i));
     n.x(i);
     n.y(0.2 * i);
     n.theta(0.05 * i);
@@ -352,6 +354,100 @@ TEST_F(GraphServerTest, AHistoryDeliveredAgainAfterARestartIsNotJournalledAgain)
   EXPECT_EQ(after.constraints().size(), before.constraints().size());
   restarted.deactivate();
   restarted.cleanup();
+}
+
+// The live outputs per robot (REP 105): /tf building -> robot_a/odom, the pose with its
+// floor, and the map of the floor the robot is on, each kept for a late subscriber.
+TEST_F(GraphServerTest, PublishesEachRobotsOdomFramePoseFloorAndMap) {
+  runtime::Context context(onDomain(64));
+  GraphServer server(context, common::ConfigNode::loadString("{optimize_min_period: 0.05}"),
+                     "graph_server");
+  server.configure();
+  server.activate();
+  const Pose2 offset(1.0, -0.5, 0.3), odom_in_building(2.0, 1.0, 0.5);
+  {
+    runtime::Publisher<storey_msgs::msg::FloorGraphUpdate,
+                       storey_msgs::msg::FloorGraphUpdatePubSubType>
+        graphs(context, "storey/floor_graphs", runtime::TopicKind::kGraph);
+    runtime::Publisher<storey_msgs::msg::InterFloorConstraint,
+                       storey_msgs::msg::InterFloorConstraintPubSubType>
+        constraints(context, "storey/inter_floor_constraints", runtime::TopicKind::kGraph);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // discovery
+    graphs.publish(makeUpdate(0, 0, 0.0));
+    // The robot rode to floor 1 later; its odometry there, in the building frame, is
+    // odom_in_building composed with it.
+    auto upper = makeUpdate(1, 1, 3.0, 20.0);
+    for (auto& n : upper.new_nodes()) {
+      const Pose2 odometry = odom_in_building.inverse() * offset * Pose2(n.x(), n.y(), n.theta());
+      n.odom_x(odometry.x());
+      n.odom_y(odometry.y());
+      n.odom_theta(odometry.theta());
+    }
+    graphs.publish(upper);
+    for (int k : {1, 2, 3}) constraints.publish(makeConstraint(k, k, offset));
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (std::chrono::steady_clock::now() < deadline) {
+      if (server.stats().constraints_accepted == 3 && server.waitOptimized(0.1)) break;
+    }
+    ASSERT_EQ(server.stats().constraints_accepted, 3u);
+  }
+  // Subscribed after the fact: each topic keeps its last sample.
+  std::mutex mutex;
+  std::vector<geometry_msgs::msg::TransformStamped> tf;
+  geometry_msgs::msg::PoseStamped pose;
+  int floor = -1;
+  nav_msgs::msg::OccupancyGrid map;
+  runtime::Subscription<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType> tf_sub(
+      context, "/tf", runtime::TopicKind::kLatest, [&](const tf2_msgs::msg::TFMessage& m) {
+        std::lock_guard<std::mutex> lock(mutex);
+        tf = m.transforms();
+      });
+  runtime::Subscription<geometry_msgs::msg::PoseStamped, geometry_msgs::msg::PoseStampedPubSubType>
+      pose_sub(context, "/robot_a/pose", runtime::TopicKind::kLatest,
+               [&](const geometry_msgs::msg::PoseStamped& m) {
+                 std::lock_guard<std::mutex> lock(mutex);
+                 pose = m;
+               });
+  runtime::Subscription<std_msgs::msg::Int32, std_msgs::msg::Int32PubSubType> floor_sub(
+      context, "/robot_a/floor", runtime::TopicKind::kLatest, [&](const std_msgs::msg::Int32& m) {
+        std::lock_guard<std::mutex> lock(mutex);
+        floor = m.data();
+      });
+  runtime::Subscription<nav_msgs::msg::OccupancyGrid, nav_msgs::msg::OccupancyGridPubSubType>
+      map_sub(context, "/robot_a/map", runtime::TopicKind::kLatest,
+              [&](const nav_msgs::msg::OccupancyGrid& m) {
+                std::lock_guard<std::mutex> lock(mutex);
+                map = m;
+              });
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (std::chrono::steady_clock::now() < deadline) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!tf.empty() && floor >= 0 && !map.data().empty() && !pose.header().frame_id().empty())
+        break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_EQ(tf.size(), 1u);
+  EXPECT_EQ(tf[0].header().frame_id(), "building");
+  EXPECT_EQ(tf[0].child_frame_id(), "robot_a/odom");
+  const Pose2 odom = runtime::fromTransform(tf[0]);
+  EXPECT_NEAR(odom.x(), odom_in_building.x(), 1e-4);
+  EXPECT_NEAR(odom.y(), odom_in_building.y(), 1e-4);
+  EXPECT_NEAR(odom.theta(), odom_in_building.theta(), 1e-4);
+  EXPECT_DOUBLE_EQ(tf[0].transform().translation().z(), 3.0);
+  EXPECT_DOUBLE_EQ(runtime::fromTimeMessage(tf[0].header().stamp()), 24.0);
+  EXPECT_EQ(floor, 1);
+  EXPECT_EQ(pose.header().frame_id(), "building");
+  const Pose2 newest = offset * Pose2(4.0, 0.8, 0.2);
+  EXPECT_NEAR(pose.pose().position().x(), newest.x(), 1e-4);
+  EXPECT_NEAR(pose.pose().position().y(), newest.y(), 1e-4);
+  EXPECT_DOUBLE_EQ(pose.pose().position().z(), 3.0);
+  EXPECT_DOUBLE_EQ(map.info().origin().position().z(), 3.0) << "the map of floor 1";
+  for (const std::int8_t value : map.data()) ASSERT_TRUE(value == -1 || value == 0 || value == 100);
+  server.deactivate();
+  server.cleanup();
 }
 
 // nav2 costmaps take a published map as trinary (100 lethal, 0 free, -1 unknown): the

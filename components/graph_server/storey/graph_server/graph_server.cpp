@@ -80,6 +80,8 @@ void GraphServer::onCleanup() {
   stopWorker();
   journal_.reset();
   map_publishers_.clear();
+  robot_publishers_.clear();
+  tf_publisher_.reset();
   state_publisher_.reset();
 }
 
@@ -273,10 +275,11 @@ void GraphServer::workerLoop() {
     }
     const double stamp = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
     state_publisher_->publish(toMessage(solution, work.constraints(), state_sequence_++, stamp));
+    std::map<int, building::FloorMap> maps;
     if (options_.publish_maps) {
       try {
-        for (const auto& [floor_id, floor] :
-             building::renderBuildingFloors(work, solution, options_.map)) {
+        maps = building::renderBuildingFloors(work, solution, options_.map);
+        for (const auto& [floor_id, floor] : maps) {
           auto& publisher = map_publishers_[floor_id];
           if (!publisher)
             publisher = createPublisher<nav_msgs::msg::OccupancyGrid,
@@ -289,6 +292,7 @@ void GraphServer::workerLoop() {
         logWarn(str(name(), ": floor maps not published: ", e.what()));
       }
     }
+    publishRobotOutputs(building::robotLocations(work, solution), maps, stamp);
     std::lock_guard<std::mutex> lock(mutex_);
     solution_ = solution;
     optimized_generation_ = generation;

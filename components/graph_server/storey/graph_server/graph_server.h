@@ -9,15 +9,19 @@
 #include <mutex>
 #include <thread>
 
+#include "geometry_msgs/msg/PoseStampedPubSubTypes.h"
 #include "nav_msgs/msg/OccupancyGridPubSubTypes.h"
+#include "std_msgs/msg/Int32PubSubTypes.h"
 #include "storey/building/building_graph.h"
 #include "storey/building/building_outputs.h"
 #include "storey/building/journal.h"
 #include "storey/building/redelivery.h"
+#include "storey/building/robot_locations.h"
 #include "storey/runtime/component.h"
 #include "storey_msgs/msg/BuildingStatePubSubTypes.h"
 #include "storey_msgs/msg/FloorGraphUpdatePubSubTypes.h"
 #include "storey_msgs/msg/InterFloorConstraintPubSubTypes.h"
+#include "tf2_msgs/msg/TFMessagePubSubTypes.h"
 
 namespace storey::graph_server {
 
@@ -76,6 +80,23 @@ class GraphServer : public runtime::Component {
   void workerLoop();
   void stopWorker();
   void syncJournal();  // under mutex_
+  // Per robot, as a ROS 2 robot expects them (REP 105), each keeping its last sample:
+  // /tf building -> <robot>/odom, /<robot>/pose (building frame, z the floor's height),
+  // /<robot>/floor (the floor id) and /<robot>/map (the map of the floor it is on).
+  void publishRobotOutputs(const std::vector<building::RobotLocation>& locations,
+                           const std::map<int, building::FloorMap>& maps, double stamp);
+  struct RobotPublishers {
+    std::shared_ptr<runtime::Publisher<geometry_msgs::msg::PoseStamped,
+                                       geometry_msgs::msg::PoseStampedPubSubType>>
+        pose;
+    std::shared_ptr<runtime::Publisher<std_msgs::msg::Int32, std_msgs::msg::Int32PubSubType>> floor;
+    std::shared_ptr<
+        runtime::Publisher<nav_msgs::msg::OccupancyGrid, nav_msgs::msg::OccupancyGridPubSubType>>
+        map;
+  };
+  std::map<std::string, RobotPublishers> robot_publishers_;
+  std::shared_ptr<runtime::Publisher<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType>>
+      tf_publisher_;
 
   GraphServerOptions options_;
   std::unique_ptr<building::JournalWriter> journal_;

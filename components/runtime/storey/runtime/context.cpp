@@ -163,6 +163,7 @@ int resolveDomainId(int requested) {
 }
 
 std::string Context::profileName(TopicKind kind, bool writer) {
+  // kLatest is the graph profile with a history of one (set where it is created).
   const std::string base = kind == TopicKind::kSensor ? "storey_sensor_" : "storey_graph_";
   return base + (writer ? "writer" : "reader");
 }
@@ -269,7 +270,17 @@ fdds::DataWriter* Context::createWriter(const std::string& name, TopicKind kind,
   std::lock_guard<std::mutex> lock(mutex_);
   fdds::Topic* topic = topicFor(name, factory);
   const std::string profile = profileName(kind, true);
-  fdds::DataWriter* writer = publisher_->create_datawriter_with_profile(topic, profile);
+  fdds::DataWriter* writer = nullptr;
+  if (kind == TopicKind::kLatest) {
+    fdds::DataWriterQos qos = publisher_->get_default_datawriter_qos();
+    if (publisher_->get_datawriter_qos_from_profile(profile, qos) == ReturnCode_t::RETCODE_OK) {
+      qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+      qos.history().depth = 1;
+      writer = publisher_->create_datawriter(topic, qos);
+    }
+  } else {
+    writer = publisher_->create_datawriter_with_profile(topic, profile);
+  }
   if (!writer) throw DdsError("cannot create a writer on " + name + " with profile " + profile);
   return writer;
 }
@@ -280,8 +291,19 @@ fdds::DataReader* Context::createReader(const std::string& name, TopicKind kind,
   std::lock_guard<std::mutex> lock(mutex_);
   fdds::Topic* topic = topicFor(name, factory);
   const std::string profile = profileName(kind, false);
-  fdds::DataReader* reader = subscriber_->create_datareader_with_profile(
-      topic, profile, listener, fdds::StatusMask::data_available() << fdds::StatusMask::subscription_matched());
+  const fdds::StatusMask mask = fdds::StatusMask::data_available()
+                                << fdds::StatusMask::subscription_matched();
+  fdds::DataReader* reader = nullptr;
+  if (kind == TopicKind::kLatest) {
+    fdds::DataReaderQos qos = subscriber_->get_default_datareader_qos();
+    if (subscriber_->get_datareader_qos_from_profile(profile, qos) == ReturnCode_t::RETCODE_OK) {
+      qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+      qos.history().depth = 1;
+      reader = subscriber_->create_datareader(topic, qos, listener, mask);
+    }
+  } else {
+    reader = subscriber_->create_datareader_with_profile(topic, profile, listener, mask);
+  }
   if (!reader) throw DdsError("cannot create a reader on " + name + " with profile " + profile);
   return reader;
 }

@@ -28,6 +28,7 @@ class DdsError : public std::runtime_error {
 enum class TopicKind {
   kSensor,  // best effort, volatile, keep last
   kGraph,   // reliable, transient local, keep all
+  kLatest,  // the graph profile keeping only the last sample (a latched map, a pose, /tf)
 };
 
 // The participant profile a QoS file may hold for every storey participant (the fault
