@@ -26,6 +26,7 @@ namespace storey::floor_detector {
 namespace {
 
 using EventMsg = storey_msgs::msg::FloorEvent;
+using geometry::Pose2;
 using EventSub = runtime::Subscription<EventMsg, storey_msgs::msg::FloorEventPubSubType>;
 
 runtime::ContextOptions onDomain(int domain) {
@@ -238,6 +239,82 @@ TEST(FloorDetectorComponent, ARobotWithoutABarometerPublishesTheRideFromItsImu) 
   EXPECT_EQ(received[1].floor_id(), 1);
   EXPECT_NEAR(received[1].height_change(), 3.0, 0.25);
   EXPECT_EQ(received[1].mode(), k::MODE_ELEVATOR);
+}
+
+// A robot without a barometer climbs 3 m of stairs (6 m along a 30 degree slope); its IMU
+// is mounted turned 90 degrees (its x axis along the robot's left), which tf_static says.
+// The forward force is read from the IMU's y axis: without the mounting there is no climb.
+TEST(FloorDetectorComponent, TakesTheImuMountingFromTfStatic) {
+  runtime::Context context(onDomain(65));
+  std::mutex mutex;
+  std::vector<EventMsg> received;
+  EventSub events(context, "/fd_mount/floor_events", runtime::TopicKind::kGraph,
+                  [&](const EventMsg& m) {
+                    std::lock_guard<std::mutex> lock(mutex);
+                    if (m.kind() != storey_msgs::msg::FloorEvent_Constants::KIND_PROGRESS)
+                      received.push_back(m);
+                  });
+  std::ifstream in(test::sourceDir() + "/config/floor_detector.yaml");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  std::string text = buffer.str();
+  for (const auto& [from, to] :
+       {std::pair<std::string, std::string>{"robot: robot1", "robot: fd_mount"},
+        {"barometer: true", "barometer: false"}})
+    text.replace(text.find(from), from.size(), to);
+  FloorDetectorComponent component(
+      context, common::ConfigNode::loadString(text, "floor_detector.yaml"), "detector");
+  component.configure();
+  component.activate();
+  runtime::Publisher<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType> tf_static(
+      context, "/tf_static", runtime::TopicKind::kGraph);
+  tf2_msgs::msg::TFMessage mounting;
+  mounting.transforms().push_back(
+      runtime::toTransform(Pose2(0.1, 0.0, M_PI / 2), 0.0, "fd_mount/base_link", "fd_mount/imu"));
+  tf_static.publish(mounting);
+  runtime::Publisher<sensor_msgs::msg::Imu, sensor_msgs::msg::ImuPubSubType> imu(
+      context, "/fd_mount/imu", runtime::TopicKind::kSensor);
+  runtime::Publisher<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType> odom(
+      context, "/fd_mount/odom", runtime::TopicKind::kSensor);
+  ASSERT_TRUE(imu.waitForSubscribers(1, 5.0));
+  ASSERT_TRUE(odom.waitForSubscribers(1, 5.0));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // tf_static first
+  const double slope = M_PI / 6, speed = 0.25;
+  auto along = [&](double t) { return speed * std::clamp(t - 10.0, 0.0, 24.0); };
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  for (int step = 0; step <= 650; ++step) {
+    const double t = step * 0.1;
+    for (int k = 0; k < 2; ++k) {
+      sensor::OdometrySample sample;
+      sample.stamp = 100.0 + t + 0.05 * k;
+      sample.pose = Pose2(along(t + 0.05 * k), 0.0, 0.0);
+      odom.publish(runtime::toMessage(sample, "fd_mount/odom", "fd_mount/base_link"));
+    }
+    for (int k = 0; k < 5; ++k) {
+      const double u = t + 0.02 * k;
+      const bool climbing = u > 10.0 && u < 34.0;
+      const double forward = climbing ? detection::kStandardGravity * std::sin(slope) : 0.0;
+      const double up = detection::kStandardGravity * (climbing ? std::cos(slope) : 1.0);
+      sensor::ImuSample sample;
+      sample.stamp = 100.0 + u;
+      sample.linear_acceleration =
+          Eigen::Vector3d(noise(rng), -forward + noise(rng), up + noise(rng));
+      imu.publish(runtime::toMessage(sample, "fd_mount/imu"));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(4));
+  }
+  ASSERT_TRUE(waitFor(
+      [&] {
+        std::lock_guard<std::mutex> lock(mutex);
+        return received.size() >= 2;
+      },
+      10.0));
+  std::lock_guard<std::mutex> lock(mutex);
+  EXPECT_EQ(received[1].kind(), storey_msgs::msg::FloorEvent_Constants::KIND_TRANSIT_ENDED);
+  EXPECT_EQ(received[1].floor_id(), 1);
+  EXPECT_TRUE(received[1].new_floor());
+  EXPECT_NEAR(received[1].height_change(), 3.0, 0.3);
 }
 
 TEST(FloorDetectorComponent, NothingIsProcessedBeforeActivation) {

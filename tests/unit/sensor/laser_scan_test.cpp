@@ -81,3 +81,18 @@ TEST(LaserScan, BeamDirectionsFollowEachScansOwnAngles) {
 
 }  // namespace
 }  // namespace storey::sensor
+
+namespace storey::sensor {
+namespace {
+
+TEST(ImuSample, RotatedByYawTurnsBothVectorsAboutZ) {
+  ImuSample s;
+  s.linear_acceleration = Eigen::Vector3d(1.0, 0.0, 9.8);
+  s.angular_velocity = Eigen::Vector3d(0.0, 0.2, 0.3);
+  const ImuSample r = rotatedByYaw(s, M_PI / 2);
+  EXPECT_NEAR((r.linear_acceleration - Eigen::Vector3d(0.0, 1.0, 9.8)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((r.angular_velocity - Eigen::Vector3d(-0.2, 0.0, 0.3)).norm(), 0.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace storey::sensor

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -60,5 +61,14 @@ struct ImuSample {
   Eigen::Vector3d linear_acceleration = Eigen::Vector3d::Zero();  // m/s^2, includes gravity
   Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
 };
+
+// The sample in the frame the IMU is mounted on, given the IMU frame's yaw there (rad):
+// both vectors turned about z.
+inline ImuSample rotatedByYaw(ImuSample sample, double yaw) {
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  sample.linear_acceleration = r * sample.linear_acceleration;
+  sample.angular_velocity = r * sample.angular_velocity;
+  return sample;
+}
 
 }  // namespace storey::sensor

@@ -86,7 +86,7 @@ void FloorDetectorComponent::onConfigure() {
         if (!active()) return;
         {
           std::lock_guard<std::mutex> lock(mutex_);
-          detector_->addImu(runtime::fromMessage(m));
+          detector_->addImu(imuInBase(m));
         }
         if (!options_.detector.sensors.barometer) publishEvents();  // the IMU is the clock
       });
@@ -96,6 +96,7 @@ void FloorDetectorComponent::onConfigure() {
         if (!active()) return;
         {
           std::lock_guard<std::mutex> lock(mutex_);
+          odometry_frame_ = m.child_frame_id();
           detector_->addOdometry(runtime::fromMessage(m));
         }
         if (!options_.detector.sensors.barometer) publishEvents();  // IMU samples wait for it
@@ -107,8 +108,37 @@ void FloorDetectorComponent::onConfigure() {
         std::lock_guard<std::mutex> lock(mutex_);
         detector_->addScan(runtime::fromMessage(m));
       });
+  createSubscription<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType>(
+      "tf_static", runtime::TopicKind::kGraph, [this](const tf2_msgs::msg::TFMessage& m) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        for (const auto& t : m.transforms()) {
+          try {
+            frames_.set(t.header().frame_id(), t.child_frame_id(), runtime::fromTransform(t));
+          } catch (const std::invalid_argument& e) {
+            common::logWarn(str(name(), ": ignoring a tf_static transform: ", e.what()));
+          }
+        }
+      });
   common::logInfo(str(name(), ": detecting floor changes of '", robot, "', events on ",
                       runtime::robotTopic(robot, options_.events_topic)));
+}
+
+// An IMU frame mounted on the base (tf_static, a chain allowed) is turned into the base
+// frame; one that is a base frame itself, or whose mounting is not known (yet), is taken
+// as it is, the latter with one warning.
+sensor::ImuSample FloorDetectorComponent::imuInBase(const sensor_msgs::msg::Imu& message) {
+  const sensor::ImuSample sample = runtime::fromMessage(message);
+  const std::string& frame = message.header().frame_id();
+  if (const auto mounting =
+          frames_.poseInFirstOf(frame, runtime::robotBaseFrames(options_.robot, odometry_frame_))) {
+    return sensor::rotatedByYaw(sample, mounting->theta());
+  }
+  if (!imu_mounting_warned_ && !frame.empty()) {
+    common::logWarn(str(name(), ": no tf_static mounting of IMU frame '", frame,
+                        "' on the robot's base; its axes are taken as the base's"));
+    imu_mounting_warned_ = true;
+  }
+  return sample;
 }
 
 void FloorDetectorComponent::onCleanup() {

@@ -17,8 +17,10 @@
 #include "sensor_msgs/msg/ImuPubSubTypes.h"
 #include "sensor_msgs/msg/LaserScanPubSubTypes.h"
 #include "storey/detection/floor_detector.h"
+#include "storey/geometry/frame_tree.h"
 #include "storey/runtime/component.h"
 #include "storey_msgs/msg/FloorEventPubSubTypes.h"
+#include "tf2_msgs/msg/TFMessagePubSubTypes.h"
 
 namespace storey::floor_detector {
 
@@ -58,6 +60,12 @@ class FloorDetectorComponent : public runtime::Component {
       publisher_;
   std::uint64_t published_ = 0;
   std::atomic<std::uint64_t> dropped_inactive_{0};  // sensor samples that came before activation
+  // The IMU's mounting, as in ROS 2 from tf_static: its samples are turned into the base
+  // frame (a yaw; the detector reads the forward axis on slopes). Guarded by mutex_.
+  geometry::FrameTree frames_;
+  std::string odometry_frame_;  // the odometry's child_frame_id
+  bool imu_mounting_warned_ = false;
+  sensor::ImuSample imuInBase(const sensor_msgs::msg::Imu& message);
   std::shared_ptr<runtime::SubscriptionBase> pressure_subscription_;
   double last_progress_ = -1e300;  // decided_at of the last message sent
   void saveState();                  // with mutex_ held

@@ -157,20 +157,8 @@ void FloorMapperComponent::onTfStatic(const tf2_msgs::msg::TFMessage& message) {
   passMountedScans(false);
 }
 
-// The frames a laser may be mounted on, first choice first: the frame the odometry moves
-// (its child_frame_id), then base_footprint and base_link, in the robot's namespace and
-// without one (a single robot's standard frames carry none).
 std::vector<std::string> FloorMapperComponent::baseFrames() const {
-  std::vector<std::string> bases;
-  auto add = [&](const std::string& frame) {
-    if (!frame.empty() && std::find(bases.begin(), bases.end(), frame) == bases.end())
-      bases.push_back(frame);
-  };
-  add(odometry_frame_);
-  for (const char* leaf : {"base_footprint", "base_link"})
-    add(runtime::robotFrame(options_.robot, leaf));
-  for (const char* leaf : {"base_footprint", "base_link"}) add(leaf);
-  return bases;
+  return runtime::robotBaseFrames(options_.robot, odometry_frame_);
 }
 
 // tf_static and the scans are separate topics: after a restart, a durable scan history can

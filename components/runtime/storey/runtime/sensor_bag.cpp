@@ -48,6 +48,19 @@ std::string robotFrame(const std::string& robot, const std::string& frame) {
   return robot.empty() ? frame : robot + "/" + frame;
 }
 
+std::vector<std::string> robotBaseFrames(const std::string& robot,
+                                         const std::string& odometry_frame) {
+  std::vector<std::string> bases;
+  auto add = [&](const std::string& frame) {
+    if (!frame.empty() && std::find(bases.begin(), bases.end(), frame) == bases.end())
+      bases.push_back(frame);
+  };
+  add(odometry_frame);
+  for (const char* leaf : {"base_footprint", "base_link"}) add(robotFrame(robot, leaf));
+  for (const char* leaf : {"base_footprint", "base_link"}) add(leaf);
+  return bases;
+}
+
 SensorBagWriter::SensorBagWriter(const std::string& folder, const bag::BagWriterOptions& options)
     : bag_(folder, options) {}
 

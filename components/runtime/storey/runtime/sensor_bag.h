@@ -44,6 +44,11 @@ inline bool isTfStaticTopic(const std::string& name) {
 // name that is not a ROS 2 namespace (tokens of letters, digits, '_', joined by '/').
 std::string robotTopic(const std::string& robot, const std::string& leaf);
 std::string robotFrame(const std::string& robot, const std::string& frame);
+// The frames a sensor may be mounted on, first choice first: the frame the odometry moves
+// (its child_frame_id, "" if unknown), then base_footprint and base_link, in the robot's
+// namespace and without one (a single robot's standard frames carry none).
+std::vector<std::string> robotBaseFrames(const std::string& robot,
+                                         const std::string& odometry_frame);
 
 class SensorBagWriter {
  public:
