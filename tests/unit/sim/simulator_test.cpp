@@ -172,6 +172,34 @@ TEST_F(Small2, ImuFeelsGravityAndTheRide) {
   EXPECT_NEAR(accelerating / n_acc, 9.80665 + 0.5, 0.05);
 }
 
+// An elevator door that stops shakes the floor (door_jolt 2 m/s^2 in default.yaml) but
+// leaves it where it was: the vertical force less its level and the cabin's own
+// acceleration (a ride may start at once) integrates to no velocity.
+TEST_F(Small2, AnElevatorDoorShakesTheFloorWithoutMovingIt) {
+  const RobotRun& robot = run_->robots[0];
+  const auto& doors = robot.trajectory.doorMoves();
+  ASSERT_EQ(doors.size(), 3u);  // landing door opens, closes behind the robot, opens above
+  for (double door : doors) {
+    double level = 0.0, peak = 0.0, velocity = 0.0;
+    int n = 0;
+    for (const auto& s : robot.imu)
+      if (s.stamp > door - 1.0 && s.stamp < door) {
+        level += s.linear_acceleration.z();
+        ++n;
+      }
+    ASSERT_GT(n, 10);
+    level /= n;
+    for (const auto& s : robot.imu)
+      if (s.stamp >= door && s.stamp < door + 0.5) {
+        const double jolt = s.linear_acceleration.z() - level - robot.trajectory.at(s.stamp).az;
+        peak = std::max(peak, std::abs(jolt));
+        velocity += jolt * 0.02;
+      }
+    EXPECT_GT(peak, 1.0) << "door at " << door;
+    EXPECT_LT(std::abs(velocity), 0.01) << "door at " << door;
+  }
+}
+
 TEST_F(Small2, NoiselessScansAtTruthMatchTheRecordedScans) {
   const RobotRun& robot = run_->robots[0];
   const LaserOptions& laser = scenario_->robots[0].model.laser;

@@ -278,8 +278,10 @@ class MissionPlanner {
     turnTo(facing_in, floorScene(""));
     const int open_here = floorScene(shaft.id);
     wait(motion_.door_time, open_here);  // landing door opens
+    trajectory_.door_moves_.push_back(t_);
     driveTo(shaft.center, open_here, motion_.speed);
     wait(motion_.door_time, open_here);  // door closes behind the robot
+    trajectory_.door_moves_.push_back(t_);
     const int cabin = shaftScene(index);
     Transit transit{robot_.name, t_, 0.0, floor_, to_floor, "elevator"};
     const double dz = building_.floors[to_floor].height - building_.floors[floor_].height;
@@ -295,6 +297,7 @@ class MissionPlanner {
     turnTo(std::atan2(n.y(), n.x()), cabin);
     const int open_there = floorScene(shaft.id);
     wait(motion_.door_time, open_there);  // doors open on the new floor
+    trajectory_.door_moves_.push_back(t_);
     driveTo(outside, open_there, motion_.speed);
   }
 

@@ -81,6 +81,8 @@ class Trajectory {
   const std::vector<Transit>& transits() const { return transits_; }
   // Times at which an elevator ride ends (odometry heading error is injected there).
   const std::vector<double>& rideEnds() const { return ride_ends_; }
+  // Times at which an elevator door finished opening or closing (a jolt in the IMU).
+  const std::vector<double>& doorMoves() const { return door_moves_; }
 
  private:
   friend class MissionPlanner;
@@ -88,6 +90,7 @@ class Trajectory {
   std::vector<SceneKey> scenes_;
   std::vector<Transit> transits_;
   std::vector<double> ride_ends_;
+  std::vector<double> door_moves_;
 };
 
 // Turns a robot's mission into a trajectory, validating every leg: a waypoint inside or

@@ -150,6 +150,7 @@ RobotModel readRobotModel(const common::ConfigNode& node) {
     model.imu.accel_bias_sigma = n.getDouble("accel_bias_sigma", 0.0, 0.0, 1.0);
     model.imu.accel_bias_time = n.getDouble("accel_bias_time", 300.0, 1.0, 1e6);
     model.imu.stairs_vibration = n.getDouble("stairs_vibration", 0.0, 0.0, 20.0);
+    model.imu.door_jolt = n.getDouble("door_jolt", 0.0, 0.0, 50.0);
     n.finish();
   }
   {

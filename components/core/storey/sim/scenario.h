@@ -54,6 +54,9 @@ struct ImuOptions {
   double accel_bias_time = 300.0;  // s
   // Bumps on stairs: a vertical and forward oscillation of this amplitude, once a step.
   double stairs_vibration = 0.0;  // m/s^2
+  // An elevator door that stops opening or closing shakes the floor: a vertical 10 Hz
+  // oscillation of this amplitude, damped over 0.1 s.
+  double door_jolt = 0.0;  // m/s^2
 };
 
 struct MotionOptions {
