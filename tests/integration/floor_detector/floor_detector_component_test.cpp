@@ -35,14 +35,16 @@ runtime::ContextOptions onDomain(int domain) {
   return options;
 }
 
-// The shipped parameters with another robot name.
-common::ConfigNode parametersFor(const std::string& robot) {
+// The shipped parameters with another robot name (and, for a robot without one, no
+// barometer).
+common::ConfigNode parametersFor(const std::string& robot, bool barometer = true) {
   std::ifstream in(test::sourceDir() + "/config/floor_detector.yaml");
   std::stringstream buffer;
   buffer << in.rdbuf();
   std::string text = buffer.str();
   const std::string key = "robot: robot1";
   text.replace(text.find(key), key.size(), "robot: " + robot);
+  if (!barometer) text.replace(text.find("barometer: true"), 15, "barometer: false");
   return common::ConfigNode::loadString(text, "floor_detector.yaml");
 }
 
@@ -212,16 +214,7 @@ TEST(FloorDetectorComponent, ARobotWithoutABarometerPublishesTheRideFromItsImu) 
                     if (m.kind() != storey_msgs::msg::FloorEvent_Constants::KIND_PROGRESS)
                       received.push_back(m);
                   });
-  std::ifstream in(test::sourceDir() + "/config/floor_detector.yaml");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  std::string text = buffer.str();
-  for (const auto& [from, to] :
-       {std::pair<std::string, std::string>{"robot: robot1", "robot: fd_imu"},
-        {"barometer: true", "barometer: false"}})
-    text.replace(text.find(from), from.size(), to);
-  FloorDetectorComponent component(
-      context, common::ConfigNode::loadString(text, "floor_detector.yaml"), "detector");
+  FloorDetectorComponent component(context, parametersFor("fd_imu", false), "detector");
   component.configure();
   component.activate();
   publishImuRide(context, "fd_imu");
@@ -254,16 +247,7 @@ TEST(FloorDetectorComponent, TakesTheImuMountingFromTfStatic) {
                     if (m.kind() != storey_msgs::msg::FloorEvent_Constants::KIND_PROGRESS)
                       received.push_back(m);
                   });
-  std::ifstream in(test::sourceDir() + "/config/floor_detector.yaml");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  std::string text = buffer.str();
-  for (const auto& [from, to] :
-       {std::pair<std::string, std::string>{"robot: robot1", "robot: fd_mount"},
-        {"barometer: true", "barometer: false"}})
-    text.replace(text.find(from), from.size(), to);
-  FloorDetectorComponent component(
-      context, common::ConfigNode::loadString(text, "floor_detector.yaml"), "detector");
+  FloorDetectorComponent component(context, parametersFor("fd_mount", false), "detector");
   component.configure();
   component.activate();
   runtime::Publisher<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType> tf_static(

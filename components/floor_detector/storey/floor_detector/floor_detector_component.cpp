@@ -111,13 +111,7 @@ void FloorDetectorComponent::onConfigure() {
   createSubscription<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType>(
       "tf_static", runtime::TopicKind::kGraph, [this](const tf2_msgs::msg::TFMessage& m) {
         std::lock_guard<std::mutex> lock(mutex_);
-        for (const auto& t : m.transforms()) {
-          try {
-            frames_.set(t.header().frame_id(), t.child_frame_id(), runtime::fromTransform(t));
-          } catch (const std::invalid_argument& e) {
-            common::logWarn(str(name(), ": ignoring a tf_static transform: ", e.what()));
-          }
-        }
+        runtime::addStaticTransforms(m, &frames_, name());
       });
   common::logInfo(str(name(), ": detecting floor changes of '", robot, "', events on ",
                       runtime::robotTopic(robot, options_.events_topic)));

@@ -147,13 +147,7 @@ void FloorMapperComponent::onOdometry(const nav_msgs::msg::Odometry& message) {
 
 void FloorMapperComponent::onTfStatic(const tf2_msgs::msg::TFMessage& message) {
   std::lock_guard<std::mutex> lock(mutex_);
-  for (const auto& t : message.transforms()) {
-    try {
-      frames_.set(t.header().frame_id(), t.child_frame_id(), runtime::fromTransform(t));
-    } catch (const std::invalid_argument& e) {
-      common::logWarn(str(name(), ": ignoring a tf_static transform: ", e.what()));
-    }
-  }
+  runtime::addStaticTransforms(message, &frames_, name());
   passMountedScans(false);
 }
 

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "storey/common/log.h"
+
 namespace storey::runtime {
 namespace {
 
@@ -189,6 +191,17 @@ geometry_msgs::msg::TransformStamped toTransform(const geometry::Pose2& pose, do
 geometry::Pose2 fromTransform(const geometry_msgs::msg::TransformStamped& transform) {
   const auto& t = transform.transform();
   return geometry::Pose2(t.translation().x(), t.translation().y(), quaternionToYaw(t.rotation()));
+}
+
+void addStaticTransforms(const tf2_msgs::msg::TFMessage& message, geometry::FrameTree* frames,
+                         const std::string& who) {
+  for (const auto& t : message.transforms()) {
+    try {
+      frames->set(t.header().frame_id(), t.child_frame_id(), fromTransform(t));
+    } catch (const std::invalid_argument& e) {
+      common::logWarn(who + ": ignoring a tf_static transform: " + e.what());
+    }
+  }
 }
 
 }  // namespace storey::runtime

@@ -14,8 +14,10 @@
 #include "sensor_msgs/msg/FluidPressure.h"
 #include "sensor_msgs/msg/Imu.h"
 #include "sensor_msgs/msg/LaserScan.h"
+#include "storey/geometry/frame_tree.h"
 #include "storey/geometry/pose2.h"
 #include "storey/sensor/laser_scan.h"
+#include "tf2_msgs/msg/TFMessage.h"
 
 namespace storey::runtime {
 
@@ -60,5 +62,9 @@ geometry_msgs::msg::TransformStamped toTransform(const geometry::Pose2& pose, do
                                                  const std::string& parent_frame,
                                                  const std::string& child_frame);
 geometry::Pose2 fromTransform(const geometry_msgs::msg::TransformStamped& transform);
+// Adds every transform of a tf_static message to `frames`; one that cannot be (a frame
+// its own parent, a cycle) is skipped with a warning naming `who`.
+void addStaticTransforms(const tf2_msgs::msg::TFMessage& message, geometry::FrameTree* frames,
+                         const std::string& who);
 
 }  // namespace storey::runtime
