@@ -48,12 +48,11 @@ class ImuHeight {
   double variance(double t0, double t1) const;
   // Continue from this height (a restarted detector's reference).
   void setHeight(double height) { height_ = height; }
-  bool riding() const { return ride_; }
 
+ private:
   // Threshold on the 0.5 s mean of the vertical force that starts a ride, m/s^2.
   double pulseThreshold() const;
 
- private:
   struct Imu {
     double t;
     double up;       // |specific force|: gravity and the vertical acceleration

@@ -275,24 +275,25 @@ void GraphServer::workerLoop() {
     }
     const double stamp = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
     state_publisher_->publish(toMessage(solution, work.constraints(), state_sequence_++, stamp));
-    std::map<int, building::FloorMap> maps;
+    // Each floor's grid converted once: its floor topic and every robot on it share it.
+    std::map<int, nav_msgs::msg::OccupancyGrid> maps;
     if (options_.publish_maps) {
       try {
-        maps = building::renderBuildingFloors(work, solution, options_.map);
-        for (const auto& [floor_id, floor] : maps) {
+        for (const auto& [floor_id, floor] :
+             building::renderBuildingFloors(work, solution, options_.map)) {
           auto& publisher = map_publishers_[floor_id];
           if (!publisher)
             publisher = createPublisher<nav_msgs::msg::OccupancyGrid,
                                         nav_msgs::msg::OccupancyGridPubSubType>(
                 options_.floor_map_topic_prefix + "/floor_" + std::to_string(floor_id),
                 runtime::TopicKind::kGraph);
-          publisher->publish(toMessage(floor, stamp));
+          publisher->publish(maps[floor_id] = toMessage(floor, stamp));
         }
       } catch (const std::exception& e) {  // a map too large to draw: the state went out
         logWarn(str(name(), ": floor maps not published: ", e.what()));
       }
     }
-    publishRobotOutputs(building::robotLocations(work, solution), maps, stamp);
+    publishRobotOutputs(building::robotLocations(work, solution), maps);
     std::lock_guard<std::mutex> lock(mutex_);
     solution_ = solution;
     optimized_generation_ = generation;

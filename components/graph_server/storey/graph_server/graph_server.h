@@ -84,7 +84,7 @@ class GraphServer : public runtime::Component {
   // /tf building -> <robot>/odom, /<robot>/pose (building frame, z the floor's height),
   // /<robot>/floor (the floor id) and /<robot>/map (the map of the floor it is on).
   void publishRobotOutputs(const std::vector<building::RobotLocation>& locations,
-                           const std::map<int, building::FloorMap>& maps, double stamp);
+                           const std::map<int, nav_msgs::msg::OccupancyGrid>& maps);
   struct RobotPublishers {
     std::shared_ptr<runtime::Publisher<geometry_msgs::msg::PoseStamped,
                                        geometry_msgs::msg::PoseStampedPubSubType>>

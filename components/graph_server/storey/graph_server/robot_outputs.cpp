@@ -7,7 +7,7 @@
 namespace storey::graph_server {
 
 void GraphServer::publishRobotOutputs(const std::vector<building::RobotLocation>& locations,
-                                      const std::map<int, building::FloorMap>& maps, double stamp) {
+                                      const std::map<int, nav_msgs::msg::OccupancyGrid>& maps) {
   if (locations.empty()) return;
   if (!tf_publisher_) {
     tf_publisher_ = createPublisher<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType>(
@@ -45,7 +45,7 @@ void GraphServer::publishRobotOutputs(const std::vector<building::RobotLocation>
     floor.data(location.floor_id);
     p.floor->publish(floor);
     const auto map = maps.find(location.floor_id);
-    if (map != maps.end()) p.map->publish(toMessage(map->second, stamp));
+    if (map != maps.end()) p.map->publish(map->second);
   }
   tf_publisher_->publish(tf);
 }

@@ -150,6 +150,13 @@ class DiscoveryListener : public fdds::DomainParticipantListener {
   std::map<std::string, std::size_t> index_;  // GUID -> position in writers_
 };
 
+// TopicKind::kLatest: a graph profile's reader or writer QoS with a history of one.
+template <typename Qos>
+void keepOnlyTheLast(Qos& qos) {
+  qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+  qos.history().depth = 1;
+}
+
 int resolveDomainId(int requested) {
   if (requested >= 0) return requested;
   const char* env = std::getenv("ROS_DOMAIN_ID");
@@ -274,8 +281,7 @@ fdds::DataWriter* Context::createWriter(const std::string& name, TopicKind kind,
   if (kind == TopicKind::kLatest) {
     fdds::DataWriterQos qos = publisher_->get_default_datawriter_qos();
     if (publisher_->get_datawriter_qos_from_profile(profile, qos) == ReturnCode_t::RETCODE_OK) {
-      qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-      qos.history().depth = 1;
+      keepOnlyTheLast(qos);
       writer = publisher_->create_datawriter(topic, qos);
     }
   } else {
@@ -297,8 +303,7 @@ fdds::DataReader* Context::createReader(const std::string& name, TopicKind kind,
   if (kind == TopicKind::kLatest) {
     fdds::DataReaderQos qos = subscriber_->get_default_datareader_qos();
     if (subscriber_->get_datareader_qos_from_profile(profile, qos) == ReturnCode_t::RETCODE_OK) {
-      qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-      qos.history().depth = 1;
+      keepOnlyTheLast(qos);
       reader = subscriber_->create_datareader(topic, qos, listener, mask);
     }
   } else {
