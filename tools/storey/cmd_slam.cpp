@@ -150,7 +150,8 @@ int mapFloors(const mapping::FloorSlamOptions& options, const SlamInput& input,
   auto applyEvent = [&](const detection::FloorEvent& e) {
     if (e.type == detection::FloorEventType::kTransitStarted) {
       sessions.beginTransit();
-    } else {
+    } else if (e.type == detection::FloorEventType::kTransitEnded) {
+      // The detector ran alone (nothing answers an unsure arrival): its choice stands.
       sessions.endTransit(e.floor_id, e.floor_height, e.stamp);
       ++rides;
     }

@@ -24,6 +24,7 @@ struct Streams {
   double accel_sigma = 0.02;  // per sample at 50 Hz: 0.003 m/s^2/sqrt(Hz)
   Eigen::Vector3d bias = Eigen::Vector3d(0.01, -0.01, 0.03);
   std::function<double(double)> extra_up = [](double) { return 0.0; };
+  double gap_from = 0.0, gap_to = 0.0;  // s: no IMU samples in between
 };
 
 // Feeds [0, end] s at 50 Hz (IMU) and 20 Hz (odometry) and returns the height at the end.
@@ -45,6 +46,7 @@ double run(ImuHeight& h, double end, const std::function<Motion(double)>& motion
     const double c = std::cos(m.pitch), sn = std::sin(m.pitch);
     Eigen::Vector3d f(m.a + kG * sn, 0.0, kG * c + m.cabin_a + streams.extra_up(t));
     f += streams.bias + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    if (t > streams.gap_from && t < streams.gap_to) continue;
     h.addImu(t, f);
     for (const auto& sample : h.take()) height = sample.height;
   }
@@ -165,6 +167,33 @@ TEST(ImuHeight, DrivingOnTheLevelWithATiltedMountingKeepsTheHeight) {
       },
       streams);
   EXPECT_NEAR(height, 0.0, 0.05);
+}
+
+TEST(ImuHeight, AGapInTheSamplesMakesTheHeightAcrossItUnknown) {
+  // The IMU is silent for 8 s of a 12 m ride: nothing tells how far the cabin went.
+  Streams streams;
+  streams.gap_from = 14.0;
+  streams.gap_to = 22.0;
+  ImuHeight h{ImuHeightOptions{}};
+  run(
+      h, 60.0,
+      [](double t) {
+        Motion m;
+        m.cabin_a = cabinAcceleration(t, 10.0, 12.0);
+        return m;
+      },
+      streams);
+  EXPECT_TRUE(std::isinf(h.variance(10.0, 30.0)));
+  EXPECT_EQ(h.variance(0.0, 9.0), 0.0);    // before it, standing
+  EXPECT_EQ(h.variance(40.0, 60.0), 0.0);  // after it, standing
+  // A sample period's jitter is no gap.
+  Streams jitter;
+  jitter.gap_from = 30.0;
+  jitter.gap_to = 30.3;
+  ImuHeight j{ImuHeightOptions{}};
+  run(
+      j, 60.0, [](double) { return Motion{}; }, jitter);
+  EXPECT_EQ(j.variance(0.0, 60.0), 0.0);
 }
 
 }  // namespace

@@ -34,6 +34,8 @@ struct SensorSetup {
   unsigned seed = 1;
   // Optional tampering with the pressure stream: return false to drop a sample.
   std::function<bool(double t, double& pascal)> tamper;
+  // Optional: called with each event as it comes out (a floor mapper answering).
+  std::function<void(FloorDetector&, const FloorEvent&)> on_event;
 };
 
 class Script {
@@ -200,7 +202,13 @@ inline std::vector<FloorEvent> run(const Script& script, const SensorSetup& setu
                                 : boxScan(tick.t, std::fmod(x, 20.0), -1.0, 25.0, -1.5, 1.5, rng);
       detector.addScan(scan);
     }
-    for (auto& e : detector.takeEvents()) events.push_back(e);
+    for (auto events_now = detector.takeEvents(); !events_now.empty();
+         events_now = detector.takeEvents()) {
+      for (auto& e : events_now) {
+        events.push_back(e);
+        if (setup.on_event) setup.on_event(detector, e);  // may make more events
+      }
+    }
   }
   return events;
 }

@@ -84,6 +84,13 @@ void FloorDetector::rejectLog(const std::string& what, std::size_t& counter) {
 
 bool FloorDetector::addPressure(const sensor::PressureSample& sample) {
   const auto& b = options_.barometer;
+  if (holding_) {
+    QueuedInput q;
+    q.kind = QueuedInput::Kind::kPressure;
+    q.stamp = sample.stamp;
+    q.pressure = sample;
+    return queueIfHolding(std::move(q));
+  }
   if (!options_.sensors.barometer) {
     rejectLog("pressure sample: sensors.barometer is false", stats_.rejected_pressure);
     return false;
@@ -116,6 +123,14 @@ void FloorDetector::takeImuHeights() {
   for (const auto& h : imu_height_.take()) {
     if (resume_pending_ && h.t <= resumed_.saved_at) {
       ++stats_.before_resume;
+      continue;
+    }
+    if (holding_) {  // the hold began with an earlier height of this batch
+      QueuedInput q;
+      q.kind = QueuedInput::Kind::kHeight;
+      q.stamp = h.t;
+      q.height = h.height;
+      queueIfHolding(std::move(q));
       continue;
     }
     addHeight(h.t, h.height);
@@ -293,6 +308,10 @@ void FloorDetector::beginCandidate(double t_v, double v) {
 void FloorDetector::confirmTransit() {
   state_ = State::kTransit;
   quiet_since_ = -1.0;
+  if (!silent_transit_ && pending_ && identity_wait_ > 0.0) {
+    holdForIdentity();  // the TransitStarted names the floor left: wait for its identity
+    return;
+  }
   if (!silent_transit_) {
     FloorEvent e;
     e.type = FloorEventType::kTransitStarted;
@@ -398,13 +417,23 @@ void FloorDetector::endTransit(int floor_index, bool changed, bool created, doub
   if (options_.sensors.scan) scanEvidence(core_start, core_end, e);
 
   Floor& reached = floors_[floor_index];
+  const double reached_height_before = reached.height;
   if (changed && !created && !reached.configured) {
     // Running mean of the arrivals at a floor observed (not configured) so far.
     reached.height += (arrival - reached.height) / static_cast<double>(reached.arrivals + 1);
   }
   if (changed) ++reached.arrivals;
 
-  if (changed || !silent_transit_) {
+  // An earlier unsure arrival still unanswered (its answer could only come after this
+  // ride, e.g. from a gap): the height's choice stands.
+  if (pending_) {
+    ++stats_.identities_not_answered;
+    pending_.reset();
+  }
+  FloorEvent ev;
+  if (changed || silent_transit_)
+    identityCandidates(arrival, stddev, floor_index, created, changed, reached_height_before, ev);
+  if (changed || !silent_transit_ || ev.identityUnsure()) {
     if (silent_transit_) {
       FloorEvent s;
       s.type = FloorEventType::kTransitStarted;
@@ -415,7 +444,6 @@ void FloorDetector::endTransit(int floor_index, bool changed, bool created, doub
       s.floor_height = s.from_height;
       events_.push_back(s);
     }
-    FloorEvent ev;
     ev.type = FloorEventType::kTransitEnded;
     ev.stamp = motion_end;
     ev.start_stamp = onset_;
@@ -435,8 +463,9 @@ void FloorDetector::endTransit(int floor_index, bool changed, bool created, doub
     events_.push_back(ev);
     common::logInfo(str("floor_detector: transit ended at t=", motion_end, ": floor ",
                         ev.from_floor, " -> ", ev.floor_id, created ? " (new)" : "",
-                        ", dz=", change, " +- ", stddev, ", ", transitModeName(ev.mode),
-                        ", confidence ", ev.confidence));
+                        ev.identityUnsure() ? " (unsure: the mapper decides)" : "", ", dz=", change,
+                        " +- ", stddev, ", ", transitModeName(ev.mode), ", confidence ",
+                        ev.confidence));
   }
   current_floor_ = floor_index;
   height_offset_ = changed ? 0.0 : arrival - floors_[floor_index].height;
@@ -476,6 +505,13 @@ void FloorDetector::handleGap(double gap_start, double gap_end) {
 
 bool FloorDetector::addImu(const sensor::ImuSample& sample) {
   if (!options_.sensors.imu) return true;
+  if (holding_) {
+    QueuedInput q;
+    q.kind = QueuedInput::Kind::kImu;
+    q.stamp = sample.stamp;
+    q.imu = sample;
+    return queueIfHolding(std::move(q));
+  }
   const bool heights = !options_.sensors.barometer;
   if (!std::isfinite(sample.stamp) || !sample.linear_acceleration.allFinite()) {
     rejectLog("IMU sample with non-finite values", stats_.rejected_other);
@@ -501,6 +537,13 @@ bool FloorDetector::addImu(const sensor::ImuSample& sample) {
 
 bool FloorDetector::addOdometry(const sensor::OdometrySample& sample) {
   if (!options_.sensors.odometry) return true;
+  if (holding_) {
+    QueuedInput q;
+    q.kind = QueuedInput::Kind::kOdometry;
+    q.stamp = sample.stamp;
+    q.odometry = sample;
+    return queueIfHolding(std::move(q));
+  }
   const bool heights = !options_.sensors.barometer;
   const auto& t = sample.pose.translation();
   if (!std::isfinite(sample.stamp) || !std::isfinite(t.x()) || !std::isfinite(t.y())) {
@@ -527,6 +570,13 @@ bool FloorDetector::addOdometry(const sensor::OdometrySample& sample) {
 
 bool FloorDetector::addScan(const sensor::LaserScan& scan) {
   if (!options_.sensors.scan) return true;
+  if (holding_) {
+    QueuedInput q;
+    q.kind = QueuedInput::Kind::kScan;
+    q.stamp = scan.stamp;
+    q.scan = scan;
+    return queueIfHolding(std::move(q));
+  }
   const std::string problem = scan.validate();
   if (!std::isfinite(scan.stamp) || !problem.empty()) {
     rejectLog(str("scan at t=", scan.stamp, ": ", problem.empty() ? "bad stamp" : problem),

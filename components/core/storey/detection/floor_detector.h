@@ -11,6 +11,7 @@
 #pragma once
 
 #include <deque>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,7 @@ namespace storey::detection {
 // the floor mapper reads them without depending on the detector.
 using floor::FloorEvent;
 using floor::FloorEventType;
+using floor::FloorIdentity;
 using floor::TransitMode;
 using floor::transitModeName;
 
@@ -66,6 +68,9 @@ struct FloorDetectorStats {
   std::size_t gaps = 0;
   std::size_t cancelled_candidates = 0;  // vertical motion too short to be a ride
   std::size_t before_resume = 0;         // pressure samples not after the resumed state
+  std::size_t unsure_arrivals = 0;       // TransitEnded events with candidate floors
+  std::size_t identities_changed = 0;    // answers that named another floor than the height's
+  std::size_t identities_not_answered = 0;  // unsure arrivals kept without an answer
 };
 
 class FloorDetector {
@@ -80,6 +85,23 @@ class FloorDetector {
 
   // Events produced since the last call, oldest first.
   std::vector<FloorEvent> takeEvents();
+
+  // Floor identity on arrival. An arrival the height alone does not decide (more than one
+  // floor, known or new, within kIdentitySigmas standard deviations of the height change
+  // and the match tolerance) goes out as a TransitEnded with candidate_floors; the floor
+  // mapper localises the arriving scans in those floors' maps and answers. With
+  // awaitIdentity(max_wait) the detector, before it confirms the next ride, stops and
+  // queues its input (sending kAwaitingIdentity) until the answer comes, so the events it
+  // sends do not depend on when the answer arrived; after `max_wait` seconds of queued
+  // input (a mapper that is not running) it goes on with the height's choice. Without it
+  // (the default: `storey floors`, no mapper) the height's choice stands.
+  static constexpr double kIdentitySigmas = 3.0;
+  void awaitIdentity(double max_wait) { identity_wait_ = max_wait; }
+  // The mapper's answer. False (and logged) when no unsure arrival waits for it or the
+  // floor is not one of its candidates. Queued input is processed before it returns.
+  bool setFloorIdentity(const FloorIdentity& identity);
+  bool awaitingIdentity() const { return pending_.has_value(); }
+  bool holding() const { return holding_; }
 
   FloorDetectorState state() const;
   // Goes on from a saved state (a restarted detector). Pressure samples up to saved_at are
@@ -137,6 +159,41 @@ class FloorDetector {
     double elevator_votes = 0.0;
     double stairs_votes = 0.0;
   };
+  // Unsure arrivals (floor_detector_identity.cpp).
+  struct PendingIdentity {
+    double ride_end = 0.0;
+    int chosen = 0;                     // the floor the height chose
+    bool created = false;               // ... created by this arrival
+    bool counted = false;               // ... and counted as an arrival there
+    double chosen_height_before = 0.0;  // its height before this arrival's running mean
+    double arrival = 0.0;               // m, height reached
+    std::vector<int> candidates;
+    int new_floor_id = -1;
+  };
+  // Fills the event's candidates when the arrival is unsure; remembers it as pending.
+  void identityCandidates(double arrival, double stddev, int chosen, bool created, bool changed,
+                          double chosen_height_before, FloorEvent& ev);
+  void applyIdentity(const PendingIdentity& p, int floor_id);
+  void holdForIdentity();
+  // While holding, the input is queued in arrival order (a height: IMU heights already
+  // taken when the hold began).
+  struct QueuedInput {
+    enum class Kind { kPressure, kImu, kOdometry, kScan, kHeight } kind = Kind::kHeight;
+    double stamp = 0.0;
+    sensor::PressureSample pressure;
+    sensor::ImuSample imu;
+    sensor::OdometrySample odometry;
+    sensor::LaserScan scan;
+    double height = 0.0;
+  };
+  bool queueIfHolding(QueuedInput input);
+  void releaseHold();
+  std::optional<PendingIdentity> pending_;
+  double identity_wait_ = 0.0;  // s; 0: do not wait
+  bool holding_ = false;
+  double hold_decided_at_ = 0.0;  // stamp at which the next ride was confirmed
+  std::deque<QueuedInput> queue_;
+
   void imuEvidence(double start, double end, Evidence& e) const;
   void odometryEvidence(double start, double end, Evidence& e) const;
   void scanEvidence(double start, double end, Evidence& e) const;

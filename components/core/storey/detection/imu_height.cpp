@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace storey::detection {
 namespace {
@@ -102,6 +103,18 @@ double ImuHeight::speedAt(double t) const {
 }
 
 void ImuHeight::process(const Imu& s) {
+  // A gap longer than the window that finds a pulse may hide part of a ride, or all of
+  // it: the height across it is unknown (the floor detector then asks which floor).
+  if (started_ && s.t - last_t_ > kWindow) {
+    segments_.push_back({last_t_, s.t, std::numeric_limits<double>::infinity(), 0.0});
+    ride_ = false;
+    window_.clear();
+    window_sum_ = 0.0;
+    rest_.clear();
+    block_start_ = -1e300;
+    still_since_ = 1e300;
+  }
+  started_ = true;
   const bool still = std::abs(speedAt(s.t)) < options_.stationary_speed;
   if (!still) {
     still_since_ = 1e300;

@@ -44,7 +44,8 @@ class ImuHeight {
   void addOdometry(double t, double x, double y, double theta);
   // Heights decided since the last call, at most ten a second, oldest first.
   std::vector<HeightSample> take();
-  // Variance the height gained from rides and slopes that overlap [t0, t1], m^2.
+  // Variance the height gained from rides and slopes that overlap [t0, t1], m^2; infinite
+  // when the IMU samples have a gap there longer than half a second.
   double variance(double t0, double t1) const;
   // Continue from this height (a restarted detector's reference).
   void setHeight(double height) { height_ = height; }
@@ -83,6 +84,7 @@ class ImuHeight {
   std::deque<Odom> odom_;
   bool have_odometry_ = false;
   double last_imu_ = -1e300;
+  bool started_ = false;  // a sample was processed (last_t_ is its stamp)
 
   double height_ = 0.0;
   std::vector<HeightSample> out_;

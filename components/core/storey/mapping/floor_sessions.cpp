@@ -35,20 +35,12 @@ ScanResult FloorSessions::addScan(const sensor::LaserScan& scan, const geometry:
     r.reason = "in transit";
     return r;
   }
+  if (identify_) return addIdentifyingScan(scan, odometry);
   if (!relocalizer_) return current().addScan(scan, odometry);
 
-  // Buffered scans must be as valid as the front end requires (it never sees them one
-  // by one when the floor is resumed).
-  std::string why = scan.validate();
-  if (why.empty() && !std::isfinite(scan.stamp)) why = "non-finite stamp";
-  if (why.empty() && !odometry.isFinite()) why = "non-finite odometry pose";
   const auto& buffer = relocalizer_->buffer();
-  if (why.empty() && !buffer.empty() && scan.stamp < buffer.back().scan.stamp)
-    why = str("time went backwards (", scan.stamp, " < ", buffer.back().scan.stamp, ")");
-  if (why.empty() &&
-      filterPoints(scan.pointsInRobotFrame(), options_.matcher.point_filter_distance).size() <
-          static_cast<std::size_t>(options_.matcher.min_points))
-    why = "too few valid returns";
+  const std::string why =
+      invalidForBuffer(scan, odometry, buffer.empty() ? -1e300 : buffer.back().scan.stamp);
   if (!why.empty()) {
     common::logWarn(str("floor_sessions[", robot_, "]: scan at ", scan.stamp, " rejected: ", why));
     r.status = ScanStatus::kRejected;
@@ -77,6 +69,23 @@ ScanResult FloorSessions::addScan(const sensor::LaserScan& scan, const geometry:
   r.matched = true;
   r.relocalized = true;
   return r;
+}
+
+// Buffered scans must be as valid as the front end requires (it never sees them one by one
+// when the floor is resumed).
+std::string FloorSessions::invalidForBuffer(const sensor::LaserScan& scan,
+                                            const geometry::Pose2& odometry,
+                                            double last_stamp) const {
+  std::string why = scan.validate();
+  if (why.empty() && !std::isfinite(scan.stamp)) why = "non-finite stamp";
+  if (why.empty() && !odometry.isFinite()) why = "non-finite odometry pose";
+  if (why.empty() && scan.stamp < last_stamp)
+    why = str("time went backwards (", scan.stamp, " < ", last_stamp, ")");
+  if (why.empty() &&
+      filterPoints(scan.pointsInRobotFrame(), options_.matcher.point_filter_distance).size() <
+          static_cast<std::size_t>(options_.matcher.min_points))
+    why = "too few valid returns";
+  return why;
 }
 
 int FloorSessions::resumeRelocalized() {
@@ -108,6 +117,7 @@ void FloorSessions::openNewGraphOfCurrentFloor(const std::string& why) {
 
 void FloorSessions::beginTransit() {
   if (in_transit_) return;
+  decideIdentity();
   transit_scans_.clear();
   // Leaving before the floor was recognised: keep what was seen, in a graph of its own.
   if (relocalizer_) openNewGraphOfCurrentFloor("left again before localising");
@@ -151,16 +161,23 @@ void FloorSessions::switchFloorAfterTransit(int floor_id, double floor_height) {
     return;
   }
   common::logInfo(str("floor_sessions[", robot_, "]: back on floor ", floor_id, "; localising globally"));
+  ++arrivals_;
+  relocalizer_ = std::make_unique<GlobalRelocalizer>(
+      it->second->floorGraph(), arrivalOptions(floor_id), options_.loop_closure.matcher,
+      options_.local_map.field, options_.local_map.max_insert_range);
+}
+
+GlobalRelocalizationOptions FloorSessions::arrivalOptions(int floor_id) {
   GlobalRelocalizationOptions g = options_.relocalization.global;
   // Deterministic, but not the same stream for every arrival.
-  g.seed = g.seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(++arrivals_) * 0xC2B2AE3D27D4EB4FULL +
+  g.seed = g.seed * 0x9E3779B97F4A7C15ULL +
+           static_cast<std::uint64_t>(arrivals_) * 0xC2B2AE3D27D4EB4FULL +
            static_cast<std::uint64_t>(floor_id);
-  relocalizer_ = std::make_unique<GlobalRelocalizer>(it->second->floorGraph(), g, options_.loop_closure.matcher,
-                                                     options_.local_map.field,
-                                                     options_.local_map.max_insert_range);
+  return g;
 }
 
 void FloorSessions::flush() {
+  decideIdentity();
   if (relocalizer_ && relocalizer_->decideNow()) resumeRelocalized();
   if (relocalizer_) openNewGraphOfCurrentFloor("the input ended before localising");
   if (floors_.count(current_floor_)) current().finish();

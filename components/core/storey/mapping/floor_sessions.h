@@ -6,6 +6,13 @@
 // give a checked estimate (or known_floor is new_graph) a new graph of that floor is
 // opened for the floor matcher to align, and the buffered scans go into it: never a tie
 // on a guess.
+//
+// An arrival the height alone does not decide (FloorEvent::candidate_floors) is decided
+// here: the arriving scans are localised in every candidate floor's map at once. One floor
+// that localises them is the floor reached; when several do (floors that look alike) the
+// detector's choice among them, else the one nearest in height; when none does, a floor
+// never seen if the height allows one, else the detector's choice (in a new graph). The
+// answer (takeIdentities) goes back to the detector.
 #pragma once
 
 #include <deque>
@@ -14,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "storey/floor/floor_event.h"
 #include "storey/mapping/floor_slam.h"
 #include "storey/mapping/global_relocalizer.h"
 
@@ -22,6 +30,8 @@ namespace storey::mapping {
 struct FloorSessionStats {
   std::size_t global_relocalizations = 0;  // known floors resumed after global localisation
   std::size_t fallbacks = 0;               // known floors given a new graph instead
+  std::size_t unsure_arrivals = 0;         // arrivals with candidate floors
+  std::size_t identified_by_map = 0;       // ... decided by localising in a candidate's map
 };
 
 class FloorSessions {
@@ -46,6 +56,15 @@ class FloorSessions {
   // cabin: when the floor reached starts a new graph, the held scans stamped after
   // `end_stamp` start it; otherwise they are dropped.
   void endTransit(int floor_id, double floor_height, double end_stamp);
+  // The same from the detector's event; an unsure arrival (candidate_floors) is decided by
+  // localising the arriving scans in the candidates' maps (see the header comment).
+  void endTransit(const floor::FloorEvent& event);
+  // The detector waits for the floor of an unsure arrival (kAwaitingIdentity): decide now,
+  // from the scans seen so far.
+  void decideIdentity();
+  bool identifying() const { return identify_ != nullptr; }
+  // Decisions on unsure arrivals since the last call, for the detector.
+  std::vector<floor::FloorIdentity> takeIdentities();
   // End of input: a relocalisation still undecided gets one last check of the filter's
   // estimate, else falls back to a new graph (so no scan is lost); the current floor is
   // finished (FloorSlam::finish: optimised, and successor matches made if they wait for it).
@@ -69,6 +88,11 @@ class FloorSessions {
   void openNewGraphOfCurrentFloor(const std::string& why);
   void switchFloorAfterTransit(int floor_id, double floor_height);
   int resumeRelocalized();  // the relocaliser succeeded: resume the floor's graph
+  std::string invalidForBuffer(const sensor::LaserScan& scan, const geometry::Pose2& odometry,
+                               double last_stamp) const;
+  GlobalRelocalizationOptions arrivalOptions(int floor_id);  // seeded per arrival and floor
+  ScanResult addIdentifyingScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry);
+  ScanResult resolveIdentity();
 
   FloorSlamOptions options_;
   std::string robot_;
@@ -87,6 +111,13 @@ class FloorSessions {
     geometry::Pose2 odometry;
   };
   std::deque<HeldScan> transit_scans_;  // while in transit, the last kHeldTransitSeconds
+  struct Identification {
+    floor::FloorEvent event;
+    std::vector<std::pair<int, std::unique_ptr<GlobalRelocalizer>>> relocalizers;
+    std::vector<HeldScan> buffer;
+  };
+  std::unique_ptr<Identification> identify_;
+  std::vector<floor::FloorIdentity> identities_;
 };
 
 }  // namespace storey::mapping

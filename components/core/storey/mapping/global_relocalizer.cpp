@@ -122,11 +122,10 @@ RelocalizationStatus GlobalRelocalizer::add(const sensor::LaserScan& scan, const
   return status_;
 }
 
-bool GlobalRelocalizer::checkCandidate(const Pose2& estimate) {
-  Impl& s = *impl_;
-  // The last fed scans, placed by odometry in the frame of the last one.
-  const Pose2& last_odometry = buffer_[fed_.back()].odometry;
+std::vector<Eigen::Vector2d> GlobalRelocalizer::recentPoints() const {
   std::vector<Eigen::Vector2d> points;
+  if (fed_.empty()) return points;
+  const Pose2& last_odometry = buffer_[fed_.back()].odometry;
   const std::size_t first = fed_.size() > static_cast<std::size_t>(options_.refine_scans)
                                 ? fed_.size() - options_.refine_scans
                                 : 0;
@@ -135,6 +134,40 @@ bool GlobalRelocalizer::checkCandidate(const Pose2& estimate) {
     const Pose2 relative = last_odometry.between(b.odometry);
     for (const auto& p : b.scan.pointsInRobotFrame()) points.push_back(relative.transformPoint(p));
   }
+  return points;
+}
+
+std::vector<GlobalRelocalizer::Found> GlobalRelocalizer::searchWholeMap(
+    const std::vector<Eigen::Vector2d>& sparse) const {
+  Impl& s = *impl_;
+  std::vector<Found> found;
+  const grid::GridFrame& frame = s.target.field().frame();
+  const double half = 0.5 * options_.search_tile;
+  const double x_end = frame.origin_x + frame.width * frame.resolution;
+  const double y_end = frame.origin_y + frame.height * frame.resolution;
+  const double sector = M_PI / kSectors;  // half width of one heading sector
+  for (double cy = frame.origin_y + half; cy - half < y_end; cy += options_.search_tile) {
+    for (double cx = frame.origin_x + half; cx - half < x_end; cx += options_.search_tile) {
+      for (int k = 0; k < kSectors; ++k) {
+        const Pose2 centre(cx, cy, -M_PI + sector + 2.0 * sector * k);
+        const MatchResult r = s.searcher.correlativeSearch(s.target, sparse, centre, half, sector);
+        if (r.correlative_score > 0.0) found.push_back({r.pose, r.correlative_score});
+      }
+    }
+  }
+  return found;
+}
+
+double GlobalRelocalizer::bestFitAnywhere(const std::vector<Eigen::Vector2d>& points) const {
+  double best = 0.0;
+  for (const auto& f : searchWholeMap(filterPoints(points, options_.search_point_distance)))
+    best = std::max(best, f.score);
+  return best;
+}
+
+bool GlobalRelocalizer::checkCandidate(const Pose2& estimate) {
+  Impl& s = *impl_;
+  const std::vector<Eigen::Vector2d> points = recentPoints();
   const std::vector<Eigen::Vector2d> dense =
       filterPoints(points, s.refiner.options().point_filter_distance);
   // The filter's estimate, refined; when it does not refine well, the whole-map search
@@ -157,25 +190,7 @@ bool GlobalRelocalizer::checkCandidate(const Pose2& estimate) {
   // (the filter said the data are distinctive; the search says where), and it must then be
   // unique itself.
   const std::vector<Eigen::Vector2d> sparse = filterPoints(points, options_.search_point_distance);
-  struct Found {
-    Pose2 pose;
-    double score;
-  };
-  std::vector<Found> found;
-  const grid::GridFrame& frame = s.target.field().frame();
-  const double half = 0.5 * options_.search_tile;
-  const double x_end = frame.origin_x + frame.width * frame.resolution;
-  const double y_end = frame.origin_y + frame.height * frame.resolution;
-  const double sector = M_PI / kSectors;  // half width of one heading sector
-  for (double cy = frame.origin_y + half; cy - half < y_end; cy += options_.search_tile) {
-    for (double cx = frame.origin_x + half; cx - half < x_end; cx += options_.search_tile) {
-      for (int k = 0; k < kSectors; ++k) {
-        const Pose2 centre(cx, cy, -M_PI + sector + 2.0 * sector * k);
-        const MatchResult r = s.searcher.correlativeSearch(s.target, sparse, centre, half, sector);
-        if (r.correlative_score > 0.0) found.push_back({r.pose, r.correlative_score});
-      }
-    }
-  }
+  const std::vector<Found> found = searchWholeMap(sparse);
   auto near = [&](const Pose2& a, const Pose2& b) {
     return (a.translation() - b.translation()).norm() <= options_.ambiguity_distance &&
            std::abs(geometry::angleDiff(a.theta(), b.theta())) <= options_.ambiguity_angle;

@@ -99,6 +99,14 @@ class GlobalRelocalizer {
   // fed) instead of waiting for convergence. True when that localised the robot.
   bool decideNow();
   RelocalizationStatus status() const { return status_; }
+  // The points a check uses: the last `refine_scans` fed scans placed by odometry in the
+  // frame of the last one (empty before the first fed scan).
+  std::vector<Eigen::Vector2d> recentPoints() const;
+  // The best correlative score of `points` (in one robot frame) anywhere on this floor's
+  // map, at any heading: the uniqueness search of a check, for points from elsewhere (is
+  // this floor also a fit for scans another floor localised?).
+  double bestFitAnywhere(const std::vector<Eigen::Vector2d>& points) const;
+  const GlobalRelocalizationOptions& options() const { return options_; }
   const RelocalizationResult& result() const { return result_; }
 
   struct Buffered {
@@ -110,6 +118,11 @@ class GlobalRelocalizer {
  private:
   struct Impl;
   bool checkCandidate(const geometry::Pose2& estimate);
+  struct Found {
+    geometry::Pose2 pose;
+    double score;
+  };
+  std::vector<Found> searchWholeMap(const std::vector<Eigen::Vector2d>& sparse) const;
 
   std::unique_ptr<Impl> impl_;
   GlobalRelocalizationOptions options_;

@@ -9,7 +9,8 @@ namespace storey::mapping {
 namespace {
 
 constexpr char kFileMagic[8] = {'S', 'T', 'O', 'R', 'E', 'Y', 'M', '1'};
-enum InputType : std::uint8_t { kScan = 1, kFloorEvent = 2 };
+// kFloorEvent: logs written before events carried candidate floors (still read).
+enum InputType : std::uint8_t { kScan = 1, kFloorEvent = 2, kFloorEventWithCandidates = 3 };
 
 void putPose(common::ByteEncoder& e, const geometry::Pose2& p) {
   e.put(p.x());
@@ -41,12 +42,16 @@ void encodeScan(common::ByteEncoder& e, const sensor::LaserScan& s, const geomet
 }
 
 void encodeEvent(common::ByteEncoder& e, const floor::FloorEvent& ev) {
-  e.put<std::uint8_t>(kFloorEvent);
+  e.put<std::uint8_t>(kFloorEventWithCandidates);
   e.put<std::uint8_t>(static_cast<std::uint8_t>(ev.type));
   e.put(ev.stamp);
   e.put(ev.decided_at);
   e.put<std::int32_t>(ev.floor_id);
   e.put(ev.floor_height);
+  e.put<std::uint32_t>(static_cast<std::uint32_t>(ev.candidate_floors.size()));
+  for (const int f : ev.candidate_floors) e.put<std::int32_t>(f);
+  e.put<std::int32_t>(ev.new_floor_id);
+  e.put(ev.new_floor_height);
 }
 }  // namespace
 
@@ -73,11 +78,12 @@ LoggedInput decodeLoggedInput(const std::uint8_t* data, std::size_t size) {
     s.ranges.resize(d.getCount(sizeof(float)));
     for (auto& r : s.ranges) r = d.get<float>();
     if (!std::isfinite(s.stamp)) throw std::runtime_error("scan with a non-finite stamp");
-  } else if (type == kFloorEvent) {
+  } else if (type == kFloorEvent || type == kFloorEventWithCandidates) {
     input.is_scan = false;
     floor::FloorEvent& ev = input.event;
     const auto kind = d.get<std::uint8_t>();
-    if (kind > static_cast<std::uint8_t>(floor::FloorEventType::kTransitEnded))
+    if (kind > static_cast<std::uint8_t>(floor::FloorEventType::kAwaitingIdentity) ||
+        kind == static_cast<std::uint8_t>(floor::FloorEventType::kProgress))
       throw std::runtime_error("unknown floor event type " + std::to_string(kind));
     ev.type = static_cast<floor::FloorEventType>(kind);
     ev.stamp = d.get<double>();
@@ -86,6 +92,14 @@ LoggedInput decodeLoggedInput(const std::uint8_t* data, std::size_t size) {
     ev.floor_height = d.get<double>();
     if (!std::isfinite(ev.decided_at) || !std::isfinite(ev.floor_height))
       throw std::runtime_error("floor event with a non-finite stamp or height");
+    if (type == kFloorEventWithCandidates) {
+      ev.candidate_floors.resize(d.getCount(sizeof(std::int32_t)));
+      for (auto& f : ev.candidate_floors) f = d.get<std::int32_t>();
+      ev.new_floor_id = d.get<std::int32_t>();
+      ev.new_floor_height = d.get<double>();
+      if (!std::isfinite(ev.new_floor_height))
+        throw std::runtime_error("floor event with a non-finite new floor height");
+    }
   } else {
     throw std::runtime_error("unknown input type " + std::to_string(type));
   }

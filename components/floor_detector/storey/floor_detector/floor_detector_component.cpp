@@ -23,6 +23,7 @@ FloorDetectorComponentOptions readFloorDetectorComponentOptions(const common::Co
   }
   o.progress_period = node.getDouble("progress_period", o.progress_period, 0.01, 60.0);
   o.state_file = node.get<std::string>("state_file", o.state_file);
+  o.identity_wait = node.getDouble("identity_wait", o.identity_wait, 0.0, 3600.0);
   o.detector = detection::readFloorDetectorOptions(node.child("detector"));
   node.finish();
   return o;
@@ -48,6 +49,7 @@ void FloorDetectorComponent::onConfigure() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     detector_ = std::make_unique<detection::FloorDetector>(options_.detector);
+    detector_->awaitIdentity(options_.identity_wait);
     published_ = 0;
     last_progress_ = -1e300;
     if (!options_.state_file.empty() && std::ifstream(options_.state_file).good()) {
@@ -107,6 +109,20 @@ void FloorDetectorComponent::onConfigure() {
         if (!active()) return;
         std::lock_guard<std::mutex> lock(mutex_);
         detector_->addScan(runtime::fromMessage(m));
+      });
+  // The floor mapper's answers to unsure arrivals; taken in any state, like its events.
+  createSubscription<storey_msgs::msg::FloorIdentity, storey_msgs::msg::FloorIdentityPubSubType>(
+      runtime::robotTopic(robot, "floor_identity"), runtime::TopicKind::kGraph,
+      [this](const storey_msgs::msg::FloorIdentity& m) {
+        try {
+          const floor::FloorIdentity identity = runtime::fromMessage(m);
+          std::lock_guard<std::mutex> lock(mutex_);
+          detector_->setFloorIdentity(identity);
+        } catch (const std::invalid_argument& e) {
+          common::logWarn(str(name(), ": ignoring a floor identity: ", e.what()));
+          return;
+        }
+        publishEvents();
       });
   createSubscription<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType>(
       "tf_static", runtime::TopicKind::kGraph, [this](const tf2_msgs::msg::TFMessage& m) {

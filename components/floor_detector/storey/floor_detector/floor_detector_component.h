@@ -20,6 +20,7 @@
 #include "storey/geometry/frame_tree.h"
 #include "storey/runtime/component.h"
 #include "storey_msgs/msg/FloorEventPubSubTypes.h"
+#include "storey_msgs/msg/FloorIdentityPubSubTypes.h"
 #include "tf2_msgs/msg/TFMessagePubSubTypes.h"
 
 namespace storey::floor_detector {
@@ -31,9 +32,13 @@ struct FloorDetectorComponentOptions {
   // Where the detector keeps its state (floors, current floor, barometric reference) so a
   // restarted detector goes on from it; "" = none (optional key).
   std::string state_file;
+  // s of sensor time the detector waits, before the next ride, for the floor mapper's
+  // answer to an unsure arrival (<robot>/floor_identity); 0: never waits (no mapper).
+  double identity_wait = 30.0;
   detection::FloorDetectorOptions detector;
 };
-// Reads robot, events_topic, progress_period and detector; calls finish().
+// Reads robot, events_topic, progress_period, state_file, identity_wait and detector;
+// calls finish().
 FloorDetectorComponentOptions readFloorDetectorComponentOptions(const common::ConfigNode& node);
 
 class FloorDetectorComponent : public runtime::Component {

@@ -89,6 +89,9 @@ void FloorMapperComponent::onConfigure() {
   const std::string& robot = options_.robot;
   publisher_ = createPublisher<storey_msgs::msg::FloorGraphUpdate, storey_msgs::msg::FloorGraphUpdatePubSubType>(
       options_.floor_graph_topic, runtime::TopicKind::kGraph);
+  identity_publisher_ =
+      createPublisher<storey_msgs::msg::FloorIdentity, storey_msgs::msg::FloorIdentityPubSubType>(
+          runtime::robotTopic(robot, "floor_identity"), runtime::TopicKind::kGraph);
   createSubscription<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType>(
       runtime::robotTopic(robot, "odom"), runtime::TopicKind::kSensor,
       [this](const nav_msgs::msg::Odometry& m) { onOdometry(m); });
@@ -136,6 +139,7 @@ void FloorMapperComponent::onCleanup() {
   sequencer_.reset();
   sessions_.reset();
   publisher_.reset();
+  identity_publisher_.reset();
 }
 
 void FloorMapperComponent::onOdometry(const nav_msgs::msg::Odometry& message) {
@@ -192,6 +196,7 @@ void FloorMapperComponent::passMountedScans(bool all) {
 void FloorMapperComponent::addScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry) {
   sessions_->addScan(scan, odometry);
   publishUpdates();
+  publishIdentities();
 }
 
 // Taken in any state: the topic is transient local, and history that arrives between
@@ -211,10 +216,19 @@ void FloorMapperComponent::onFloorEvent(const storey_msgs::msg::FloorEvent& mess
 void FloorMapperComponent::applyFloorEvent(const floor::FloorEvent& event) {
   if (event.type == floor::FloorEventType::kTransitStarted) {
     sessions_->beginTransit();
+  } else if (event.type == floor::FloorEventType::kAwaitingIdentity) {
+    sessions_->decideIdentity();
   } else {
-    sessions_->endTransit(event.floor_id, event.floor_height, event.stamp);
-    publishUpdates();  // the floor just left was optimised once more
+    sessions_->endTransit(event);
   }
+  publishUpdates();  // the floor just left was optimised once more
+  publishIdentities();
+}
+
+void FloorMapperComponent::publishIdentities() {
+  for (const auto& identity : sessions_->takeIdentities())
+    if (identity_publisher_)
+      identity_publisher_->publish(runtime::toMessage(identity, options_.robot));
 }
 
 bool FloorMapperComponent::flush(double timeout_s) {

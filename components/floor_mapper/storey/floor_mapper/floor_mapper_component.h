@@ -25,6 +25,7 @@
 #include "storey/runtime/component.h"
 #include "storey_msgs/msg/FloorEventPubSubTypes.h"
 #include "storey_msgs/msg/FloorGraphUpdatePubSubTypes.h"
+#include "storey_msgs/msg/FloorIdentityPubSubTypes.h"
 #include "tf2_msgs/msg/TFMessagePubSubTypes.h"
 
 namespace storey::floor_mapper {
@@ -97,6 +98,11 @@ class FloorMapperComponent : public runtime::Component {
   std::shared_ptr<runtime::Publisher<storey_msgs::msg::FloorGraphUpdate,
                                      storey_msgs::msg::FloorGraphUpdatePubSubType>>
       publisher_;
+  // Answers to the detector's unsure arrivals (<robot>/floor_identity).
+  std::shared_ptr<runtime::Publisher<storey_msgs::msg::FloorIdentity,
+                                     storey_msgs::msg::FloorIdentityPubSubType>>
+      identity_publisher_;
+  void publishIdentities();
   std::uint64_t published_ = 0;
 };
 

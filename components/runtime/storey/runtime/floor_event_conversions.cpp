@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <vector>
 
 #include "storey/runtime/sensor_conversions.h"
 
@@ -28,6 +29,8 @@ std::uint8_t toKind(floor::FloorEventType type) {
       return k::KIND_TRANSIT_STARTED;
     case floor::FloorEventType::kTransitEnded:
       return k::KIND_TRANSIT_ENDED;
+    case floor::FloorEventType::kAwaitingIdentity:
+      return k::KIND_AWAITING_IDENTITY;
     default:
       return k::KIND_PROGRESS;
   }
@@ -50,6 +53,11 @@ storey_msgs::msg::FloorEvent toMessage(const floor::FloorEvent& event, const std
   m.floor_height(ended ? event.floor_height : started ? event.from_height : 0.0);
   m.confidence(ended ? event.confidence : 0.0);
   m.mode(ended ? toMode(event.mode) : k::MODE_UNKNOWN);
+  if (ended)
+    m.candidate_floors(
+        std::vector<std::int32_t>(event.candidate_floors.begin(), event.candidate_floors.end()));
+  m.new_floor_id(ended && event.identityUnsure() ? event.new_floor_id : kFloorUnknown);
+  m.new_floor_height(ended && event.identityUnsure() ? event.new_floor_height : 0.0);
   return m;
 }
 
@@ -65,6 +73,9 @@ floor::FloorEvent fromMessage(const storey_msgs::msg::FloorEvent& m) {
       break;
     case k::KIND_PROGRESS:
       e.type = floor::FloorEventType::kProgress;
+      break;
+    case k::KIND_AWAITING_IDENTITY:
+      e.type = floor::FloorEventType::kAwaitingIdentity;
       break;
     default:
       throw std::invalid_argument("floor event of unknown kind " + std::to_string(m.kind()));
@@ -89,7 +100,37 @@ floor::FloorEvent fromMessage(const storey_msgs::msg::FloorEvent& m) {
   e.mode = m.mode() == k::MODE_ELEVATOR ? floor::TransitMode::kElevator
            : m.mode() == k::MODE_STAIRS ? floor::TransitMode::kStairs
                                         : floor::TransitMode::kUnknown;
+  if (ended) {
+    e.candidate_floors.assign(m.candidate_floors().begin(), m.candidate_floors().end());
+    for (const int f : e.candidate_floors)
+      if (f < 0) throw std::invalid_argument("floor event with a negative candidate floor");
+    e.new_floor_id = e.identityUnsure() ? m.new_floor_id() : -1;
+    e.new_floor_height = m.new_floor_height();
+    if (e.identityUnsure() && !std::isfinite(e.new_floor_height))
+      throw std::invalid_argument("floor event with a non-finite new floor height");
+  }
   return e;
+}
+
+storey_msgs::msg::FloorIdentity toMessage(const floor::FloorIdentity& identity,
+                                          const std::string& robot) {
+  storey_msgs::msg::FloorIdentity m;
+  m.robot(robot);
+  m.ride_end(toTimeMessage(identity.ride_end));
+  m.floor_id(identity.floor_id);
+  m.localized(identity.localized);
+  return m;
+}
+
+floor::FloorIdentity fromMessage(const storey_msgs::msg::FloorIdentity& m) {
+  floor::FloorIdentity identity;
+  identity.ride_end = fromTimeMessage(m.ride_end());
+  if (!std::isfinite(identity.ride_end))
+    throw std::invalid_argument("floor identity with a non-finite stamp");
+  if (m.floor_id() < 0) throw std::invalid_argument("floor identity with a negative floor id");
+  identity.floor_id = m.floor_id();
+  identity.localized = m.localized();
+  return identity;
 }
 
 }  // namespace storey::runtime
