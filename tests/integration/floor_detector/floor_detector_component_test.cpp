@@ -366,6 +366,30 @@ TEST(FloorDetectorConversions, RoundTrip) {
   p.type = detection::FloorEventType::kProgress;
   p.stamp = p.decided_at = 20.0;
   EXPECT_EQ(runtime::fromMessage(runtime::toMessage(p, "r")).type, detection::FloorEventType::kProgress);
+  // An unsure arrival's candidates, the wait for its answer, and the answer.
+  e.candidate_floors = {3, 1};
+  e.new_floor_id = 5;
+  e.new_floor_height = 7.5;
+  const detection::FloorEvent unsure = runtime::fromMessage(runtime::toMessage(e, "r"));
+  EXPECT_EQ(unsure.candidate_floors, (std::vector<int>{3, 1}));
+  EXPECT_EQ(unsure.new_floor_id, 5);
+  EXPECT_DOUBLE_EQ(unsure.new_floor_height, 7.5);
+  EXPECT_FALSE(back.identityUnsure());
+  detection::FloorEvent w;
+  w.type = detection::FloorEventType::kAwaitingIdentity;
+  w.stamp = 12.5;
+  w.decided_at = 40.0;
+  const detection::FloorEvent waiting = runtime::fromMessage(runtime::toMessage(w, "r"));
+  EXPECT_EQ(waiting.type, detection::FloorEventType::kAwaitingIdentity);
+  EXPECT_DOUBLE_EQ(waiting.stamp, 12.5);
+  const floor::FloorIdentity answer =
+      runtime::fromMessage(runtime::toMessage(floor::FloorIdentity{12.5, 1, true}, "r"));
+  EXPECT_DOUBLE_EQ(answer.ride_end, 12.5);
+  EXPECT_EQ(answer.floor_id, 1);
+  EXPECT_TRUE(answer.localized);
+  storey_msgs::msg::FloorIdentity negative;
+  negative.floor_id(-1);
+  EXPECT_THROW(runtime::fromMessage(negative), std::invalid_argument);
   storey_msgs::msg::FloorEvent bad;
   bad.kind(9);
   EXPECT_THROW(runtime::fromMessage(bad), std::invalid_argument);

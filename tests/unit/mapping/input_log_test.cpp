@@ -98,5 +98,43 @@ TEST(InputLog, BadBytesAreAnErrorNotACrash) {
   EXPECT_THROW(decodeLoggedInput(bytes.data(), bytes.size()), std::runtime_error);
 }
 
+TEST(InputLog, AnUnsureArrivalKeepsItsCandidatesAndOldRecordsStillRead) {
+  LoggedInput in;
+  in.is_scan = false;
+  in.event.type = floor::FloorEventType::kTransitEnded;
+  in.event.stamp = 10.0;
+  in.event.decided_at = 12.0;
+  in.event.floor_id = 1;
+  in.event.floor_height = 3.0;
+  in.event.candidate_floors = {1, 0};
+  in.event.new_floor_id = 2;
+  in.event.new_floor_height = 3.2;
+  const std::vector<std::uint8_t> bytes = encodeLoggedInput(in);
+  const LoggedInput back = decodeLoggedInput(bytes.data(), bytes.size());
+  EXPECT_EQ(back.event.candidate_floors, (std::vector<int>{1, 0}));
+  EXPECT_EQ(back.event.new_floor_id, 2);
+  EXPECT_DOUBLE_EQ(back.event.new_floor_height, 3.2);
+  // A record written before events carried candidates (type 2): type, stamp, decided_at,
+  // floor id, floor height.
+  common::ByteEncoder old;
+  old.put<std::uint8_t>(2);
+  old.put<std::uint8_t>(1);
+  old.put(10.0);
+  old.put(12.0);
+  old.put<std::int32_t>(1);
+  old.put(3.0);
+  const LoggedInput legacy = decodeLoggedInput(old.bytes.data(), old.bytes.size());
+  EXPECT_EQ(legacy.event.floor_id, 1);
+  EXPECT_FALSE(legacy.event.identityUnsure());
+  // AwaitingIdentity is logged too (the mapper decides on it); Progress never is.
+  in.event.type = floor::FloorEventType::kAwaitingIdentity;
+  const std::vector<std::uint8_t> waiting = encodeLoggedInput(in);
+  EXPECT_EQ(decodeLoggedInput(waiting.data(), waiting.size()).event.type,
+            floor::FloorEventType::kAwaitingIdentity);
+  in.event.type = floor::FloorEventType::kProgress;
+  const std::vector<std::uint8_t> progress = encodeLoggedInput(in);
+  EXPECT_THROW(decodeLoggedInput(progress.data(), progress.size()), std::runtime_error);
+}
+
 }  // namespace
 }  // namespace storey::mapping

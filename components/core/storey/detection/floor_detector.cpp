@@ -19,9 +19,6 @@ using common::str;
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr std::size_t kMaxScansKept = 200;
-constexpr std::size_t kMaxSamplesKept = 2000000;
-constexpr double kScanLag = 1.0;  // s between the scans compared
 
 constexpr double kHampelSigmas = 3.0;
 
@@ -501,112 +498,6 @@ void FloorDetector::handleGap(double gap_start, double gap_end) {
   state_ = State::kTransit;
   quiet_since_ = -1.0;
   filtered_.clear();
-}
-
-bool FloorDetector::addImu(const sensor::ImuSample& sample) {
-  if (!options_.sensors.imu) return true;
-  if (holding_) {
-    QueuedInput q;
-    q.kind = QueuedInput::Kind::kImu;
-    q.stamp = sample.stamp;
-    q.imu = sample;
-    return queueIfHolding(std::move(q));
-  }
-  const bool heights = !options_.sensors.barometer;
-  if (!std::isfinite(sample.stamp) || !sample.linear_acceleration.allFinite()) {
-    rejectLog("IMU sample with non-finite values", stats_.rejected_other);
-    return false;
-  }
-  if (sample.stamp <= last_imu_stamp_) {
-    rejectLog(str("IMU sample at t=", sample.stamp, " out of order"), stats_.rejected_other);
-    return false;
-  }
-  last_imu_stamp_ = sample.stamp;
-  if (heights) {
-    imu_height_.addImu(sample.stamp, sample.linear_acceleration);
-    takeImuHeights();
-  }
-  imu_.push_back({sample.stamp, sample.linear_acceleration.norm()});
-  if (state_ == State::kOnFloor) {
-    while (imu_.front().t < sample.stamp - historySeconds()) imu_.pop_front();
-  } else if (imu_.size() > kMaxSamplesKept) {
-    imu_.pop_front();
-  }
-  return true;
-}
-
-bool FloorDetector::addOdometry(const sensor::OdometrySample& sample) {
-  if (!options_.sensors.odometry) return true;
-  if (holding_) {
-    QueuedInput q;
-    q.kind = QueuedInput::Kind::kOdometry;
-    q.stamp = sample.stamp;
-    q.odometry = sample;
-    return queueIfHolding(std::move(q));
-  }
-  const bool heights = !options_.sensors.barometer;
-  const auto& t = sample.pose.translation();
-  if (!std::isfinite(sample.stamp) || !std::isfinite(t.x()) || !std::isfinite(t.y())) {
-    rejectLog("odometry sample with non-finite values", stats_.rejected_other);
-    return false;
-  }
-  if (sample.stamp <= last_odom_stamp_) {
-    rejectLog(str("odometry sample at t=", sample.stamp, " out of order"), stats_.rejected_other);
-    return false;
-  }
-  last_odom_stamp_ = sample.stamp;
-  if (heights) {
-    imu_height_.addOdometry(sample.stamp, t.x(), t.y(), sample.pose.theta());
-    takeImuHeights();
-  }
-  odom_.push_back({sample.stamp, t.x(), t.y()});
-  if (state_ == State::kOnFloor) {
-    while (odom_.front().t < sample.stamp - historySeconds()) odom_.pop_front();
-  } else if (odom_.size() > kMaxSamplesKept) {
-    odom_.pop_front();
-  }
-  return true;
-}
-
-bool FloorDetector::addScan(const sensor::LaserScan& scan) {
-  if (!options_.sensors.scan) return true;
-  if (holding_) {
-    QueuedInput q;
-    q.kind = QueuedInput::Kind::kScan;
-    q.stamp = scan.stamp;
-    q.scan = scan;
-    return queueIfHolding(std::move(q));
-  }
-  const std::string problem = scan.validate();
-  if (!std::isfinite(scan.stamp) || !problem.empty()) {
-    rejectLog(str("scan at t=", scan.stamp, ": ", problem.empty() ? "bad stamp" : problem),
-              stats_.rejected_other);
-    return false;
-  }
-  if (scan.stamp <= last_scan_stamp_) {
-    rejectLog(str("scan at t=", scan.stamp, " out of order"), stats_.rejected_other);
-    return false;
-  }
-  last_scan_stamp_ = scan.stamp;
-  // Compare with the newest scan at least a second older: in a cabin nothing changes, on
-  // stairs the robot has moved a quarter metre or turned.
-  const sensor::LaserScan* previous = nullptr;
-  for (auto it = scans_.rbegin(); it != scans_.rend(); ++it) {
-    if (it->stamp <= scan.stamp - kScanLag) {
-      previous = &*it;
-      break;
-    }
-  }
-  if (previous && scan.stamp - previous->stamp < 3.0 * kScanLag) {
-    const double sim = scanSimilarity(*previous, scan, options_.corroboration.scan);
-    if (sim >= 0.0) scan_similarity_.push_back({scan.stamp, sim});
-  }
-  scans_.push_back(scan);
-  while (scans_.size() > 1 &&
-         (scans_.front().stamp < scan.stamp - 3.0 * kScanLag || scans_.size() > kMaxScansKept)) {
-    scans_.pop_front();
-  }
-  return true;
 }
 
 }  // namespace storey::detection

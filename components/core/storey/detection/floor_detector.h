@@ -198,6 +198,9 @@ class FloorDetector {
   void odometryEvidence(double start, double end, Evidence& e) const;
   void scanEvidence(double start, double end, Evidence& e) const;
   double historySeconds() const;
+  static constexpr std::size_t kMaxScansKept = 200;
+  static constexpr std::size_t kMaxSamplesKept = 2000000;
+  static constexpr double kScanLag = 1.0;  // s between the scans compared
 
   FloorDetectorOptions options_;
   std::vector<Floor> floors_;

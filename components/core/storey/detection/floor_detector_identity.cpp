@@ -81,6 +81,8 @@ bool FloorDetector::setFloorIdentity(const FloorIdentity& identity) {
     ++stats_.identities_not_answered;
   } else {
     applyIdentity(p, identity.floor_id);
+    // Found in the floor's map: on that floor, whatever the height had gathered.
+    if (identity.localized) height_offset_ = offset_stddev_ = 0.0;
   }
   if (holding_) releaseHold();
   return valid;

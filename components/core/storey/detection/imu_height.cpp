@@ -282,7 +282,8 @@ void ImuHeight::closeBlock(double t) {
       const double bias = options_.accel_bias_walk * std::sqrt(kLevelTime) / kGravity;
       const double noise = options_.accel_noise_density / std::sqrt(span) / kGravity;
       const double variance = (bias * bias + noise * noise) * along * along;
-      if (segments_.empty() || segments_.back().t1 < block_start_ - 1e-9)
+      if (segments_.empty() || segments_.back().t1 < block_start_ - 1e-9 ||
+          std::isinf(segments_.back().variance))
         segments_.push_back({block_start_, block_start_, 0.0});
       Segment& segment = segments_.back();
       segment.t1 = t;

@@ -8,11 +8,17 @@
 // on a guess.
 //
 // An arrival the height alone does not decide (FloorEvent::candidate_floors) is decided
-// here: the arriving scans are localised in every candidate floor's map at once. One floor
-// that localises them is the floor reached; when several do (floors that look alike) the
-// detector's choice among them, else the one nearest in height; when none does, a floor
-// never seen if the height allows one, else the detector's choice (in a new graph). The
-// answer (takeIdentities) goes back to the detector.
+// here: the arriving scans are localised in every candidate floor's map at once. A floor
+// that localises them, and whose points no other candidate's map fits as well, is the
+// floor reached; when none is, a floor never seen if the height allows one and no
+// candidate's map fits the latest scans anywhere, else the detector's choice (in a new
+// graph). Floors alike where the robot arrived (a lift lobby) localise it in several
+// candidates: then it is localised again, from the scans that follow, until one candidate
+// alone holds them or the detector needs the answer. A floor never seen that looks like a
+// known one where the robot drives is taken for that one: only the height tells them apart.
+// First, though, when the floor left is a candidate: a scan that tracking on it would
+// accept where odometry puts it says the robot never left (a gap in the heights while it
+// drove on). The answer (takeIdentities) goes back to the detector.
 #pragma once
 
 #include <deque>
@@ -92,7 +98,8 @@ class FloorSessions {
                                double last_stamp) const;
   GlobalRelocalizationOptions arrivalOptions(int floor_id);  // seeded per arrival and floor
   ScanResult addIdentifyingScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry);
-  ScanResult resolveIdentity();
+  int uniqueCandidate();  // index of the one candidate floor the scans localise in, or -1
+  ScanResult resolveIdentity(int winner);
 
   FloorSlamOptions options_;
   std::string robot_;
@@ -115,6 +122,9 @@ class FloorSessions {
     floor::FloorEvent event;
     std::vector<std::pair<int, std::unique_ptr<GlobalRelocalizer>>> relocalizers;
     std::vector<HeldScan> buffer;
+    int restarts = 0;
+    int left = 0;             // the floor the robot was on
+    bool check_left = false;  // the first scan may show it is still there (continuesHere)
   };
   std::unique_ptr<Identification> identify_;
   std::vector<floor::FloorIdentity> identities_;

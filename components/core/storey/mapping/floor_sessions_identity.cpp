@@ -21,9 +21,11 @@ void FloorSessions::endTransit(const floor::FloorEvent& event) {
   if (!in_transit_) exit_pose_[current_floor_] = current().currentPose();
   in_transit_ = false;
   if (relocalizer_) openNewGraphOfCurrentFloor("left again before localising");
-  current().finish();
   identify_ = std::make_unique<Identification>();
   identify_->event = event;
+  identify_->left = current_floor_;
+  identify_->check_left = std::find(event.candidate_floors.begin(), event.candidate_floors.end(),
+                                    current_floor_) != event.candidate_floors.end();
   ++arrivals_;
   if (options_.relocalization.known_floor != "new_graph") {
     for (const int floor : event.candidate_floors) {
@@ -45,7 +47,7 @@ void FloorSessions::endTransit(const floor::FloorEvent& event) {
       event.new_floor_id >= 0 ? str("; a new floor would be ", event.new_floor_id) : std::string(),
       "); localising in ",
       floors.empty() ? std::string("no candidate's map") : "floors " + floors));
-  if (identify_->relocalizers.empty()) resolveIdentity();
+  if (identify_->relocalizers.empty()) resolveIdentity(-1);
 }
 
 ScanResult FloorSessions::addIdentifyingScan(const sensor::LaserScan& scan,
@@ -61,6 +63,19 @@ ScanResult FloorSessions::addIdentifyingScan(const sensor::LaserScan& scan,
     r.reason = why;
     return r;
   }
+  if (identify_->check_left) {
+    identify_->check_left = false;
+    if (buffer.empty() && current().continuesHere(scan, odometry)) {
+      const floor::FloorEvent e = identify_->event;
+      identify_.reset();
+      identities_.push_back({e.stamp, current_floor_, true});
+      ++stats_.identified_by_map;
+      common::logInfo(str("floor_sessions[", robot_, "]: the ride that ended at ", e.stamp,
+                          " did not leave floor ", current_floor_,
+                          " (the scans after it go on where tracking left off)"));
+      return current().addScan(scan, odometry);
+    }
+  }
   buffer.push_back({scan, odometry});
   bool localized = false, searching = false;
   for (auto& [floor, relocalizer] : identify_->relocalizers) {
@@ -68,17 +83,28 @@ ScanResult FloorSessions::addIdentifyingScan(const sensor::LaserScan& scan,
     localized = localized || relocalizer->status() == RelocalizationStatus::kLocalized;
     searching = searching || relocalizer->status() == RelocalizationStatus::kSearching;
   }
-  if (!localized && searching) {
+  const int winner = localized ? uniqueCandidate() : -1;
+  if (winner < 0 && localized) {
+    // Floors alike where the robot is: localise again from the next scans on, which reach
+    // further (the robot leaves the lift lobby every floor shares).
+    for (auto& [floor, relocalizer] : identify_->relocalizers) {
+      if (relocalizer->status() != RelocalizationStatus::kLocalized) continue;
+      ++identify_->restarts;
+      GlobalRelocalizationOptions g = arrivalOptions(floor);
+      g.seed += static_cast<std::uint64_t>(identify_->restarts) * 0x9E3779B97F4A7C15ULL;
+      relocalizer = std::make_unique<GlobalRelocalizer>(
+          floors_.at(floor)->floorGraph(), g, options_.loop_closure.matcher,
+          options_.local_map.field, options_.local_map.max_insert_range);
+      searching = true;
+    }
+  }
+  if (winner < 0 && searching) {
     r.status = ScanStatus::kSkipped;
     r.reason = "identifying the floor";
     return r;
   }
-  // One floor holds the scans, or none can: the others are checked with what they have.
-  decideIdentity();
-  r.status = ScanStatus::kNode;
-  r.pose = current().currentPose();
-  r.relocalized = localized;
-  r.matched = localized;
+  r = resolveIdentity(winner);
+  r.relocalized = r.matched = winner >= 0;
   return r;
 }
 
@@ -86,26 +112,24 @@ void FloorSessions::decideIdentity() {
   if (!identify_) return;
   for (auto& [floor, relocalizer] : identify_->relocalizers)
     if (relocalizer->status() == RelocalizationStatus::kSearching) relocalizer->decideNow();
-  resolveIdentity();
+  resolveIdentity(uniqueCandidate());
 }
 
-ScanResult FloorSessions::resolveIdentity() {
-  const std::unique_ptr<Identification> id = std::move(identify_);
-  const floor::FloorEvent& e = id->event;
-  auto& candidates = id->relocalizers;  // nearest in height first
-  // A floor that localised the scans must also be the only candidate they fit: the
-  // relocaliser's uniqueness test (every pose elsewhere below ambiguity_ratio times the
-  // estimate's score) with the other candidate floors as "elsewhere". A small floor is
-  // often a fit inside a bigger one.
-  std::unique_ptr<GlobalRelocalizer>* found = nullptr;
-  int floor_id = -1;
-  for (auto& [floor, relocalizer] : candidates) {
+// A floor that localised the scans must also be the only candidate they fit: the
+// relocaliser's uniqueness test (every pose elsewhere below ambiguity_ratio times the
+// estimate's score) with the other candidate floors as "elsewhere". A small floor is often
+// a fit inside a bigger one, and floors are often alike around their lifts.
+int FloorSessions::uniqueCandidate() {
+  auto& candidates = identify_->relocalizers;
+  int winner = -1;
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    const auto& [floor, relocalizer] = candidates[i];
     if (relocalizer->status() != RelocalizationStatus::kLocalized) continue;
     const RelocalizationResult& r = relocalizer->result();
     const std::vector<Eigen::Vector2d> points = relocalizer->recentPoints();
     std::string other_fit;
-    for (auto& [other, other_relocalizer] : candidates) {
-      if (other == floor) continue;
+    for (const auto& [other, other_relocalizer] : candidates) {
+      if (other == floor || !other_fit.empty()) continue;
       const double fit = other_relocalizer->bestFitAnywhere(points);
       if (fit >= relocalizer->options().ambiguity_ratio * r.own)
         other_fit = str("floor ", other, " fits them as well (", fit, " against ", r.own, ")");
@@ -113,35 +137,43 @@ ScanResult FloorSessions::resolveIdentity() {
     common::logInfo(str("floor_sessions[", robot_, "]: floor ", floor,
                         " localises the arriving scans (score ", r.score, ")",
                         other_fit.empty() ? "" : "; but ", other_fit));
-    if (!other_fit.empty() || (found && (*found)->result().own >= r.own)) continue;
-    found = &relocalizer;
-    floor_id = floor;
+    if (other_fit.empty() &&
+        (winner < 0 || candidates[static_cast<std::size_t>(winner)].second->result().own < r.own))
+      winner = static_cast<int>(i);
   }
+  return winner;
+}
+
+ScanResult FloorSessions::resolveIdentity(int winner) {
+  const std::unique_ptr<Identification> id = std::move(identify_);
+  const floor::FloorEvent& e = id->event;
+  auto& candidates = id->relocalizers;
+  int floor_id = winner >= 0 ? candidates[static_cast<std::size_t>(winner)].first : e.floor_id;
   // No map decides: a floor never seen when the height allows one and no candidate's map
-  // fits the scans anywhere (the relocaliser's min_score); else the height's choice.
-  if (!found) {
-    floor_id = e.floor_id;
-    if (e.new_floor_id >= 0) {
-      std::vector<Eigen::Vector2d> points;
-      for (auto& [floor, relocalizer] : candidates)
-        if (points.empty()) points = relocalizer->recentPoints();
-      bool fits = false;
-      for (auto& [floor, relocalizer] : candidates)
-        fits = fits || points.empty() ||
-               relocalizer->bestFitAnywhere(points) >= relocalizer->options().min_score;
-      if (!fits) floor_id = e.new_floor_id;
-    }
+  // fits the latest scans anywhere (the relocaliser's min_score); else the height's choice.
+  if (winner < 0 && e.new_floor_id >= 0) {
+    std::vector<Eigen::Vector2d> points;
+    for (auto& [floor, relocalizer] : candidates)
+      if (points.empty()) points = relocalizer->recentPoints();
+    bool fits = false;
+    for (auto& [floor, relocalizer] : candidates)
+      fits = fits || points.empty() ||
+             relocalizer->bestFitAnywhere(points) >= relocalizer->options().min_score;
+    if (!fits) floor_id = e.new_floor_id;
   }
-  identities_.push_back({e.stamp, floor_id, found != nullptr});
-  if (found) ++stats_.identified_by_map;
+  identities_.push_back({e.stamp, floor_id, winner >= 0});
+  if (winner >= 0) ++stats_.identified_by_map;
   common::logInfo(str(
       "floor_sessions[", robot_, "]: the ride that ended at ", e.stamp, " reached floor ", floor_id,
-      found ? " (its map holds the arriving scans)" : " (no candidate's map decides)"));
+      winner >= 0 ? " (its map holds the arriving scans)" : " (no candidate's map decides)"));
+  if (floor_id != id->left) floors_.at(id->left)->finish();
   current_floor_ = floor_id;
   ScanResult r;
-  if (found) {
-    relocalizer_ = std::move(*found);
-    resumeRelocalized();
+  if (winner >= 0) {
+    relocalizer_ = std::move(candidates[static_cast<std::size_t>(winner)].second);
+    r.node_id = resumeRelocalized();
+    r.status = ScanStatus::kNode;
+    r.pose = current().currentPose();
     return r;
   }
   const auto it = floors_.find(floor_id);

@@ -134,6 +134,10 @@ class FloorSlam {
   // the floor: the elevator) before mapping continues.
   void resumeAt(const geometry::Pose2& guess);
   bool awaitingRelocalization() const { return relocalize_; }
+  // Whether `scan` matches the recent nodes' map where odometry puts it from the last
+  // tracked scan, in the tracker's window and with the score loop closures need: the robot
+  // is still on this floor, where tracking left it. Changes nothing.
+  bool continuesHere(const sensor::LaserScan& scan, const geometry::Pose2& odometry);
   // Resumes this floor after global relocalisation: `scans` (in time order) were recorded
   // since the arrival, and the last of them was localised at `pose` with `covariance`
   // (world frame). The scans that moved enough become a chain of nodes placed by odometry

@@ -117,6 +117,23 @@ int FloorSlam::resumeLocalized(const std::vector<GlobalRelocalizer::Buffered>& s
   return previous;
 }
 
+bool FloorSlam::continuesHere(const sensor::LaserScan& scan, const Pose2& odometry) {
+  Impl& s = *impl_;
+  if (floor_graph_.nodes.empty() || relocalize_ || !s.tracker.started()) return false;
+  if (s.local_dirty) {
+    s.local_target = buildLocalTarget(floor_graph_, options_.local_map, s.matcher);
+    s.local_dirty = false;
+    s.nodes_since_rebuild = 0;
+  }
+  const std::vector<Eigen::Vector2d> points =
+      filterPoints(scan.pointsInRobotFrame(), options_.matcher.point_filter_distance);
+  if (points.size() < static_cast<std::size_t>(options_.matcher.min_points)) return false;
+  const TrackPrediction p = s.tracker.predict(odometry);
+  const MatchResult m =
+      s.matcher.match(s.local_target, points, p.pose, p.linear_window, p.angular_window);
+  return m.success && m.score >= options_.loop_closure.min_score;
+}
+
 ScanResult FloorSlam::relocalizeWith(const sensor::LaserScan& scan, const Pose2& odometry,
                                      const std::vector<Eigen::Vector2d>& points) {
   Impl& s = *impl_;
