@@ -419,11 +419,20 @@ TEST_F(GraphServerTest, PublishesEachRobotsOdomFramePoseFloorAndMap) {
                 std::lock_guard<std::mutex> lock(mutex);
                 map = m;
               });
+  visualization_msgs::msg::MarkerArray markers;
+  runtime::Subscription<visualization_msgs::msg::MarkerArray,
+                        visualization_msgs::msg::MarkerArrayPubSubType>
+      markers_sub(context, "storey/building_markers", runtime::TopicKind::kLatest,
+                  [&](const visualization_msgs::msg::MarkerArray& m) {
+                    std::lock_guard<std::mutex> lock(mutex);
+                    markers = m;
+                  });
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
   while (std::chrono::steady_clock::now() < deadline) {
     {
       std::lock_guard<std::mutex> lock(mutex);
-      if (!tf.empty() && floor >= 0 && !map.data().empty() && !pose.header().frame_id().empty())
+      if (!tf.empty() && floor >= 0 && !map.data().empty() && !pose.header().frame_id().empty() &&
+          !markers.markers().empty())
         break;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -446,6 +455,27 @@ TEST_F(GraphServerTest, PublishesEachRobotsOdomFramePoseFloorAndMap) {
   EXPECT_DOUBLE_EQ(pose.pose().position().z(), 3.0);
   EXPECT_DOUBLE_EQ(map.info().origin().position().z(), 3.0) << "the map of floor 1";
   for (const std::int8_t value : map.data()) ASSERT_TRUE(value == -1 || value == 0 || value == 100);
+  // The building graph for RViz: everything before replaced, a line per floor graph at its
+  // floor's height, the three constraints, a label per floor.
+  namespace mk = visualization_msgs::msg::Marker_Constants;
+  ASSERT_FALSE(markers.markers().empty());
+  EXPECT_EQ(markers.markers()[0].action(), mk::DELETEALL);
+  int strips = 0, labels = 0;
+  for (const auto& m : markers.markers()) {
+    EXPECT_EQ(m.header().frame_id(), "building");
+    if (m.action() == mk::DELETEALL) continue;
+    if (m.type() == mk::LINE_STRIP) {
+      ++strips;
+      ASSERT_FALSE(m.points().empty());
+      EXPECT_DOUBLE_EQ(m.points()[0].z(), m.id() == 1 ? 3.0 : 0.0);
+    } else if (m.type() == mk::LINE_LIST) {
+      EXPECT_EQ(m.points().size(), 6u);
+    } else if (m.type() == mk::TEXT_VIEW_FACING) {
+      ++labels;
+    }
+  }
+  EXPECT_EQ(strips, 2);
+  EXPECT_EQ(labels, 2);
   server.deactivate();
   server.cleanup();
 }

@@ -146,4 +146,57 @@ nav_msgs::msg::OccupancyGrid toMessage(const building::FloorMap& floor, double s
   return msg;
 }
 
+visualization_msgs::msg::MarkerArray toMessage(const std::vector<building::BuildingMarker>& markers,
+                                               double stamp) {
+  namespace k = visualization_msgs::msg::Marker_Constants;
+  visualization_msgs::msg::MarkerArray array;
+  std_msgs::msg::Header header;
+  header.stamp(runtime::toTimeMessage(stamp));
+  header.frame_id("building");
+  visualization_msgs::msg::Marker clear;
+  clear.header(header);
+  clear.action(k::DELETEALL);
+  clear.pose().orientation().w(1.0);
+  array.markers().push_back(clear);
+  for (const auto& m : markers) {
+    visualization_msgs::msg::Marker out;
+    out.header(header);
+    out.ns(m.ns);
+    out.id(m.id);
+    out.action(k::ADD);
+    out.pose().orientation().w(1.0);
+    out.color().r(m.rgba[0]);
+    out.color().g(m.rgba[1]);
+    out.color().b(m.rgba[2]);
+    out.color().a(m.rgba[3]);
+    switch (m.kind) {
+      case building::BuildingMarker::Kind::kLineStrip:
+      case building::BuildingMarker::Kind::kLineList:
+        out.type(m.kind == building::BuildingMarker::Kind::kLineStrip ? k::LINE_STRIP
+                                                                      : k::LINE_LIST);
+        out.scale().x(0.05);  // line width, m
+        for (const auto& p : m.points) {
+          geometry_msgs::msg::Point point;
+          point.x(p.x());
+          point.y(p.y());
+          point.z(p.z());
+          out.points().push_back(point);
+        }
+        break;
+      case building::BuildingMarker::Kind::kText:
+        out.type(k::TEXT_VIEW_FACING);
+        out.scale().z(0.5);  // text height, m
+        out.text(m.text);
+        if (!m.points.empty()) {
+          out.pose().position().x(m.points.front().x());
+          out.pose().position().y(m.points.front().y());
+          out.pose().position().z(m.points.front().z() + 1.0);  // above the floor's first node
+        }
+        break;
+    }
+    array.markers().push_back(out);
+  }
+  return array;
+}
+
 }  // namespace storey::graph_server

@@ -2,11 +2,13 @@
 #pragma once
 
 #include "nav_msgs/msg/OccupancyGrid.h"
+#include "storey/building/building_markers.h"
 #include "storey/building/building_outputs.h"
 #include "storey/building/journal.h"
 #include "storey_msgs/msg/BuildingState.h"
 #include "storey_msgs/msg/FloorGraphUpdate.h"
 #include "storey_msgs/msg/InterFloorConstraint.h"
+#include "visualization_msgs/msg/MarkerArray.h"
 
 namespace storey::graph_server {
 
@@ -22,5 +24,8 @@ storey_msgs::msg::BuildingState toMessage(const building::BuildingSolution& solu
                                           const std::vector<building::InterGraphConstraint>& constraints,
                                           std::uint32_t sequence, double stamp);
 nav_msgs::msg::OccupancyGrid toMessage(const building::FloorMap& floor, double stamp);
+// In the "building" frame; a DELETEALL first, so each array replaces the last one whole.
+visualization_msgs::msg::MarkerArray toMessage(const std::vector<building::BuildingMarker>& markers,
+                                               double stamp);
 
 }  // namespace storey::graph_server

@@ -18,6 +18,7 @@ GraphServerOptions readGraphServerOptions(const common::ConfigNode& node) {
   o.constraint_topic = node.get<std::string>("constraint_topic", o.constraint_topic);
   o.building_state_topic = node.get<std::string>("building_state_topic", o.building_state_topic);
   o.floor_map_topic_prefix = node.get<std::string>("floor_map_topic_prefix", o.floor_map_topic_prefix);
+  o.markers_topic = node.get<std::string>("markers_topic", o.markers_topic);
   o.journal_path = node.get<std::string>("journal", o.journal_path);
   o.journal_sync = node.get<bool>("journal_sync", o.journal_sync);
   o.optimize_min_period = node.getDouble("optimize_min_period", o.optimize_min_period, 0.0, 3600.0);
@@ -56,6 +57,9 @@ void GraphServer::onConfigure() {
   state_publisher_ =
       createPublisher<storey_msgs::msg::BuildingState, storey_msgs::msg::BuildingStatePubSubType>(
           options_.building_state_topic, runtime::TopicKind::kGraph);
+  markers_publisher_ = createPublisher<visualization_msgs::msg::MarkerArray,
+                                       visualization_msgs::msg::MarkerArrayPubSubType>(
+      options_.markers_topic, runtime::TopicKind::kLatest);
   createSubscription<storey_msgs::msg::FloorGraphUpdate, storey_msgs::msg::FloorGraphUpdatePubSubType>(
       options_.floor_graph_topic, runtime::TopicKind::kGraph,
       [this](const storey_msgs::msg::FloorGraphUpdate& m) { onFloorGraph(m); });
@@ -294,6 +298,7 @@ void GraphServer::workerLoop() {
       }
     }
     publishRobotOutputs(building::robotLocations(work, solution), maps);
+    markers_publisher_->publish(toMessage(building::buildingMarkers(work, solution), stamp));
     std::lock_guard<std::mutex> lock(mutex_);
     solution_ = solution;
     optimized_generation_ = generation;

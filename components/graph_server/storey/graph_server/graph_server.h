@@ -1,6 +1,7 @@
 // graph_server: keeps the building graph (every floor graph and inter-floor constraint,
-// less those the matcher retracted), journals what it accepts, optimises on a worker thread (rate-limited, never on a DDS
-// or executor callback), and publishes the building state and per-floor occupancy grids.
+// less those the matcher retracted), journals what it accepts, optimises on a worker thread
+// (rate-limited, never on a DDS or executor callback), and publishes the building state, per-floor
+// occupancy grids, the robots' live outputs and the building graph as markers.
 #pragma once
 
 #include <condition_variable>
@@ -22,6 +23,7 @@
 #include "storey_msgs/msg/FloorGraphUpdatePubSubTypes.h"
 #include "storey_msgs/msg/InterFloorConstraintPubSubTypes.h"
 #include "tf2_msgs/msg/TFMessagePubSubTypes.h"
+#include "visualization_msgs/msg/MarkerArrayPubSubTypes.h"
 
 namespace storey::graph_server {
 
@@ -30,6 +32,7 @@ struct GraphServerOptions {
   std::string constraint_topic = "storey/inter_floor_constraints";
   std::string building_state_topic = "storey/building_state";
   std::string floor_map_topic_prefix = "storey/floor_maps";  // + "/floor_<id>"
+  std::string markers_topic = "storey/building_markers";     // visualization_msgs/MarkerArray
   std::string journal_path;  // empty: no journal
   bool journal_sync = true;  // group commit before each published state
   double optimize_min_period = 0.5;  // seconds between optimisations
@@ -102,6 +105,10 @@ class GraphServer : public runtime::Component {
   std::unique_ptr<building::JournalWriter> journal_;
   std::shared_ptr<runtime::Publisher<storey_msgs::msg::BuildingState, storey_msgs::msg::BuildingStatePubSubType>>
       state_publisher_;
+  // The building graph for RViz and Foxglove, its last array kept for late subscribers.
+  std::shared_ptr<runtime::Publisher<visualization_msgs::msg::MarkerArray,
+                                     visualization_msgs::msg::MarkerArrayPubSubType>>
+      markers_publisher_;
   std::map<int, std::shared_ptr<runtime::Publisher<nav_msgs::msg::OccupancyGrid, nav_msgs::msg::OccupancyGridPubSubType>>>
       map_publishers_;
 
