@@ -5,13 +5,12 @@
 
 #include <random>
 
+#include "building_runs.h"
 #include "storey/building/building_outputs.h"
 #include "test_support.h"
 
 namespace storey::building {
 namespace {
-
-using geometry::Pose2;
 
 // A square loop of nodes in a floor graph's own frame, with exact odometry edges and a
 // ring scan at every node.
@@ -36,15 +35,8 @@ floor::FloorGraph makeLoop(int graph_id, int floor_id, double height, const Pose
     n.scan = scan;
     g.nodes.push_back(n);
     if (truth) truth->push_back(frame_in_building * n.pose);
-    if (i > 0) {
-      floor::FloorEdge e;
-      e.from = i - 1;
-      e.to = i;
-      e.measurement = g.nodes[i - 1].pose.between(n.pose);
-      e.information = Eigen::Vector3d(100, 100, 400).asDiagonal();
-      g.edges.push_back(e);
-    }
   }
+  chainEdges(g);
   return g;
 }
 
@@ -56,18 +48,8 @@ TEST(BuildingGraph, ConstraintsPlaceTheSecondFloor) {
   building.upsertFloorGraph(makeLoop(1, 1, 3.0, frame1, &truth1));
   // Three exact constraints (as the matcher would find them).
   int id = 0;
-  for (int k : {1, 5, 9}) {
-    InterGraphConstraint c;
-    c.id = id++;
-    c.graph_from = 0;
-    c.node_from = k;
-    c.graph_to = 1;
-    c.node_to = k + 1;
-    c.relative = truth0[k].between(truth1[k + 1]);
-    c.dz = 3.0;
-    c.information = Eigen::Vector3d(50, 50, 200).asDiagonal();
-    building.addConstraint(c);
-  }
+  for (int k : {1, 5, 9})
+    building.addConstraint(exactConstraint(id++, 0, k, 1, k + 1, truth0[k], truth1[k + 1], 3.0));
   const BuildingSolution s = building.optimize();
   ASSERT_EQ(s.placements.size(), 2u);
   EXPECT_EQ(s.reference_graph, 0);

@@ -16,18 +16,8 @@ TEST(BuildingMarkers, FloorGraphsConstraintsAndLabelsInTheBuildingFrame) {
   // A third graph no constraint joins: drawn grey.
   building.upsertFloorGraph(makeRun("b", 2, 2, 7.0, 50.0, Pose2(), odom, &truth2));
   int id = 0;
-  for (int k : {1, 3, 5}) {
-    InterGraphConstraint c;
-    c.id = id++;
-    c.graph_from = 0;
-    c.node_from = k;
-    c.graph_to = 1;
-    c.node_to = k;
-    c.relative = truth0[k].between(truth1[k]);
-    c.dz = 3.5;
-    c.information = Eigen::Vector3d(50, 50, 200).asDiagonal();
-    building.addConstraint(c);
-  }
+  for (int k : {1, 3, 5})
+    building.addConstraint(exactConstraint(id++, 0, k, 1, k, truth0[k], truth1[k], 3.5));
   const BuildingSolution solution = building.optimize();
   const auto markers = buildingMarkers(building, solution);
   // Three strips (graphs 0, 1, 2), one line list, three labels.

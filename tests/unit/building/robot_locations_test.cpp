@@ -19,18 +19,10 @@ TEST(RobotLocations, EachRobotIsAtItsNewestNodeWithItsOdometryFrame) {
   building.upsertFloorGraph(makeRun("b", 2, 0, 0.0, 50.0, Pose2(), odom_b, &truth2));
   int id = 0;
   for (int k : {1, 3, 5}) {
-    for (int graph : {1, 2}) {
-      InterGraphConstraint c;
-      c.id = id++;
-      c.graph_from = 0;
-      c.node_from = k;
-      c.graph_to = graph;
-      c.node_to = k;
-      c.relative = truth0[k].between(graph == 1 ? truth1[k] : truth2[k]);
-      c.dz = graph == 1 ? 3.5 : 0.0;
-      c.information = Eigen::Vector3d(50, 50, 200).asDiagonal();
-      building.addConstraint(c);
-    }
+    for (int graph : {1, 2})
+      building.addConstraint(exactConstraint(id++, 0, k, graph, k, truth0[k],
+                                             graph == 1 ? truth1[k] : truth2[k],
+                                             graph == 1 ? 3.5 : 0.0));
   }
   const BuildingSolution solution = building.optimize();
   const auto locations = robotLocations(building, solution);

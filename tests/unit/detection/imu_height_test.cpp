@@ -178,9 +178,7 @@ TEST(ImuHeight, AGapInTheSamplesMakesTheHeightAcrossItUnknown) {
   run(
       h, 60.0,
       [](double t) {
-        Motion m;
-        m.cabin_a = cabinAcceleration(t, 10.0, 12.0);
-        return m;
+        return Motion{0.0, 0.0, 0.0, 0.0, cabinAcceleration(t, 10.0, 12.0)};
       },
       streams);
   EXPECT_TRUE(std::isinf(h.variance(10.0, 30.0)));

@@ -81,13 +81,7 @@ void FloorDetector::rejectLog(const std::string& what, std::size_t& counter) {
 
 bool FloorDetector::addPressure(const sensor::PressureSample& sample) {
   const auto& b = options_.barometer;
-  if (holding_) {
-    QueuedInput q;
-    q.kind = QueuedInput::Kind::kPressure;
-    q.stamp = sample.stamp;
-    q.pressure = sample;
-    return queueIfHolding(std::move(q));
-  }
+  if (holding_) return queueIfHolding(QueuedInput::of(sample));
   if (!options_.sensors.barometer) {
     rejectLog("pressure sample: sensors.barometer is false", stats_.rejected_pressure);
     return false;
@@ -123,11 +117,7 @@ void FloorDetector::takeImuHeights() {
       continue;
     }
     if (holding_) {  // the hold began with an earlier height of this batch
-      QueuedInput q;
-      q.kind = QueuedInput::Kind::kHeight;
-      q.stamp = h.t;
-      q.height = h.height;
-      queueIfHolding(std::move(q));
+      queueIfHolding(QueuedInput::ofHeight(h.t, h.height));
       continue;
     }
     addHeight(h.t, h.height);

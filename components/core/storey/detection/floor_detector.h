@@ -178,13 +178,22 @@ class FloorDetector {
   // While holding, the input is queued in arrival order (a height: IMU heights already
   // taken when the hold began).
   struct QueuedInput {
-    enum class Kind { kPressure, kImu, kOdometry, kScan, kHeight } kind = Kind::kHeight;
-    double stamp = 0.0;
+    enum class Kind { kPressure, kImu, kOdometry, kScan, kHeight };
+    QueuedInput(Kind k, double t) : kind(k), stamp(t) {}
+    Kind kind;
+    double stamp;
     sensor::PressureSample pressure;
     sensor::ImuSample imu;
     sensor::OdometrySample odometry;
     sensor::LaserScan scan;
     double height = 0.0;
+    static QueuedInput of(const sensor::PressureSample& s);
+    static QueuedInput of(const sensor::ImuSample& s);
+    static QueuedInput of(const sensor::OdometrySample& s);
+    static QueuedInput of(const sensor::LaserScan& s);
+    static QueuedInput ofHeight(double t, double height);
+    template <class Sample>
+    static QueuedInput make(Kind kind, const Sample& s, Sample QueuedInput::*field);
   };
   bool queueIfHolding(QueuedInput input);
   void releaseHold();

@@ -138,13 +138,7 @@ void FloorDetector::scanEvidence(double start, double end, Evidence& e) const {
 // The corroborating streams (and, without a barometer, the IMU heights' sources).
 bool FloorDetector::addImu(const sensor::ImuSample& sample) {
   if (!options_.sensors.imu) return true;
-  if (holding_) {
-    QueuedInput q;
-    q.kind = QueuedInput::Kind::kImu;
-    q.stamp = sample.stamp;
-    q.imu = sample;
-    return queueIfHolding(std::move(q));
-  }
+  if (holding_) return queueIfHolding(QueuedInput::of(sample));
   const bool heights = !options_.sensors.barometer;
   if (!std::isfinite(sample.stamp) || !sample.linear_acceleration.allFinite()) {
     rejectLog("IMU sample with non-finite values", stats_.rejected_other);
@@ -170,13 +164,7 @@ bool FloorDetector::addImu(const sensor::ImuSample& sample) {
 
 bool FloorDetector::addOdometry(const sensor::OdometrySample& sample) {
   if (!options_.sensors.odometry) return true;
-  if (holding_) {
-    QueuedInput q;
-    q.kind = QueuedInput::Kind::kOdometry;
-    q.stamp = sample.stamp;
-    q.odometry = sample;
-    return queueIfHolding(std::move(q));
-  }
+  if (holding_) return queueIfHolding(QueuedInput::of(sample));
   const bool heights = !options_.sensors.barometer;
   const auto& t = sample.pose.translation();
   if (!std::isfinite(sample.stamp) || !std::isfinite(t.x()) || !std::isfinite(t.y())) {
@@ -203,13 +191,7 @@ bool FloorDetector::addOdometry(const sensor::OdometrySample& sample) {
 
 bool FloorDetector::addScan(const sensor::LaserScan& scan) {
   if (!options_.sensors.scan) return true;
-  if (holding_) {
-    QueuedInput q;
-    q.kind = QueuedInput::Kind::kScan;
-    q.stamp = scan.stamp;
-    q.scan = scan;
-    return queueIfHolding(std::move(q));
-  }
+  if (holding_) return queueIfHolding(QueuedInput::of(scan));
   const std::string problem = scan.validate();
   if (!std::isfinite(scan.stamp) || !problem.empty()) {
     rejectLog(str("scan at t=", scan.stamp, ": ", problem.empty() ? "bad stamp" : problem),

@@ -124,6 +124,31 @@ void FloorDetector::holdForIdentity() {
                       "reached at t=", pending_->ride_end));
 }
 
+template <class Sample>
+FloorDetector::QueuedInput FloorDetector::QueuedInput::make(Kind kind, const Sample& s,
+                                                            Sample QueuedInput::*field) {
+  QueuedInput q{kind, s.stamp};
+  q.*field = s;
+  return q;
+}
+FloorDetector::QueuedInput FloorDetector::QueuedInput::of(const sensor::PressureSample& s) {
+  return make(Kind::kPressure, s, &QueuedInput::pressure);
+}
+FloorDetector::QueuedInput FloorDetector::QueuedInput::of(const sensor::ImuSample& s) {
+  return make(Kind::kImu, s, &QueuedInput::imu);
+}
+FloorDetector::QueuedInput FloorDetector::QueuedInput::of(const sensor::OdometrySample& s) {
+  return make(Kind::kOdometry, s, &QueuedInput::odometry);
+}
+FloorDetector::QueuedInput FloorDetector::QueuedInput::of(const sensor::LaserScan& s) {
+  return make(Kind::kScan, s, &QueuedInput::scan);
+}
+FloorDetector::QueuedInput FloorDetector::QueuedInput::ofHeight(double t, double height) {
+  QueuedInput q{Kind::kHeight, t};
+  q.height = height;
+  return q;
+}
+
 bool FloorDetector::queueIfHolding(QueuedInput input) {
   const double stamp = input.stamp;
   queue_.push_back(std::move(input));

@@ -39,14 +39,8 @@ ScanResult FloorSessions::addScan(const sensor::LaserScan& scan, const geometry:
   if (!relocalizer_) return current().addScan(scan, odometry);
 
   const auto& buffer = relocalizer_->buffer();
-  const std::string why =
-      invalidForBuffer(scan, odometry, buffer.empty() ? -1e300 : buffer.back().scan.stamp);
-  if (!why.empty()) {
-    common::logWarn(str("floor_sessions[", robot_, "]: scan at ", scan.stamp, " rejected: ", why));
-    r.status = ScanStatus::kRejected;
-    r.reason = why;
+  if (rejectedForBuffer(scan, odometry, buffer.empty() ? -1e300 : buffer.back().scan.stamp, r))
     return r;
-  }
   const RelocalizationStatus status = relocalizer_->add(scan, odometry);
   last_relocalization_ = relocalizer_->result();
   if (status == RelocalizationStatus::kSearching) {
@@ -71,11 +65,9 @@ ScanResult FloorSessions::addScan(const sensor::LaserScan& scan, const geometry:
   return r;
 }
 
-// Buffered scans must be as valid as the front end requires (it never sees them one by one
-// when the floor is resumed).
-std::string FloorSessions::invalidForBuffer(const sensor::LaserScan& scan,
-                                            const geometry::Pose2& odometry,
-                                            double last_stamp) const {
+bool FloorSessions::rejectedForBuffer(const sensor::LaserScan& scan,
+                                      const geometry::Pose2& odometry, double last_stamp,
+                                      ScanResult& r) const {
   std::string why = scan.validate();
   if (why.empty() && !std::isfinite(scan.stamp)) why = "non-finite stamp";
   if (why.empty() && !odometry.isFinite()) why = "non-finite odometry pose";
@@ -85,7 +77,11 @@ std::string FloorSessions::invalidForBuffer(const sensor::LaserScan& scan,
       filterPoints(scan.pointsInRobotFrame(), options_.matcher.point_filter_distance).size() <
           static_cast<std::size_t>(options_.matcher.min_points))
     why = "too few valid returns";
-  return why;
+  if (why.empty()) return false;
+  common::logWarn(str("floor_sessions[", robot_, "]: scan at ", scan.stamp, " rejected: ", why));
+  r.status = ScanStatus::kRejected;
+  r.reason = why;
+  return true;
 }
 
 int FloorSessions::resumeRelocalized() {

@@ -94,8 +94,10 @@ class FloorSessions {
   void openNewGraphOfCurrentFloor(const std::string& why);
   void switchFloorAfterTransit(int floor_id, double floor_height);
   int resumeRelocalized();  // the relocaliser succeeded: resume the floor's graph
-  std::string invalidForBuffer(const sensor::LaserScan& scan, const geometry::Pose2& odometry,
-                               double last_stamp) const;
+  // A scan to buffer must be as valid as the front end requires (it never sees buffered
+  // scans one by one); true (r filled, logged) when it is not.
+  bool rejectedForBuffer(const sensor::LaserScan& scan, const geometry::Pose2& odometry,
+                         double last_stamp, ScanResult& r) const;
   GlobalRelocalizationOptions arrivalOptions(int floor_id);  // seeded per arrival and floor
   ScanResult addIdentifyingScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry);
   int uniqueCandidate();  // index of the one candidate floor the scans localise in, or -1

@@ -55,14 +55,8 @@ ScanResult FloorSessions::addIdentifyingScan(const sensor::LaserScan& scan,
   ScanResult r;
   r.pose = current().currentPose();
   auto& buffer = identify_->buffer;
-  const std::string why =
-      invalidForBuffer(scan, odometry, buffer.empty() ? -1e300 : buffer.back().scan.stamp);
-  if (!why.empty()) {
-    common::logWarn(str("floor_sessions[", robot_, "]: scan at ", scan.stamp, " rejected: ", why));
-    r.status = ScanStatus::kRejected;
-    r.reason = why;
+  if (rejectedForBuffer(scan, odometry, buffer.empty() ? -1e300 : buffer.back().scan.stamp, r))
     return r;
-  }
   if (identify_->check_left) {
     identify_->check_left = false;
     if (buffer.empty() && current().continuesHere(scan, odometry)) {
