@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <zlib.h>
+
 #include "storey/io/carmen.h"
 
 namespace storey::io {
