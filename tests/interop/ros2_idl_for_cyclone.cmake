@@ -7,7 +7,7 @@
 # order and types (typedefs and constants included) stay exactly storey's.
 #
 #   cmake -DIDL_DIR=<storey>/idl -DOUT_DIR=<dir> "-DSTEMS=std_msgs/msg/Header;..."
-#         [-DSTAMP=<file>] -P ros2_idl_for_cyclone.cmake
+#         -P ros2_idl_for_cyclone.cmake
 #
 # Writes OUT_DIR/<stem>.idl for each stem, then checks that every type referenced is one
 # of the rewritten structs (a missing include or a reference to a type not listed fails).
@@ -124,6 +124,3 @@ foreach(r ${referenced})
                         "rewritten types (add its file to STEMS)")
   endif()
 endforeach()
-if(DEFINED STAMP)
-  file(WRITE ${STAMP} "${defined}\n")
-endif()

@@ -1,0 +1,30 @@
+# Checks that Cyclone DDS' idlc (tests/interop, from the rewritten IDL) and storey's
+# fastddsgen (idl/, -typeros2) give every message type the same DDS type name, of ROS 2's
+# form <pkg>::msg::dds_::<Name>_: DDS matches a reader and a writer only on equal names.
+#   cmake "-DSTEMS=std_msgs/msg/Header;..." -DCYCLONE_DIR=<idlc output>
+#         -DFASTDDS_DIR=<build>/idl/generated -P check_type_names.cmake
+cmake_minimum_required(VERSION 3.22)
+set(failures "")
+foreach(stem ${STEMS})
+  string(REGEX MATCH "^([a-z0-9_]+)/msg/([A-Za-z0-9_]+)$" ok "${stem}")
+  set(expected "${CMAKE_MATCH_1}::msg::dds_::${CMAKE_MATCH_2}_")
+  set(cyclone_file ${CYCLONE_DIR}/${stem}.c)
+  set(fastdds_file ${FASTDDS_DIR}/${stem}PubSubTypes.cxx)
+  foreach(file ${cyclone_file} ${fastdds_file})
+    if(NOT EXISTS ${file})
+      message(FATAL_ERROR "${file} does not exist (build storey_interop_peer and storey first)")
+    endif()
+  endforeach()
+  file(STRINGS ${cyclone_file} cyclone_line REGEX "\\.m_typename = \"[^\"]+\"")
+  string(REGEX REPLACE ".*\\.m_typename = \"([^\"]+)\".*" "\\1" cyclone_name "${cyclone_line}")
+  file(STRINGS ${fastdds_file} fastdds_line REGEX "setName\\(\"[^\"]+\"\\)")
+  string(REGEX REPLACE ".*setName\\(\"([^\"]+)\"\\).*" "\\1" fastdds_name "${fastdds_line}")
+  if(NOT cyclone_name STREQUAL expected OR NOT fastdds_name STREQUAL expected)
+    string(APPEND failures "\n  ${stem}: idlc '${cyclone_name}', fastddsgen '${fastdds_name}', ROS 2 '${expected}'")
+  else()
+    message(STATUS "${expected}: idlc and fastddsgen agree")
+  endif()
+endforeach()
+if(failures)
+  message(FATAL_ERROR "type names differ:${failures}")
+endif()
