@@ -38,8 +38,9 @@ Eigen::MatrixXd numericJacobian(const std::function<Eigen::VectorXd(const Eigen:
 }  // namespace storey::test
 
 // Skips the current test, printing why, when a shared data file is absent.
-#define STOREY_REQUIRE_DATA(var, relative)                                           \
-  const std::string var = ::storey::test::sharedDataPath(relative);                  \
-  if (var.empty()) {                                                                 \
-    GTEST_SKIP() << "shared data file ../shared/data/" << (relative) << " is absent"; \
+#define STOREY_REQUIRE_DATA(var, relative)                                                       \
+  const std::string var =                                                                        \
+      ::storey::test::sharedDataPath(relative); /* NOLINT(bugprone-macro-parentheses): a name */ \
+  if (var.empty()) {                                                                             \
+    GTEST_SKIP() << "shared data file ../shared/data/" << (relative) << " is absent";            \
   }

@@ -47,7 +47,7 @@ std::vector<double> parseList(const std::string& text, std::size_t count, const 
       values.push_back(std::stod(item, &used));
       if (used != item.size()) throw std::invalid_argument(item);
     } catch (const std::exception&) {
-      throw UsageError("--" + option + ": '" + item + "' is not a number");
+      throw UsageError(common::str("--", option, ": '", item, "' is not a number"));
     }
   }
   if (values.size() != count) throw UsageError("--" + option + " takes " + std::to_string(count) + " numbers");
@@ -194,14 +194,13 @@ int mapFloors(const mapping::FloorSlamOptions& options, const SlamInput& input,
   for (const auto* slam : graphs) {
     const floor::FloorGraph& fg = slam->floorGraph();
     if (fg.nodes.empty()) continue;
-    const std::string name =
-        "floor_" + std::to_string(fg.floor_id) + "_graph_" + std::to_string(fg.graph_id);
+    const std::string name = common::str("floor_", fg.floor_id, "_graph_", fg.graph_id);
     folders += (folders.empty() ? "" : ",") + name;
-    writeGraphAndMap(slam->poseGraph(), fg, out_dir + "/" + name);
+    writeGraphAndMap(slam->poseGraph(), fg, common::str(out_dir, "/", name));
     std::vector<Pose2> estimate, reference, odometry;
     std::map<int, Pose2> node_reference;
     {
-      std::ofstream csv(out_dir + "/" + name + "/trajectory.csv");
+      std::ofstream csv(common::str(out_dir, "/", name, "/trajectory.csv"));
       csv << "stamp,x,y,theta,status\n" << std::setprecision(10);
       for (const auto& node : fg.nodes) {
         csv << node.scan.stamp << ',' << node.pose.x() << ',' << node.pose.y() << ','

@@ -31,7 +31,8 @@ floor::FloorGraph makeLoop(int graph_id, int floor_id, double height, const Pose
     floor::FloorNode n;
     n.id = i;
     n.stamp = i;
-    n.pose = Pose2(i % 4, (i / 4) * 1.0, 0.1 * i);
+    const int row = i / 4;  // rows of four
+    n.pose = Pose2(i % 4, row, 0.1 * i);
     n.scan = scan;
     g.nodes.push_back(n);
     if (truth) truth->push_back(frame_in_building * n.pose);

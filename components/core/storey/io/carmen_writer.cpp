@@ -81,8 +81,8 @@ void CarmenWriter::flaser(const CarmenLaser& laser, int laser_id) {
 void CarmenWriter::robotLaser(const CarmenLaser& laser) {
   const sensor::LaserScan& scan = laser.scan;
   std::string line = "ROBOTLASER1 0 ";
-  const double fov = scan.angle_increment *
-                     static_cast<double>(scan.ranges.size() > 0 ? scan.ranges.size() - 1 : 0);
+  const double fov =
+      scan.angle_increment * static_cast<double>(!scan.ranges.empty() ? scan.ranges.size() - 1 : 0);
   for (double v : {scan.angle_min, fov, scan.angle_increment, scan.range_max, 0.01, 0.0}) {
     appendNumber(&line, v);
     line.push_back(' ');

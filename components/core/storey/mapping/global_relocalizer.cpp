@@ -66,10 +66,12 @@ struct GlobalRelocalizer::Impl {
   int fed_since_start = 0;
 };
 
-GlobalRelocalizer::GlobalRelocalizer(const floor::FloorGraph& graph, GlobalRelocalizationOptions options,
-                                     ScanMatcherOptions matcher_options, const grid::LikelihoodFieldOptions& match_field,
+GlobalRelocalizer::GlobalRelocalizer(const floor::FloorGraph& graph,
+                                     GlobalRelocalizationOptions options,
+                                     ScanMatcherOptions matcher_options,
+                                     const grid::LikelihoodFieldOptions& match_field,
                                      double max_insert_range)
-    : options_(std::move(options)) {
+    : options_(options) {
   grid::OccupancyGridOptions go;
   go.resolution = options_.map_resolution;
   go.max_insert_range = max_insert_range;

@@ -137,7 +137,7 @@ void FloorDetectorComponent::onConfigure() {
 // frame; one that is a base frame itself, or whose mounting is not known (yet), is taken
 // as it is, the latter with one warning.
 sensor::ImuSample FloorDetectorComponent::imuInBase(const sensor_msgs::msg::Imu& message) {
-  const sensor::ImuSample sample = runtime::fromMessage(message);
+  sensor::ImuSample sample = runtime::fromMessage(message);
   const std::string& frame = message.header().frame_id();
   if (const auto mounting =
           frames_.poseInFirstOf(frame, runtime::robotBaseFrames(options_.robot, odometry_frame_))) {
