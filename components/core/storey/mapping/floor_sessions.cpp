@@ -158,18 +158,18 @@ void FloorSessions::switchFloorAfterTransit(int floor_id, double floor_height) {
   }
   common::logInfo(str("floor_sessions[", robot_, "]: back on floor ", floor_id, "; localising globally"));
   ++arrivals_;
-  relocalizer_ = std::make_unique<GlobalRelocalizer>(
-      it->second->floorGraph(), arrivalOptions(floor_id), options_.loop_closure.matcher,
-      options_.local_map.field, options_.local_map.max_insert_range);
+  relocalizer_ = relocalizerFor(floor_id);
 }
 
-GlobalRelocalizationOptions FloorSessions::arrivalOptions(int floor_id) {
+std::unique_ptr<GlobalRelocalizer> FloorSessions::relocalizerFor(int floor_id, int restart) const {
   GlobalRelocalizationOptions g = options_.relocalization.global;
-  // Deterministic, but not the same stream for every arrival.
   g.seed = g.seed * 0x9E3779B97F4A7C15ULL +
            static_cast<std::uint64_t>(arrivals_) * 0xC2B2AE3D27D4EB4FULL +
-           static_cast<std::uint64_t>(floor_id);
-  return g;
+           static_cast<std::uint64_t>(floor_id) +
+           static_cast<std::uint64_t>(restart) * 0x9E3779B97F4A7C15ULL;
+  return std::make_unique<GlobalRelocalizer>(
+      floors_.at(floor_id)->floorGraph(), g, options_.loop_closure.matcher,
+      options_.local_map.field, options_.local_map.max_insert_range);
 }
 
 void FloorSessions::flush() {

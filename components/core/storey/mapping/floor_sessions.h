@@ -98,7 +98,9 @@ class FloorSessions {
   // scans one by one); true (r filled, logged) when it is not.
   bool rejectedForBuffer(const sensor::LaserScan& scan, const geometry::Pose2& odometry,
                          double last_stamp, ScanResult& r) const;
-  GlobalRelocalizationOptions arrivalOptions(int floor_id);  // seeded per arrival and floor
+  // A global relocaliser in floor `floor_id`'s map, seeded per arrival, floor and restart
+  // (deterministic, but not the same stream twice).
+  std::unique_ptr<GlobalRelocalizer> relocalizerFor(int floor_id, int restart = 0) const;
   ScanResult addIdentifyingScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry);
   int uniqueCandidate();  // index of the one candidate floor the scans localise in, or -1
   ScanResult resolveIdentity(int winner);

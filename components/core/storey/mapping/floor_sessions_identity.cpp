@@ -32,10 +32,7 @@ void FloorSessions::endTransit(const floor::FloorEvent& event) {
       const auto it = floors_.find(floor);
       if (it == floors_.end() || it->second->floorGraph().nodes.empty())
         continue;  // no map of it here
-      identify_->relocalizers.emplace_back(
-          floor, std::make_unique<GlobalRelocalizer>(
-                     it->second->floorGraph(), arrivalOptions(floor), options_.loop_closure.matcher,
-                     options_.local_map.field, options_.local_map.max_insert_range));
+      identify_->relocalizers.emplace_back(floor, relocalizerFor(floor));
     }
   }
   std::string floors;
@@ -83,12 +80,7 @@ ScanResult FloorSessions::addIdentifyingScan(const sensor::LaserScan& scan,
     // further (the robot leaves the lift lobby every floor shares).
     for (auto& [floor, relocalizer] : identify_->relocalizers) {
       if (relocalizer->status() != RelocalizationStatus::kLocalized) continue;
-      ++identify_->restarts;
-      GlobalRelocalizationOptions g = arrivalOptions(floor);
-      g.seed += static_cast<std::uint64_t>(identify_->restarts) * 0x9E3779B97F4A7C15ULL;
-      relocalizer = std::make_unique<GlobalRelocalizer>(
-          floors_.at(floor)->floorGraph(), g, options_.loop_closure.matcher,
-          options_.local_map.field, options_.local_map.max_insert_range);
+      relocalizer = relocalizerFor(floor, ++identify_->restarts);
       searching = true;
     }
   }
