@@ -14,8 +14,10 @@ function(storey_core_library)
   add_library(storey::${ARG_NAME} ALIAS ${target})
   target_include_directories(${target} PUBLIC
     $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/components/core>
+    $<BUILD_INTERFACE:${STOREY_GENERATED_INCLUDE}>
     $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
   target_link_libraries(${target} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
+  add_dependencies(${target} storey_shipped_config)
   set_target_properties(${target} PROPERTIES EXPORT_NAME ${ARG_NAME})
   set_property(GLOBAL APPEND PROPERTY STOREY_LIBRARIES ${target})
   install(TARGETS ${target} EXPORT storeyTargets

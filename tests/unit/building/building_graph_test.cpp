@@ -134,6 +134,22 @@ TEST(BuildingGraph, BadConstraintsAreRejectedWithTheirId) {
   EXPECT_TRUE(building.constraints().empty());
 }
 
+// The building graph's solver without a file is the one config/graph_server.yaml sets.
+TEST(BuildingGraphOptions, DefaultsEqualTheShippedFile) {
+  const auto root =
+      common::ConfigNode::loadFile(storey::test::sourceDir() + "/config/graph_server.yaml");
+  const graph::OptimizerOptions f = readBuildingGraphOptions(root.child("building")).optimizer;
+  const graph::OptimizerOptions d = BuildingGraphOptions().optimizer;
+  EXPECT_EQ(f.algorithm, d.algorithm);
+  EXPECT_EQ(f.max_iterations, d.max_iterations);
+  for (int kind = 0; kind < graph::kEdgeKindCount; ++kind) {
+    EXPECT_EQ(f.robust[kind].type, d.robust[kind].type) << kind;
+    EXPECT_EQ(f.robust[kind].delta, d.robust[kind].delta) << kind;
+  }
+  EXPECT_EQ(d.robust[static_cast<int>(graph::EdgeKind::kInterFloor)].type,
+            graph::RobustKernelType::kCauchy);
+}
+
 TEST(FitRigidTransform, RecoversKnownTransform) {
   std::mt19937_64 rng(1);
   std::uniform_real_distribution<double> u(-5, 5);

@@ -4,7 +4,6 @@
 
 #include <cmath>
 
-#include "storey/common/config.h"
 #include "storey/grid/occupancy_grid.h"
 
 namespace storey::grid {
@@ -152,16 +151,6 @@ TEST(OccupancyUpdate, AScanOutOfReachIsRefusedNamingTheExtent) {
     EXPECT_EQ(grid.frame().width, before.width);
     EXPECT_EQ(grid.frame().height, before.height);
   }
-}
-
-TEST(OccupancyGridOptions, GrowthMarginIsReadAndChecked) {
-  const auto read = [](const std::string& text) {
-    return readOccupancyGridOptions(common::ConfigNode::loadString(text));
-  };
-  EXPECT_DOUBLE_EQ(read("resolution: 0.1\n").growth_margin, 8.0);
-  EXPECT_DOUBLE_EQ(read("resolution: 0.1\ngrowth_margin: 2.5\n").growth_margin, 2.5);
-  EXPECT_THROW(read("resolution: 0.1\ngrowth_margin: -1\n"), common::ConfigError);
-  EXPECT_THROW(read("resolution: 0.1\ngrowth_margn: 1\n"), common::ConfigError);
 }
 
 }  // namespace

@@ -130,17 +130,5 @@ TEST(FloorSessions, NewGraphModeNeverRelocalises) {
   EXPECT_EQ(robot.sessions.floors().size(), 2u);
 }
 
-TEST(GlobalRelocalizationOptions, ReadStrictly) {
-  const auto o = readGlobalRelocalizationOptions(
-      common::ConfigNode::loadString("min_sequence: 4\nmax_sequence: 30\nfilter: {beams: 40}\nseed: 7\n"));
-  EXPECT_EQ(o.min_sequence, 4);
-  EXPECT_EQ(o.filter.beams, 40);
-  EXPECT_EQ(o.seed, 7u);
-  EXPECT_THROW(readGlobalRelocalizationOptions(common::ConfigNode::loadString("min_sequenc: 4\n")),
-               common::ConfigError);
-  EXPECT_THROW(readGlobalRelocalizationOptions(common::ConfigNode::loadString("min_sequence: 9\nmax_sequence: 5\n")),
-               common::ConfigError);
-}
-
 }  // namespace
 }  // namespace storey::mapping

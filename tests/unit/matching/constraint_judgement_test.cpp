@@ -100,13 +100,19 @@ TEST(ConstraintJudgement, MappedGraphsAreJudgedByTheirNodesTruePoses) {
 }
 
 TEST(FloorMatcherOptions, ReadsValuesAndRejectsUnknownKeys) {
-  const auto node = common::ConfigNode::loadString(
-      "min_sequence: 4\nseed: 9\nfilter:\n  beams: 30\n  motion:\n    rot_rot: 0.2\n");
+  const auto node =
+      common::ConfigNode::loadString("min_sequence: 4\nseed: 9\nfilter:\n  beams: 30\n");
   const FloorMatcherOptions o = readFloorMatcherOptions(node);
   EXPECT_EQ(o.min_sequence, 4);
   EXPECT_EQ(o.seed, 9u);
   EXPECT_EQ(o.filter.beams, 30);
-  EXPECT_DOUBLE_EQ(o.filter.motion.rot_rot, 0.2);
+  // A key absent from a section keeps the shipped value, not the filter's own default.
+  EXPECT_EQ(o.filter.coarse_beams, FloorMatcherOptions().filter.coarse_beams);
+  EXPECT_EQ(o.filter.coarse_beams, shipped::floor_matcher::floor_matcher::filter::coarse_beams);
+  // The filter's motion noise and KLD constants are not keys of the matcher.
+  EXPECT_THROW(readFloorMatcherOptions(
+                   common::ConfigNode::loadString("filter:\n  motion:\n    rot_rot: 0.2\n")),
+               common::ConfigError);
   EXPECT_THROW(readFloorMatcherOptions(common::ConfigNode::loadString("min_sequense: 4\n")),
                common::ConfigError);
   EXPECT_THROW(readFloorMatcherOptions(common::ConfigNode::loadString("filter: {beams: 0}\n")),
@@ -127,6 +133,39 @@ TEST(FloorMatcherOptions, ShippedConfigLoads) {
   EXPECT_DOUBLE_EQ(o.floor_change.radius, 15.0);
   EXPECT_DOUBLE_EQ(o.floor_change.heading, 0.35);
   EXPECT_NO_THROW(readRetractionOptions(node.child("retraction")));
+}
+
+// The defaults a program gets without a file are the shipped file's, section by section.
+TEST(FloorMatcherOptions, DefaultsEqualTheShippedFile) {
+  const auto node =
+      common::ConfigNode::loadFile(storey::test::sourceDir() + "/config/floor_matcher.yaml");
+  const FloorMatcherOptions f = readFloorMatcherOptions(node.child("floor_matcher"));
+  const FloorMatcherOptions d;
+  EXPECT_EQ(f.filter.initial_particles_per_m2, d.filter.initial_particles_per_m2);
+  EXPECT_EQ(f.filter.max_particles, d.filter.max_particles);
+  EXPECT_EQ(f.filter.min_particles, d.filter.min_particles);
+  EXPECT_EQ(f.filter.beams, d.filter.beams);
+  EXPECT_EQ(f.filter.coarse_beams, d.filter.coarse_beams);
+  EXPECT_EQ(f.filter.coarse_particles, d.filter.coarse_particles);
+  EXPECT_EQ(f.filter.effective_beams, d.filter.effective_beams);
+  EXPECT_EQ(f.filter.convergence_mass, d.filter.convergence_mass);
+  EXPECT_EQ(f.filter.convergence_radius, d.filter.convergence_radius);
+  EXPECT_EQ(f.filter.convergence_angle, d.filter.convergence_angle);
+  EXPECT_EQ(f.floor_change.radius, d.floor_change.radius);
+  EXPECT_EQ(f.floor_change.heading, d.floor_change.heading);
+  EXPECT_EQ(f.ransac_distortion, d.ransac_distortion);
+  EXPECT_EQ(f.match_self_similar, d.match_self_similar);
+  EXPECT_EQ(f.learning_particles, d.learning_particles);
+  EXPECT_EQ(f.normal_tilt_stddev, d.normal_tilt_stddev);
+  EXPECT_EQ(f.seed, d.seed);
+  const RetractionOptions r = readRetractionOptions(node.child("retraction"));
+  const RetractionOptions rd;
+  EXPECT_EQ(r.enabled, rd.enabled);
+  EXPECT_EQ(r.translation, rd.translation);
+  EXPECT_EQ(r.rotation, rd.rotation);
+  EXPECT_EQ(r.weak_sigmas, rd.weak_sigmas);
+  EXPECT_EQ(r.confirm_growth, rd.confirm_growth);
+  EXPECT_EQ(r.confirm_both_sides, rd.confirm_both_sides);
 }
 }  // namespace
 }  // namespace storey::matching

@@ -21,9 +21,29 @@ graph::EdgeKind toGraphKind(floor::EdgeKind kind) {
 
 }  // namespace
 
+graph::OptimizerOptions shippedBuildingOptimizer() {
+  namespace shipped_optimizer = shipped::graph_server::building::optimizer;
+  namespace inter_floor = shipped_optimizer::robust::inter_floor;
+  graph::OptimizerOptions o;
+  o.algorithm = std::string(shipped_optimizer::algorithm) == "gn"
+                    ? graph::Algorithm::kGaussNewton
+                    : graph::Algorithm::kLevenbergMarquardt;
+  o.max_iterations = shipped_optimizer::max_iterations;
+  graph::RobustKernel& kernel = o.robust[static_cast<int>(graph::EdgeKind::kInterFloor)];
+  kernel.type = graph::parseRobustKernel(inter_floor::kernel);
+  kernel.delta = inter_floor::delta;
+  return o;
+}
+
 BuildingGraphOptions readBuildingGraphOptions(const common::ConfigNode& node) {
   BuildingGraphOptions options;
-  options.optimizer = graph::readOptimizerOptions(node.child("optimizer"));
+  // The keys the shipped file lists; the solver's other settings are its own.
+  const common::ConfigNode optimizer = node.child("optimizer");
+  for (const std::string& key : optimizer.keys())
+    if (key != "algorithm" && key != "max_iterations" && key != "robust")
+      optimizer.fail(key,
+                     "unknown key (building.optimizer takes algorithm, max_iterations, robust)");
+  options.optimizer = graph::readOptimizerOptions(optimizer, options.optimizer);
   node.finish();
   return options;
 }

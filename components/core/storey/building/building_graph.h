@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "storey/common/config.h"
+#include "storey/common/shipped_config.h"
 #include "storey/floor/floor_graph.h"
 #include "storey/graph/optimizer.h"
 #include "storey/graph/pose_graph.h"
@@ -42,8 +43,12 @@ struct ConstraintRetraction {
   }
 };
 
+// The building graph's solver: the keys under `building.optimizer` in the shipped
+// config/graph_server.yaml set on the optimiser's own defaults.
+graph::OptimizerOptions shippedBuildingOptimizer();
+
 struct BuildingGraphOptions {
-  graph::OptimizerOptions optimizer;
+  graph::OptimizerOptions optimizer = shippedBuildingOptimizer();
 };
 BuildingGraphOptions readBuildingGraphOptions(const common::ConfigNode& node);
 

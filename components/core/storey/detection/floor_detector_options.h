@@ -5,47 +5,77 @@
 #include <vector>
 
 #include "storey/common/config.h"
+#include "storey/common/shipped_config.h"
 #include "storey/detection/imu_height.h"
 #include "storey/detection/scan_similarity.h"
 
 namespace storey::detection {
 
+// The shipped file's detector values (config/floor_detector.yaml), the defaults below.
+namespace shipped_detector = shipped::floor_detector::detector;
+
 struct BarometerOptions {
-  double temperature_kelvin = 288.15;           // air temperature for the hypsometric equation
-  double temperature_uncertainty_kelvin = 5.0;  // scales the reported std-dev
-  double min_pressure = 30000.0;                // Pa; readings outside are rejected
-  double max_pressure = 110000.0;               // Pa
-  double median_window = 1.0;    // s; Hampel window: spikes (door slams) shorter than half of it go
-  double velocity_window = 6.0;  // s; least-squares slope of the filtered height
-  double max_gap = 1.0;          // s; a longer silence restarts the filter
-  double max_drift_rate = 100.0;  // Pa/h of weather drift assumed for the std-dev
+  // air temperature for the hypsometric equation
+  double temperature_kelvin = shipped_detector::barometer::temperature_kelvin;
+  // scales the reported std-dev
+  double temperature_uncertainty_kelvin =
+      shipped_detector::barometer::temperature_uncertainty_kelvin;
+  // Pa; readings outside are rejected
+  double min_pressure = shipped_detector::barometer::min_pressure;
+  // Pa
+  double max_pressure = shipped_detector::barometer::max_pressure;
+  // s; Hampel window: spikes (door slams) shorter than half of it go
+  double median_window = shipped_detector::barometer::median_window;
+  // s; least-squares slope of the filtered height
+  double velocity_window = shipped_detector::barometer::velocity_window;
+  // s; a longer silence restarts the filter
+  double max_gap = shipped_detector::barometer::max_gap;
+  // Pa/h of weather drift assumed for the std-dev
+  double max_drift_rate = shipped_detector::barometer::max_drift_rate;
 };
 
 struct TransitOptions {
-  double start_velocity = 0.05;         // m/s; vertical speed that starts a candidate
-  double end_velocity = 0.03;           // m/s; below it the robot is quiet
-  double min_duration = 2.0;            // s; a candidate must last this long
-  double min_start_change = 0.4;        // m; and have moved this far from the floor
-  double settle_time = 3.0;             // s; quiet time to end a ride at a known floor
-  double new_floor_settle_time = 15.0;  // s; quiet time to create a floor (or stay)
-  double reference_window = 4.0;        // s; on-floor height averaged before a ride
+  // m/s; vertical speed that starts a candidate
+  double start_velocity = shipped_detector::transit::start_velocity;
+  // m/s; below it the robot is quiet
+  double end_velocity = shipped_detector::transit::end_velocity;
+  // s; a candidate must last this long
+  double min_duration = shipped_detector::transit::min_duration;
+  // m; and have moved this far from the floor
+  double min_start_change = shipped_detector::transit::min_start_change;
+  // s; quiet time to end a ride at a known floor
+  double settle_time = shipped_detector::transit::settle_time;
+  // s; quiet time to create a floor (or stay)
+  double new_floor_settle_time = shipped_detector::transit::new_floor_settle_time;
+  // s; on-floor height averaged before a ride
+  double reference_window = shipped_detector::transit::reference_window;
 };
 
 struct FloorIdentityOptions {
-  double storey_height = 3.0;         // m; nominal, for the minimum change
-  double min_change_fraction = 0.65;  // of storey_height, to reach a new floor
-  double match_tolerance = 1.0;       // m; arrival within this of a known floor resumes it
+  // m; nominal, for the minimum change
+  double storey_height = shipped_detector::floors::storey_height;
+  // of storey_height, to reach a new floor
+  double min_change_fraction = shipped_detector::floors::min_change_fraction;
+  // m; arrival within this of a known floor resumes it
+  double match_tolerance = shipped_detector::floors::match_tolerance;
   std::vector<double> heights;        // building floor heights from config (may be empty)
-  int initial_floor = 0;              // index into heights (ignored when empty)
+  // index into heights (ignored when empty)
+  int initial_floor = shipped_detector::floors::initial_floor;
 };
 
 struct CorroborationOptions {
-  double elevator_min_speed = 0.3;      // m/s typical (median) vertical speed: elevator-like
-  double stairs_max_speed = 0.2;        // m/s typical (median) vertical speed: stairs-like
-  double stationary_speed = 0.05;       // m/s mean planar odometry speed: standing still
-  double max_planar_speed = 1.0;        // m/s; faster is implausible on stairs or in a cabin
-  double static_scan_similarity = 0.8;  // mean similarity above: the walls moved along
-  double moving_scan_similarity = 0.5;  // below: the surroundings changed
+  // m/s typical (median) vertical speed: elevator-like
+  double elevator_min_speed = shipped_detector::corroboration::elevator_min_speed;
+  // m/s typical (median) vertical speed: stairs-like
+  double stairs_max_speed = shipped_detector::corroboration::stairs_max_speed;
+  // m/s mean planar odometry speed: standing still
+  double stationary_speed = shipped_detector::corroboration::stationary_speed;
+  // m/s; faster is implausible on stairs or in a cabin
+  double max_planar_speed = shipped_detector::corroboration::max_planar_speed;
+  // mean similarity above: the walls moved along
+  double static_scan_similarity = shipped_detector::corroboration::static_scan_similarity;
+  // below: the surroundings changed
+  double moving_scan_similarity = shipped_detector::corroboration::moving_scan_similarity;
   ScanSimilarityOptions scan;
 };
 
@@ -53,10 +83,10 @@ struct CorroborationOptions {
 // come from the IMU and the odometry (ImuHeight) and feed the same ride logic; a robot
 // needs one of the two.
 struct SensorOptions {
-  bool barometer = true;
-  bool imu = true;
-  bool odometry = true;
-  bool scan = true;
+  bool barometer = shipped_detector::sensors::barometer;
+  bool imu = shipped_detector::sensors::imu;
+  bool odometry = shipped_detector::sensors::odometry;
+  bool scan = shipped_detector::sensors::scan;
 };
 
 struct FloorDetectorOptions {

@@ -16,19 +16,28 @@
 #include <deque>
 #include <vector>
 
+#include "storey/common/shipped_config.h"
+
 namespace storey::detection {
+
+// The shipped file's detector values (config/floor_detector.yaml), the defaults below.
+namespace shipped_detector = shipped::floor_detector::detector;
 
 // The accelerometer's datasheet figures.
 struct ImuHeightOptions {
-  double accel_noise_density = 0.003;  // m/s^2/sqrt(Hz), white noise
-  double accel_bias_walk = 0.0016;     // m/s^2/sqrt(s), the bias's random walk
+  // m/s^2/sqrt(Hz), white noise
+  double accel_noise_density = shipped_detector::imu::accel_noise_density;
+  // m/s^2/sqrt(s), the bias's random walk
+  double accel_bias_walk = shipped_detector::imu::accel_bias_walk;
   // The wheels' distance error per metre driven (slip): a flight's height is off by the
   // same fraction.
-  double odometry_translation_per_meter = 0.05;
+  double odometry_translation_per_meter = shipped_detector::odometry::translation_per_meter;
   // The detector's corroboration values: slower than stationary_speed is standing; no
   // cabin cruises slower than cabin_min_speed.
-  double stationary_speed = 0.05;  // m/s
-  double cabin_min_speed = 0.3;    // m/s
+  // m/s
+  double stationary_speed = shipped_detector::corroboration::stationary_speed;
+  // m/s
+  double cabin_min_speed = shipped_detector::corroboration::elevator_min_speed;
 };
 
 struct HeightSample {

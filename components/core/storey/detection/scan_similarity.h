@@ -3,13 +3,19 @@
 // the height does.
 #pragma once
 
+#include "storey/common/shipped_config.h"
 #include "storey/sensor/laser_scan.h"
 
 namespace storey::detection {
 
+// The shipped file's detector values (config/floor_detector.yaml), the defaults below.
+namespace shipped_detector = shipped::floor_detector::detector;
+
 struct ScanSimilarityOptions {
-  double absolute_tolerance = 0.05;  // m
-  double relative_tolerance = 0.03;  // of the range
+  // m
+  double absolute_tolerance = shipped_detector::corroboration::scan_absolute_tolerance;
+  // of the range
+  double relative_tolerance = shipped_detector::corroboration::scan_relative_tolerance;
 };
 
 // Fraction in [0, 1] of beams that agree: both returns within tolerance, or both no

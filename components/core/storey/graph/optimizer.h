@@ -119,10 +119,12 @@ struct OptimizerOptions {
 //   auto_initialization_chi2: 10
 //   downweight_threshold: 0.5
 //   verbose: false
-//   robust:                  # per edge kind; absent kinds use none
+//   robust:                  # per edge kind
 //     loop_closure: {kernel: dcs, delta: 1.0}
-// Every key is optional; defaults are those of OptimizerOptions.
-OptimizerOptions readOptimizerOptions(const common::ConfigNode& config);
+// Every key is optional; an absent key keeps its value in `base` (an absent robust kind
+// keeps base's kernel).
+OptimizerOptions readOptimizerOptions(const common::ConfigNode& config,
+                                      OptimizerOptions base = OptimizerOptions());
 
 struct PhaseTimes {
   double initialization = 0.0;  // orientation-first initialisation, when chosen

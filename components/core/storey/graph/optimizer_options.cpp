@@ -71,9 +71,9 @@ void robustKernel(const RobustKernel& kernel, double s, double* rho, double* wei
   *weight = 1.0;
 }
 
-OptimizerOptions readOptimizerOptions(const common::ConfigNode& config) {
-  OptimizerOptions o;
-  const std::string algorithm = config.getChoice("algorithm", "lm", {"gn", "lm"});
+OptimizerOptions readOptimizerOptions(const common::ConfigNode& config, OptimizerOptions o) {
+  const std::string algorithm = config.getChoice(
+      "algorithm", o.algorithm == Algorithm::kGaussNewton ? "gn" : "lm", {"gn", "lm"});
   o.algorithm = algorithm == "gn" ? Algorithm::kGaussNewton : Algorithm::kLevenbergMarquardt;
   o.linear_solver = config.getChoice("linear_solver", o.linear_solver,
                                      {"cholmod", "cholmod_supernodal", "cholmod_nd", "eigen"});
@@ -93,10 +93,15 @@ OptimizerOptions readOptimizerOptions(const common::ConfigNode& config) {
       config.getDouble("chord_pcg_tolerance", o.chord_pcg_tolerance, 1e-12, 1.0);
   o.chord_pcg_min_cost = config.getDouble("chord_pcg_min_cost", o.chord_pcg_min_cost, 0.0, 1e12);
   const std::string gauge =
-      config.getChoice("gauge", "first_node", {"first_node", "per_component"});
+      config.getChoice("gauge", o.gauge == GaugeMode::kFirstNode ? "first_node" : "per_component",
+                       {"first_node", "per_component"});
   o.gauge = gauge == "first_node" ? GaugeMode::kFirstNode : GaugeMode::kPerComponent;
   const std::string init =
-      config.getChoice("initialization", "none", {"none", "orientation_first", "auto"});
+      config.getChoice("initialization",
+                       o.initialization == Initialization::kNone               ? "none"
+                       : o.initialization == Initialization::kOrientationFirst ? "orientation_first"
+                                                                               : "auto",
+                       {"none", "orientation_first", "auto"});
   o.initialization = init == "none"                ? Initialization::kNone
                      : init == "orientation_first" ? Initialization::kOrientationFirst
                                                    : Initialization::kAuto;

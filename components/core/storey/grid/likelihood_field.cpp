@@ -10,19 +10,6 @@
 
 namespace storey::grid {
 
-LikelihoodFieldOptions readLikelihoodFieldOptions(const common::ConfigNode& node) {
-  LikelihoodFieldOptions o;
-  o.sigma_hit = node.getDouble("sigma_hit", o.sigma_hit, 1e-3, 10.0);
-  o.z_hit = node.getDouble("z_hit", o.z_hit, 0.0, 1.0);
-  o.z_rand = node.getDouble("z_rand", o.z_rand, 0.0, 1.0);
-  o.max_distance = node.getDouble("max_distance", o.max_distance, 0.01, 100.0);
-  o.range_max = node.getDouble("range_max", o.range_max, 0.1, 1000.0);
-  o.occupied_threshold = node.getDouble("occupied_threshold", o.occupied_threshold, 0.5, 1.0);
-  node.finish();
-  if (o.z_hit + o.z_rand <= 0.0) node.fail("z_hit", "z_hit + z_rand must be positive");
-  return o;
-}
-
 std::vector<std::uint8_t> obstacleMask(const OccupancyGrid& grid, double occupied_threshold) {
   const GridFrame& f = grid.frame();
   // p > threshold exactly where the log-odds exceed logit(threshold): a comparison per

@@ -6,7 +6,6 @@
 
 #include <vector>
 
-#include "storey/common/config.h"
 #include "storey/grid/grid2.h"
 #include "storey/grid/occupancy_grid.h"
 
@@ -20,7 +19,6 @@ struct LikelihoodFieldOptions {
   double range_max = 30.0;    // for the uniform z_rand term
   double occupied_threshold = 0.65;
 };
-LikelihoodFieldOptions readLikelihoodFieldOptions(const common::ConfigNode& node);
 
 class LikelihoodField {
  public:

@@ -15,21 +15,6 @@ namespace {
 double probabilityFromLogOdds(double l) { return 1.0 - 1.0 / (1.0 + std::exp(l)); }
 }  // namespace
 
-OccupancyGridOptions readOccupancyGridOptions(const common::ConfigNode& node) {
-  OccupancyGridOptions o;
-  o.resolution = node.getDouble("resolution", 0.005, 5.0);
-  o.hit_log_odds = node.getDouble("hit_log_odds", o.hit_log_odds, 0.0, 20.0);
-  o.miss_log_odds = node.getDouble("miss_log_odds", o.miss_log_odds, -20.0, 0.0);
-  o.min_log_odds = node.getDouble("min_log_odds", o.min_log_odds, -100.0, 0.0);
-  o.max_log_odds = node.getDouble("max_log_odds", o.max_log_odds, 0.0, 100.0);
-  o.free_space_for_no_return = node.get<bool>("free_space_for_no_return", o.free_space_for_no_return);
-  o.no_return_free_range = node.getDouble("no_return_free_range", o.no_return_free_range, 0.0, 1000.0);
-  o.max_insert_range = node.getDouble("max_insert_range", o.max_insert_range, 0.0, 1000.0);
-  o.growth_margin = node.getDouble("growth_margin", o.growth_margin, 0.0, 1000.0);
-  node.finish();
-  return o;
-}
-
 OccupancyGrid::OccupancyGrid(const OccupancyGridOptions& options) : options_(options) {
   if (!(options_.resolution > 0.0)) throw std::invalid_argument("occupancy grid resolution must be > 0");
   log_odds_.frame.resolution = options_.resolution;

@@ -7,7 +7,6 @@
 #include <string>
 #include <vector>
 
-#include "storey/common/config.h"
 #include "storey/geometry/pose2.h"
 #include "storey/grid/grid2.h"
 #include "storey/grid/image.h"
@@ -26,7 +25,6 @@ struct OccupancyGridOptions {
   double max_insert_range = 0.0;  // returns beyond this are treated as no return (0: range_max)
   double growth_margin = 8.0;     // m of room added around new scans whenever the grid grows
 };
-OccupancyGridOptions readOccupancyGridOptions(const common::ConfigNode& node);
 
 enum class CellState { kUnknown, kFree, kOccupied };
 

@@ -9,36 +9,18 @@ namespace storey::localization {
 using geometry::normalizeAngle;
 using geometry::Pose2;
 
-ParticleFilterOptions readParticleFilterOptions(const common::ConfigNode& node) {
-  ParticleFilterOptions o;
+ParticleFilterOptions readParticleFilterOptions(const common::ConfigNode& node,
+                                                ParticleFilterOptions o) {
   o.initial_particles_per_m2 =
       node.getDouble("initial_particles_per_m2", o.initial_particles_per_m2, 0.01, 10000.0);
   o.max_particles = node.getInt("max_particles", o.max_particles, 10, 10000000);
   o.min_particles = node.getInt("min_particles", o.min_particles, 10, 10000000);
   if (o.min_particles > o.max_particles)
     node.fail("min_particles", "must not exceed max_particles");
-  o.kld_epsilon = node.getDouble("kld_epsilon", o.kld_epsilon, 1e-4, 1.0);
-  o.kld_z = node.getDouble("kld_z", o.kld_z, 0.0, 10.0);
-  o.kld_bin_xy = node.getDouble("kld_bin_xy", o.kld_bin_xy, 1e-3, 100.0);
-  o.kld_bin_theta = node.getDouble("kld_bin_theta", o.kld_bin_theta, 1e-3, M_PI);
-  o.resample_threshold = node.getDouble("resample_threshold", o.resample_threshold, 0.0, 1.0);
   o.beams = node.getInt("beams", o.beams, 1, 100000);
   o.coarse_beams = node.getInt("coarse_beams", o.coarse_beams, 0, 100000);
   o.coarse_particles = node.getInt("coarse_particles", o.coarse_particles, 1, 100000000);
   o.effective_beams = node.getDouble("effective_beams", o.effective_beams, 1e-3, 100000.0);
-  o.off_free_log_penalty =
-      node.getDouble("off_free_log_penalty", o.off_free_log_penalty, -1e6, 0.0);
-  if (node.has("motion")) {
-    const common::ConfigNode m = node.child("motion");
-    auto& n = o.motion;
-    n.rot_rot = m.getDouble("rot_rot", n.rot_rot, 0.0, 10.0);
-    n.rot_trans = m.getDouble("rot_trans", n.rot_trans, 0.0, 10.0);
-    n.trans_trans = m.getDouble("trans_trans", n.trans_trans, 0.0, 10.0);
-    n.trans_rot = m.getDouble("trans_rot", n.trans_rot, 0.0, 10.0);
-    n.min_translation = m.getDouble("min_translation", n.min_translation, 0.0, 10.0);
-    n.min_rotation = m.getDouble("min_rotation", n.min_rotation, 0.0, M_PI);
-    m.finish();
-  }
   o.convergence_mass = node.getDouble("convergence_mass", o.convergence_mass, 0.5, 1.0);
   o.convergence_radius = node.getDouble("convergence_radius", o.convergence_radius, 0.01, 100.0);
   o.convergence_angle = node.getDouble("convergence_angle", o.convergence_angle, 0.001, M_PI);

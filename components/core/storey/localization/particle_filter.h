@@ -71,7 +71,12 @@ struct ParticleFilterOptions {
   double convergence_radius = 0.5;
   double convergence_angle = 0.35;
 };
-ParticleFilterOptions readParticleFilterOptions(const common::ConfigNode& node);
+// Reads the keys a unit's file may set (initial_particles_per_m2, max_particles,
+// min_particles, beams, coarse_beams, coarse_particles, effective_beams, convergence_mass,
+// convergence_radius, convergence_angle) over `base`; the KLD, resampling, off-free and
+// motion-noise values are the filter's own.
+ParticleFilterOptions readParticleFilterOptions(const common::ConfigNode& node,
+                                                ParticleFilterOptions base);
 
 // What the filter holds right now.
 struct FilterState {

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "storey/common/config.h"
+#include "storey/common/shipped_config.h"
 #include "storey/graph/optimizer.h"
 #include "storey/grid/likelihood_field.h"
 #include "storey/mapping/global_relocalizer.h"
@@ -15,21 +16,28 @@
 
 namespace storey::mapping {
 
+// The shipped file's front-end values (config/floor_mapper.yaml, `slam`), the defaults below.
+namespace shipped_slam = shipped::floor_mapper::slam;
+
 // What the laser's readings are worth: the standard deviation of a range reading about the
 // surface it hit, the walls' own roughness included (a SICK LMS's 1 cm on a real building's
 // walls, doors and clutter shows as about 4 cm; a simulated laser's is its noise).
 struct LaserModel {
-  double range_noise = 0.04;  // m
+  // m
+  double range_noise = shipped_slam::laser::range_noise;
 };
 
 struct NodeCreationOptions {
-  double min_translation = 0.2;  // m since the last node
-  double min_rotation = 0.17;    // rad since the last node
+  // m since the last node
+  double min_translation = shipped_slam::node_spacing::translation;
+  // rad since the last node
+  double min_rotation = shipped_slam::node_spacing::rotation;
 };
 
 struct LocalMapOptions {
-  int max_nodes = 20;  // most recent nodes rendered into the local map
-  double resolution = 0.05;
+  // most recent nodes rendered into the local map
+  int max_nodes = shipped_slam::local_map_nodes;
+  double resolution = shipped_slam::map_resolution;
   double max_insert_range = 20.0;  // m; farther returns are left out of local maps
   int pyramid_levels = 5;          // enough for the tracking window; wider searches start coarser
   int rebuild_every_n_nodes = 2;   // the local map is re-rendered this often
@@ -47,7 +55,7 @@ struct LocalMapOptions {
 };
 
 struct LoopClosureOptions {
-  bool enabled = true;
+  bool enabled = shipped_slam::loop_closure;
   int every_n_nodes = 3;       // attempt a closure every n nodes
   int min_node_gap = 40;       // candidates are at least this many nodes older
   double search_radius = 1.5;  // m, plus sigma_factor standard deviations...
@@ -134,7 +142,7 @@ struct RelocalizationOptions {
   // refinement and uniqueness check) and resumes the old graph there; when that does not
   // succeed it falls back to "new_graph": a new graph of the floor, aligned later by the
   // floor matcher.
-  std::string known_floor = "relocalize";
+  std::string known_floor = shipped_slam::relocalization::known_floor;
   GlobalRelocalizationOptions global;
 };
 

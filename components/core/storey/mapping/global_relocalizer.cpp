@@ -18,33 +18,6 @@ constexpr int kSectors = 4;       // the whole-map search splits headings into s
 
 }  // namespace
 
-GlobalRelocalizationOptions readGlobalRelocalizationOptions(const common::ConfigNode& node) {
-  GlobalRelocalizationOptions o;
-  if (node.has("filter")) o.filter = localization::readParticleFilterOptions(node.child("filter"));
-  if (node.has("likelihood_field"))
-    o.likelihood_field = grid::readLikelihoodFieldOptions(node.child("likelihood_field"));
-  o.map_resolution = node.getDouble("map_resolution", o.map_resolution, 0.01, 1.0);
-  o.feed_translation = node.getDouble("feed_translation", o.feed_translation, 0.0, 100.0);
-  o.feed_rotation = node.getDouble("feed_rotation", o.feed_rotation, 0.0, M_PI);
-  o.min_sequence = node.getInt("min_sequence", o.min_sequence, 1, 100000);
-  o.max_sequence = node.getInt("max_sequence", o.max_sequence, 1, 100000);
-  if (o.max_sequence < o.min_sequence) node.fail("max_sequence", "must be at least min_sequence");
-  o.max_scans = node.getInt("max_scans", o.max_scans, 1, 10000000);
-  o.refine_scans = node.getInt("refine_scans", o.refine_scans, 1, 100000);
-  o.refine_linear_window = node.getDouble("refine_linear_window", o.refine_linear_window, 0.0, 100.0);
-  o.refine_angular_window = node.getDouble("refine_angular_window", o.refine_angular_window, 0.0, M_PI);
-  o.max_refine_correction = node.getDouble("max_refine_correction", o.max_refine_correction, 0.0, 100.0);
-  o.min_score = node.getDouble("min_score", o.min_score, 0.0, 1.0);
-  o.ambiguity_ratio = node.getDouble("ambiguity_ratio", o.ambiguity_ratio, 0.0, 10.0);
-  o.ambiguity_distance = node.getDouble("ambiguity_distance", o.ambiguity_distance, 0.0, 1000.0);
-  o.ambiguity_angle = node.getDouble("ambiguity_angle", o.ambiguity_angle, 0.0, M_PI);
-  o.search_tile = node.getDouble("search_tile", o.search_tile, 0.5, 1000.0);
-  o.search_point_distance = node.getDouble("search_point_distance", o.search_point_distance, 0.0, 10.0);
-  o.seed = static_cast<std::uint64_t>(node.get<std::int64_t>("seed", static_cast<std::int64_t>(o.seed)));
-  node.finish();
-  return o;
-}
-
 struct GlobalRelocalizer::Impl {
   Impl(const grid::OccupancyGrid& grid, const GlobalRelocalizationOptions& o,
        const grid::LikelihoodFieldOptions& match_field, const ScanMatcherOptions& matcher_options)

@@ -36,6 +36,7 @@
 #include <vector>
 
 #include "storey/common/config.h"
+#include "storey/common/shipped_config.h"
 #include "storey/floor/floor_graph.h"
 #include "storey/geometry/pose2.h"
 #include "storey/grid/likelihood_field.h"
@@ -44,6 +45,9 @@
 #include "storey/sensor/laser_scan.h"
 
 namespace storey::mapping {
+
+// The shipped file's front-end values (config/floor_mapper.yaml, `slam`), the defaults below.
+namespace shipped_slam = shipped::floor_mapper::slam;
 
 struct GlobalRelocalizationOptions {
   localization::ParticleFilterOptions filter;
@@ -66,10 +70,10 @@ struct GlobalRelocalizationOptions {
   double ambiguity_distance = 1.0;  // m
   double ambiguity_angle = 0.3;     // rad
   double search_tile = 8.0;         // m, side of one tile of the whole-map search
-  double search_point_distance = 0.15;  // m, points thinned for the whole-map search
-  std::uint64_t seed = 1;
+  // m, points thinned for the whole-map search
+  double search_point_distance = 0.15;
+  std::uint64_t seed = shipped_slam::relocalization::seed;
 };
-GlobalRelocalizationOptions readGlobalRelocalizationOptions(const common::ConfigNode& node);
 
 enum class RelocalizationStatus { kSearching, kLocalized, kFailed };
 

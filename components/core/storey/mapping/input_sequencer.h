@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "storey/common/config.h"
+#include "storey/common/shipped_config.h"
 #include "storey/floor/floor_event.h"
 #include "storey/geometry/pose2.h"
 #include "storey/sensor/laser_scan.h"
@@ -26,9 +27,12 @@
 namespace storey::mapping {
 
 struct InputSequencerOptions {
-  double max_odometry_gap = 0.5;       // s: a scan needs odometry this close to its stamp
-  bool wait_for_floor_detector = true; // hold scans until the detector's progress passes them
-  double max_floor_detector_lag = 30.0;  // s of scans held at most for the detector
+  // s: a scan needs odometry this close to its stamp
+  double max_odometry_gap = shipped::floor_mapper::max_odometry_gap;
+  // hold scans until the detector's progress passes them
+  bool wait_for_floor_detector = shipped::floor_mapper::wait_for_floor_detector;
+  // s of scans held at most for the detector
+  double max_floor_detector_lag = shipped::floor_mapper::max_floor_detector_lag;
   std::size_t max_scans_waiting_for_odometry = 600;
 };
 

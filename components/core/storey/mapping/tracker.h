@@ -22,16 +22,23 @@
 #include <Eigen/Core>
 #include <optional>
 
+#include "storey/common/shipped_config.h"
 #include "storey/geometry/pose2.h"
 
 namespace storey::mapping {
 
+// The shipped file's front-end values (config/floor_mapper.yaml, `slam`), the defaults below.
+namespace shipped_slam = shipped::floor_mapper::slam;
+
 // Standard deviations of odometry per step, for the odometry edges' information and the
 // tracking windows.
 struct OdometryNoiseModel {
-  double translation_per_meter = 0.05;  // m per m travelled
-  double rotation_per_meter = 0.035;    // rad per m travelled
-  double rotation_per_radian = 0.05;    // rad per rad turned
+  // m per m travelled
+  double translation_per_meter = shipped_slam::odometry_noise::translation_per_meter;
+  // rad per m travelled
+  double rotation_per_meter = shipped_slam::odometry_noise::rotation_per_meter;
+  // rad per rad turned
+  double rotation_per_radian = shipped_slam::odometry_noise::rotation_per_radian;
   double min_translation_stddev = 0.01;
   double min_rotation_stddev = 0.005;
 };

@@ -47,6 +47,7 @@
 #include <vector>
 
 #include "storey/common/config.h"
+#include "storey/common/shipped_config.h"
 #include "storey/floor/floor_graph.h"
 #include "storey/geometry/pose2.h"
 #include "storey/grid/likelihood_field.h"
@@ -67,25 +68,35 @@ struct FloorChangeLimits {
   bool off() const { return radius <= 0.0 && heading <= 0.0; }
 };
 
+// The shipped file's matcher values (config/floor_matcher.yaml, `floor_matcher`), the
+// defaults below.
+namespace shipped_matcher = shipped::floor_matcher::floor_matcher;
+// The particle filter's options with the keys under `filter:` from the shipped file.
+localization::ParticleFilterOptions shippedMatcherFilter();
+
 struct FloorMatcherOptions {
-  localization::ParticleFilterOptions filter;
+  localization::ParticleFilterOptions filter = shippedMatcherFilter();
   grid::OccupancyGridOptions map;                 // rendering each floor graph's map
   grid::LikelihoodFieldOptions likelihood_field;  // its sensor model
   // A sequence z_k..z_m needs at least `min_sequence` scans before convergence counts;
   // a filter not converged after `max_sequence` scans is dropped and restarted
   // `restart_stride` nodes later.
-  int min_sequence = 5;
-  int max_sequence = 40;
-  int restart_stride = 5;
+  int min_sequence = shipped_matcher::min_sequence;
+  int max_sequence = shipped_matcher::max_sequence;
+  int restart_stride = shipped_matcher::restart_stride;
   // Likelihood gate (see the header comment).
-  double likelihood_quantile = 0.05;
-  double likelihood_scale = 0.6;  // scans of another floor see furniture the reference lacks
-  int learning_particles = 300;
+  double likelihood_quantile = shipped_matcher::likelihood_quantile;
+  // scans of another floor see furniture the reference lacks
+  double likelihood_scale = shipped_matcher::likelihood_scale;
+  int learning_particles = shipped_matcher::learning_particles;
   // Refinement of each converged estimate against the reference likelihood field.
-  int refine_iterations = 30;
-  int refine_beams = 90;               // beams per scan used in refinement
-  double max_refine_correction = 0.5;  // metres; a larger correction rejects the candidate
-  double min_fit = 0.0;                // minimum mean score after refinement, [0, 1]
+  int refine_iterations = shipped_matcher::refine_iterations;
+  // beams per scan used in refinement
+  int refine_beams = shipped_matcher::refine_beams;
+  // metres; a larger correction rejects the candidate
+  double max_refine_correction = shipped_matcher::max_refine_correction;
+  // minimum mean score after refinement, [0, 1]
+  double min_fit = shipped_matcher::min_fit;
   // An accepted set's joint alignment is refined last on the reference floor's scan
   // points (point-to-line below the map's cell, grid::alignToPoints) with every scan of
   // the floor (or only the inliers' scans: point_refinement_whole_floor false). The
@@ -93,56 +104,60 @@ struct FloorMatcherOptions {
   // the rotation to a few tenths of a degree; the whole floor's scans, where they lie on
   // the reference's walls (0.15 m, robust), fix it over the building's extent.
   // point_cell_size 0 leaves the alignment at the likelihood field's refinement.
-  double point_cell_size = 0.05;
-  bool point_refinement_whole_floor = true;
+  double point_cell_size = shipped_matcher::point_cell_size;
+  bool point_refinement_whole_floor = shipped_matcher::point_refinement_whole_floor;
   // The joint alignment of a set with candidates of both directions: g_i's scans fitted in
   // g_ref's map and g_ref's scans fitted in g_i's map, the two combined by their scan
   // counts (false: g_i's scans only, when there are any). A set whose forward scans all
   // lie in an elevator cabin, where a floor graph's headings are the least sure (glass3),
   // then also rests on the corridor scans of the other floor.
-  bool joint_alignment_both_directions = true;
-  double point_normal_radius = 0.2;
-  double point_correspondence_distance = 0.15;
-  double point_robust_distance = 0.05;
+  bool joint_alignment_both_directions = shipped_matcher::joint_alignment_both_directions;
+  double point_normal_radius = shipped_matcher::point_normal_radius;
+  double point_correspondence_distance = shipped_matcher::point_correspondence_distance;
+  double point_robust_distance = shipped_matcher::point_robust_distance;
   // Each accepted constraint takes its heading from the joint alignment and, when true,
   // its translation from its own scans' fit on the reference's points (within
   // 2 x point_correspondence_distance of the joint's): the floor graphs are not rigid,
   // and constraints at both ends of a corridor can then correct its length.
-  bool local_constraint_translation = false;
+  bool local_constraint_translation = shipped_matcher::local_constraint_translation;
   // RANSAC: the model is one planar alignment T_i; candidates agree when their
   // alignments place node k within these tolerances.
-  int ransac_iterations = 500;
-  double ransac_translation_tolerance = 0.3;  // metres
-  double ransac_rotation_tolerance = 0.05;    // rad
+  int ransac_iterations = shipped_matcher::ransac_iterations;
+  // metres
+  double ransac_translation_tolerance = shipped_matcher::ransac_translation_tolerance;
+  // rad
+  double ransac_rotation_tolerance = shipped_matcher::ransac_rotation_tolerance;
   // Floor graphs are not rigid (a bare corridor's length is off by up to ~1 %): after
   // RANSAC, a candidate outside the largest set also joins it when it agrees with the
   // set's mean alignment within ransac_translation_tolerance plus this fraction of the
   // distance from its node k to the set's nearest node k (so only far from where the set
   // anchors the floor). With this on, every accepted candidate that the joint alignment
   // does not place within the RANSAC tolerance keeps its own measurement, not the joint
-  // alignment's, so the building graph learns where that part of the floor lies. Rival sets (ambiguity), the
-  // self-check's twins and evidence combined through an aligned floor stay rigid.
-  double ransac_distortion = 0.0;  // m per m
-  int min_constraints = 3;
+  // alignment's, so the building graph learns where that part of the floor lies. Rival sets
+  // (ambiguity), the self-check's twins and evidence combined through an aligned floor stay rigid.
+  // m per m
+  double ransac_distortion = shipped_matcher::ransac_distortion;
+  int min_constraints = shipped_matcher::min_constraints;
   // A floor whose second-largest consistent set (disjoint from the largest) has at least
   // max(2, ambiguity_ratio * largest) candidates is ambiguous: no constraint.
-  double ambiguity_ratio = 0.5;
+  double ambiguity_ratio = shipped_matcher::ambiguity_ratio;
   // ...unless the largest set's alignment makes all of g_i's scans fit the reference map
   // better by this much (mean likelihood-field score, in [0, 1]) than the second's.
-  double ambiguity_fit_margin = 0.05;
+  double ambiguity_fit_margin = shipped_matcher::ambiguity_fit_margin;
   // Information of each accepted constraint: 1/sigma_xy^2 along the direction its scans
   // pin best, 1/sigma_theta^2 in heading, and along the weakest direction
   // ratio/sigma_xy^2, where ratio is the weak/strong eigenvalue ratio of its scans'
   // point-to-line information on the map they were localised in (heading marginalised,
   // normal noise discounted by normal_tilt_stddev): a sequence down a bare corridor says
   // little about where along the corridor it is, and its constraint says so too.
-  double constraint_sigma_xy = 0.05;
-  double constraint_sigma_theta = 0.01;
-  double normal_tilt_stddev = 0.045;  // rad; see mapping::ScanMatcherOptions
+  double constraint_sigma_xy = shipped_matcher::constraint_sigma_xy;
+  double constraint_sigma_theta = shipped_matcher::constraint_sigma_theta;
+  // rad; see mapping::ScanMatcherOptions
+  double normal_tilt_stddev = shipped_matcher::normal_tilt_stddev;
   // A candidate whose weakest direction's sigma (constraint_sigma_xy / sqrt(ratio)) is
   // larger is not evidence (status underconstrained): it cannot tell places this far apart
   // along it. 0 turns the gate off. Needs point_cell_size > 0 (else no ratio is computed).
-  double max_weak_sigma = 0.0;
+  double max_weak_sigma = shipped_matcher::max_weak_sigma;
   // Self-similarity check: every floor's own scans are matched against its own map. A
   // floor where a consistent set of them localises at another alignment, at least
   // max(2, ambiguity_ratio * the set at the identity), is symmetric or periodic: it is
@@ -150,29 +165,30 @@ struct FloorMatcherOptions {
   // floor's scans better by ambiguity_fit_margin than that other alignment does, or at
   // least max(2, ambiguity_ratio * that set) of its sequences at the identity fit worse
   // by that margin when placed by the other alignment (FloorCheck::refuted).
-  bool self_check = true;
+  bool self_check = shipped_matcher::self_check;
   // A self-similar floor is matched anyway, through its sequences that tell it from its
   // twin: a candidate of a pair where either floor is self-similar counts only if its
   // scans fit the other floor's map worse by ambiguity_fit_margin at each twin of its
   // alignment (the reference's twin composed on the left, the floor's own on the right)
   // than at the alignment itself. Self-similar floors come last as references. Off: such
   // floors get no constraint at all.
-  bool match_self_similar = false;
+  bool match_self_similar = shipped_matcher::match_self_similar;
   // When a pair is not accepted (too few consistent candidates, or two rival sets), g_ref's
   // scans are also localised in g_i's map and those candidates, inverted, join the same
   // RANSAC: structure g_i's robot passed only briefly may be where g_ref's robot stayed.
-  bool match_both_directions = true;
+  bool match_both_directions = shipped_matcher::match_both_directions;
   // ...and both floors' scans are also replayed last to first (time-reversed sequences).
   // Candidates whose scans overlap count once in RANSAC (see largestConsistentSet).
-  bool backwards_sequences = true;
+  bool backwards_sequences = shipped_matcher::backwards_sequences;
   // Negative information: a gated candidate whose beams cross solid walls of the reference
   // (Candidate::see_through) more than this fraction is localised again from its first
   // scan with the wall model in the filter (WallModel: `wall_beams` traced per scan, a beam
   // through a wall has log p `wall_log_p`). 1 turns it off.
-  double wall_recheck = 0.05;
-  int wall_beams = 12;
-  int wall_recheck_max = 8;  // rechecks per pair (glass3 uses 0-4); past it, such are dropped
-  double wall_log_p = -10.0;
+  double wall_recheck = shipped_matcher::wall_recheck;
+  int wall_beams = shipped_matcher::wall_beams;
+  // rechecks per pair (glass3 uses 0-4); past it, such are dropped
+  int wall_recheck_max = shipped_matcher::wall_recheck_max;
+  double wall_log_p = shipped_matcher::wall_log_p;
   // Two graphs of one floor id see the same walls: a pair's accepted alignment is
   // rejected (kContradicted) when more than this fraction of each graph's scans see
   // through the other's solid walls, a scan seeing through when `same_floor_through_beams`
@@ -182,19 +198,18 @@ struct FloorMatcherOptions {
   // alignment one graph's scans may see through the other's walls where the two saw the
   // floor differently (a door open for one robot and shut for the other can leave about a
   // tenth of one graph's scans seeing through, none the other way). 1 turns it off.
-  double same_floor_see_through = 0.1;
-  int same_floor_through_beams = 3;
+  double same_floor_see_through = shipped_matcher::same_floor_see_through;
+  int same_floor_through_beams = shipped_matcher::same_floor_through_beams;
   // A pair's accepted alignment that puts a robot's floor change, to a graph already placed,
   // outside these limits is rejected (kContradicted) and the graph tries the others: a floor
   // that shares only a lift with another can fit a look-alike of it turned about the lift,
   // which turns the robot's ride against its odometry. A growth pass
-  // (GrowthPassConfirmation) holds back what it places outside them, too. Off in the
-  // library (its unit tests' synthetic graphs share one robot and overlapping stamps);
-  // config/floor_matcher.yaml sets 15 m and 0.35 rad. A journal whose nodes carry no raw
-  // odometry (odom_x/y/theta all zero) needs the heading check off (0).
-  FloorChangeLimits floor_change;  // YAML: floor_change_radius, floor_change_heading
-  int threads = 2;
-  std::uint64_t seed = 1;
+  // (GrowthPassConfirmation) holds back what it places outside them, too. A journal whose
+  // nodes carry no raw odometry (odom_x/y/theta all zero) needs the heading check off (0).
+  FloorChangeLimits floor_change{shipped_matcher::floor_change_radius,
+                                 shipped_matcher::floor_change_heading};
+  int threads = shipped_matcher::threads;
+  std::uint64_t seed = shipped_matcher::seed;
 };
 FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node);
 

@@ -25,12 +25,25 @@ namespace storey::matching {
 
 using namespace detail;  // NOLINT(google-build-using-namespace): the stages' shared helpers
 
+localization::ParticleFilterOptions shippedMatcherFilter() {
+  namespace f = shipped_matcher::filter;
+  localization::ParticleFilterOptions o;
+  o.initial_particles_per_m2 = f::initial_particles_per_m2;
+  o.max_particles = f::max_particles;
+  o.min_particles = f::min_particles;
+  o.beams = f::beams;
+  o.coarse_beams = f::coarse_beams;
+  o.coarse_particles = f::coarse_particles;
+  o.effective_beams = f::effective_beams;
+  o.convergence_mass = f::convergence_mass;
+  o.convergence_radius = f::convergence_radius;
+  o.convergence_angle = f::convergence_angle;
+  return o;
+}
+
 FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
   FloorMatcherOptions o;
-  if (node.has("filter")) o.filter = readParticleFilterOptions(node.child("filter"));
-  if (node.has("map")) o.map = grid::readOccupancyGridOptions(node.child("map"));
-  if (node.has("likelihood_field"))
-    o.likelihood_field = grid::readLikelihoodFieldOptions(node.child("likelihood_field"));
+  if (node.has("filter")) o.filter = readParticleFilterOptions(node.child("filter"), o.filter);
   o.min_sequence = node.getInt("min_sequence", o.min_sequence, 1, 100000);
   o.max_sequence = node.getInt("max_sequence", o.max_sequence, 1, 100000);
   if (o.max_sequence < o.min_sequence) node.fail("max_sequence", "must be at least min_sequence");
@@ -85,7 +98,8 @@ FloorMatcherOptions readFloorMatcherOptions(const common::ConfigNode& node) {
   o.wall_recheck_max = node.getInt("wall_recheck_max", o.wall_recheck_max, 0, 1000000);
   o.wall_log_p = node.getDouble("wall_log_p", o.wall_log_p, -100.0, 0.0);
   o.threads = node.getInt("threads", o.threads, 1, 256);
-  o.seed = static_cast<std::uint64_t>(node.get<std::int64_t>("seed", 1));
+  o.seed =
+      static_cast<std::uint64_t>(node.get<std::int64_t>("seed", static_cast<std::int64_t>(o.seed)));
   node.finish();
   return o;
 }

@@ -7,14 +7,18 @@
 #include <utility>
 #include <vector>
 
+#include "storey/common/shipped_config.h"
 #include "storey/floor/floor_graph.h"
 
 namespace storey::matching {
 
 struct GrowthTrigger {
-  int min_nodes = 10;      // graphs smaller than this are not matched yet
-  int min_new_nodes = 20;  // a matched graph starts a pass once it has this many more nodes
-  double min_growth = 0.2;  // ...and this fraction more than when it was last matched
+  // graphs smaller than this are not matched yet
+  int min_nodes = shipped::floor_matcher::min_nodes;
+  // a matched graph starts a pass once it has this many more nodes
+  int min_new_nodes = shipped::floor_matcher::min_new_nodes;
+  // ...and this fraction more than when it was last matched
+  double min_growth = shipped::floor_matcher::min_growth;
 };
 
 // Whether a graph of `nodes` nodes starts a pass; `matched_before`: its size at its last

@@ -15,36 +15,39 @@
 #include <vector>
 
 #include "storey/common/config.h"
+#include "storey/common/shipped_config.h"
 #include "storey/floor/floor_graph.h"
 #include "storey/matching/floor_matcher.h"
 
 namespace storey::matching {
 
 struct RetractionOptions {
-  bool enabled = true;
+  bool enabled = shipped::floor_matcher::retraction::enabled;
   // How far the new pass may place a published constraint's node from where the
   // constraint put it before that constraint is retracted, and how closely an earlier pass
   // must agree to confirm one: the translation by which the scenarios judge a constraint
   // wrong (0.3 m), half their rotation (1 deg of 2): with the judge's own 2 deg a pass
   // that placed a pair 1.9 deg from a constraint 2.01 deg off confirmed it and never
   // withdrew it (docs/decisions/0005-growth-pass-confirmation.md).
-  double translation = 0.3;  // m
-  double rotation = 0.0175;  // rad
+  // m
+  double translation = shipped::floor_matcher::retraction::translation;
+  // rad
+  double rotation = shipped::floor_matcher::retraction::rotation;
   // Along a constraint's weak direction (a corridor's length) the limit is this many of
   // the sigmas its information claims, if that is more: the wrong-constraint judge's rule
   // (constraint_judgement.h). A fixed limit withdrew right corridor constraints whose
   // node a later pass placed 0.35-0.48 m further along the corridor.
-  double weak_sigmas = 3.0;
+  double weak_sigmas = shipped::floor_matcher::retraction::weak_sigmas;
   // A pass on growing graphs publishes a constraint only when an earlier pass placed its
   // two graphs the same way and one of them has grown by this fraction since then. A pass
   // that saw the same two graphs again (a third graph's growth triggered it) is no more
   // evidence: its filters see the same scans in the same map.
-  double confirm_growth = 0.2;
+  double confirm_growth = shipped::floor_matcher::retraction::confirm_growth;
   // ...and only when the pass's accepted candidates for the pair include scans of each
   // graph localised in the other's map. A young graph's small map lets another floor's
   // scans fit a local look-alike (a corridor's dead end at a lift) while its own scans,
   // in the other's whole map, do not agree.
-  bool confirm_both_sides = false;
+  bool confirm_both_sides = shipped::floor_matcher::retraction::confirm_both_sides;
 };
 RetractionOptions readRetractionOptions(const common::ConfigNode& node);
 

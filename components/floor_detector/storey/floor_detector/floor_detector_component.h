@@ -16,6 +16,7 @@
 #include "sensor_msgs/msg/FluidPressurePubSubTypes.h"
 #include "sensor_msgs/msg/ImuPubSubTypes.h"
 #include "sensor_msgs/msg/LaserScanPubSubTypes.h"
+#include "storey/common/shipped_config.h"
 #include "storey/detection/floor_detector.h"
 #include "storey/geometry/frame_tree.h"
 #include "storey/runtime/component.h"
@@ -27,14 +28,16 @@ namespace storey::floor_detector {
 
 struct FloorDetectorComponentOptions {
   std::string robot;                          // topic namespace
-  std::string events_topic = "floor_events";  // under the robot's namespace
-  double progress_period = 0.5;  // s of sensor time between progress messages (optional key)
+  // under the robot's namespace
+  std::string events_topic = shipped::floor_detector::events_topic;
+  // s of sensor time between progress messages (optional key)
+  double progress_period = shipped::floor_detector::progress_period;
   // Where the detector keeps its state (floors, current floor, barometric reference) so a
   // restarted detector goes on from it; "" = none (optional key).
-  std::string state_file;
+  std::string state_file = shipped::floor_detector::state_file;
   // s of sensor time the detector waits, before the next ride, for the floor mapper's
   // answer to an unsure arrival (<robot>/floor_identity); 0: never waits (no mapper).
-  double identity_wait = 30.0;
+  double identity_wait = shipped::floor_detector::identity_wait;
   detection::FloorDetectorOptions detector;
 };
 // Reads robot, events_topic, progress_period, state_file, identity_wait and detector;

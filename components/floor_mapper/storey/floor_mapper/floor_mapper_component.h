@@ -17,6 +17,7 @@
 
 #include "nav_msgs/msg/OdometryPubSubTypes.h"
 #include "sensor_msgs/msg/LaserScanPubSubTypes.h"
+#include "storey/common/shipped_config.h"
 #include "storey/floor/floor_event.h"
 #include "storey/geometry/frame_tree.h"
 #include "storey/mapping/floor_sessions.h"
@@ -32,19 +33,20 @@ namespace storey::floor_mapper {
 
 struct FloorMapperComponentOptions {
   std::string robot;                               // reads /<robot>/scan, /<robot>/odom
-  std::string events_topic = "floor_events";       // under the robot's namespace
-  std::string floor_graph_topic = "storey/floor_graphs";
-  int initial_floor = 0;
-  double initial_height = 0.0;
+  // under the robot's namespace
+  std::string events_topic = shipped::floor_mapper::events_topic;
+  std::string floor_graph_topic = shipped::floor_mapper::floor_graph_topic;
+  int initial_floor = shipped::floor_mapper::initial_floor;
+  double initial_height = shipped::floor_mapper::initial_height;
   // Floor-graph ids must be unique across the fleet (the graph server and the matcher key
   // graphs by id): this robot's are first_floor_graph_id, +1, ... (fewer than 1000); -1
   // derives the first from the robot's name (floorGraphIdBase).
-  long first_floor_graph_id = -1;
+  long first_floor_graph_id = shipped::floor_mapper::first_floor_graph_id;
   // max_odometry_gap, wait_for_floor_detector, max_floor_detector_lag (top-level keys).
   mapping::InputSequencerOptions input;
   // Input log (mapping::InputLog) replayed on start, so a restarted mapper resumes its
   // graphs exactly; empty: none (a restarted mapper would start afresh).
-  std::string input_log;
+  std::string input_log = shipped::floor_mapper::input_log;
   mapping::FloorSlamOptions slam;
 };
 // Reads the keys above and `slam` (see mapping::readFloorSlamOptions); calls finish().

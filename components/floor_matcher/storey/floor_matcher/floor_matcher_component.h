@@ -18,6 +18,7 @@
 #include <tuple>
 
 #include "storey/common/config.h"
+#include "storey/common/shipped_config.h"
 #include "storey/floor/floor_graph.h"
 #include "storey/matching/floor_matcher.h"
 #include "storey/matching/growth_passes.h"
@@ -30,27 +31,27 @@
 namespace storey::floor_matcher {
 
 struct FloorMatcherComponentOptions {
-  std::string floor_graph_topic = "storey/floor_graphs";
-  std::string constraint_topic = "storey/inter_floor_constraints";
+  std::string floor_graph_topic = shipped::floor_matcher::floor_graph_topic;
+  std::string constraint_topic = shipped::floor_matcher::constraint_topic;
   // The graph server's state lists the constraints it holds: a restarted matcher adopts
   // those it did not publish itself, so a later pass can withdraw them too.
-  std::string building_state_topic = "storey/building_state";
+  std::string building_state_topic = shipped::floor_matcher::building_state_topic;
   // Re-match when a graph of `min_nodes` or more is new or has grown by `min_new_nodes`
   // nodes and by `min_growth` (fraction of its size at the last matching): keys
   // min_nodes, min_new_nodes, min_growth.
   matching::GrowthTrigger trigger;
   // false: match only when flushed (storey map), so the result does not depend on when
   // updates arrived while the worker was busy.
-  bool match_while_growing = true;
+  bool match_while_growing = shipped::floor_matcher::match_while_growing;
   // > 0: match once no floor-graph update has arrived for this long (s) and a graph grew
   // since its last matching, so a deployment matches the final graphs when input ends
   // (and a restarted matcher re-matches what its topic history gave it).
-  double match_after_idle = 2.0;
+  double match_after_idle = shipped::floor_matcher::match_after_idle;
   // A pass triggered by growth publishes only constraints the pass before placed the same
   // way (within `retraction`'s tolerances); passes when input has settled (after
   // match_after_idle, or a flush) publish all they accept. Partial floors mislead: see
   // docs/floor_matcher.md, "Matching while the graphs grow".
-  bool confirm_while_growing = true;
+  bool confirm_while_growing = shipped::floor_matcher::confirm_while_growing;
   matching::FloorMatcherOptions matcher;
   matching::RetractionOptions retraction;  // under `retraction:`
 };

@@ -12,6 +12,12 @@ using common::logInfo;
 using common::logWarn;
 using common::str;
 
+grid::OccupancyGridOptions shippedFloorMaps() {
+  grid::OccupancyGridOptions o;
+  o.resolution = shipped::graph_server::map::resolution;
+  return o;
+}
+
 GraphServerOptions readGraphServerOptions(const common::ConfigNode& node) {
   GraphServerOptions o;
   o.floor_graph_topic = node.get<std::string>("floor_graph_topic", o.floor_graph_topic);
@@ -23,7 +29,11 @@ GraphServerOptions readGraphServerOptions(const common::ConfigNode& node) {
   o.journal_sync = node.get<bool>("journal_sync", o.journal_sync);
   o.optimize_min_period = node.getDouble("optimize_min_period", o.optimize_min_period, 0.0, 3600.0);
   o.publish_maps = node.get<bool>("publish_maps", o.publish_maps);
-  if (node.has("map")) o.map = grid::readOccupancyGridOptions(node.child("map"));
+  if (node.has("map")) {
+    const common::ConfigNode map = node.child("map");
+    o.map.resolution = map.getDouble("resolution", o.map.resolution, 0.005, 10.0);
+    map.finish();
+  }
   if (node.has("building")) o.building = building::readBuildingGraphOptions(node.child("building"));
   node.finish();
   return o;

@@ -18,6 +18,7 @@
 #include "storey/building/journal.h"
 #include "storey/building/redelivery.h"
 #include "storey/building/robot_locations.h"
+#include "storey/common/shipped_config.h"
 #include "storey/runtime/component.h"
 #include "storey_msgs/msg/BuildingStatePubSubTypes.h"
 #include "storey_msgs/msg/FloorGraphUpdatePubSubTypes.h"
@@ -27,17 +28,26 @@
 
 namespace storey::graph_server {
 
+// The per-floor maps' grid: its resolution from the shipped file, the rest the grid's own.
+grid::OccupancyGridOptions shippedFloorMaps();
+
 struct GraphServerOptions {
-  std::string floor_graph_topic = "storey/floor_graphs";
-  std::string constraint_topic = "storey/inter_floor_constraints";
-  std::string building_state_topic = "storey/building_state";
-  std::string floor_map_topic_prefix = "storey/floor_maps";  // + "/floor_<id>"
-  std::string markers_topic = "storey/building_markers";     // visualization_msgs/MarkerArray
-  std::string journal_path;  // empty: no journal
-  bool journal_sync = true;  // group commit before each published state
-  double optimize_min_period = 0.5;  // seconds between optimisations
-  bool publish_maps = true;
-  grid::OccupancyGridOptions map;
+  std::string floor_graph_topic = shipped::graph_server::floor_graph_topic;
+  std::string constraint_topic = shipped::graph_server::constraint_topic;
+  std::string building_state_topic = shipped::graph_server::building_state_topic;
+  // + "/floor_<id>"
+  std::string floor_map_topic_prefix = shipped::graph_server::floor_map_topic_prefix;
+  // visualization_msgs/MarkerArray
+  std::string markers_topic = shipped::graph_server::markers_topic;
+  // empty: no journal
+  std::string journal_path = shipped::graph_server::journal;
+  // group commit before each published state
+  bool journal_sync = shipped::graph_server::journal_sync;
+  // seconds between optimisations
+  double optimize_min_period = shipped::graph_server::optimize_min_period;
+  bool publish_maps = shipped::graph_server::publish_maps;
+  // key: map.resolution
+  grid::OccupancyGridOptions map = shippedFloorMaps();
   building::BuildingGraphOptions building;
 };
 GraphServerOptions readGraphServerOptions(const common::ConfigNode& node);
