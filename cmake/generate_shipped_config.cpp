@@ -55,7 +55,7 @@ void emitScalar(std::ostream& out, const std::string& name, const YAML::Node& va
                 const std::string& indent) {
   static const std::regex integer("[-+]?[0-9]+");
   static const std::regex real("[-+]?([0-9]+\\.?[0-9]*|\\.[0-9]+)([eE][-+]?[0-9]+)?");
-  const std::string text = value.Scalar();
+  const std::string& text = value.Scalar();
   if (value.Tag() != "!" && (text == "true" || text == "false")) {
     out << indent << "inline constexpr bool " << name << " = " << text << ";\n";
   } else if (value.Tag() != "!" && std::regex_match(text, integer)) {

@@ -1,22 +1,14 @@
 #!/usr/bin/env bash
 # Checks that the C++ lines changed since a base commit are formatted as .clang-format
 # says (git clang-format --diff: only changed lines, so untouched code is not reflowed).
-# The base is STOREY_FORMAT_BASE, else the merge base with main (or origin/main); on main
-# itself that is HEAD, so only uncommitted changes are checked. Prints the diff to apply
+# The base is packages.sh's check_base (STOREY_CHECK_BASE, the merge base with main, or on
+# main the commit before HEAD). Prints the diff to apply
 # (`git clang-format BASE` applies it) and exits 1 when a changed line is not formatted.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/packages.sh
 ensure_packages clang-format
-base=${STOREY_FORMAT_BASE:-}
-if [ -z "$base" ]; then
-  for ref in main origin/main; do
-    if git rev-parse --verify -q "$ref^{commit}" >/dev/null; then
-      base=$(git merge-base HEAD "$ref")
-      break
-    fi
-  done
-fi
+base=$(check_base)
 if [ -z "$base" ]; then
   echo "format-check.sh: no main branch to compare with; skipped"
   exit 0

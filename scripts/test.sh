@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Sets up and builds storey (scripts/setup.sh), checks the format of the changed lines
-# (scripts/format-check.sh), then runs every test: unit tests (core,
+# (scripts/format-check.sh) and runs clang-tidy on the changed sources (scripts/tidy.sh;
+# on main both look at what the newest commit changed), then runs every test: unit tests (core,
 # no DDS), integration tests (components over DDS on loopback, several processes, two
 # network namespaces), scenario tests (the whole pipeline on simulated buildings and real
 # logs); then the sanitizer runs (scripts/sanitize.sh: unit tests under ASan + UBSan, the
@@ -19,6 +20,10 @@ build_dir=${STOREY_BUILD_DIR:-build}
 status=0
 echo "== format"
 ./scripts/format-check.sh || status=1
+echo "== clang-tidy"
+phase_start=$SECONDS
+./scripts/tidy.sh || status=1
+echo "== clang-tidy: $((SECONDS - phase_start)) s"
 for label in unit integration scenario; do
   echo "== $label tests"
   phase_start=$SECONDS

@@ -41,6 +41,6 @@ Eigen::MatrixXd numericJacobian(const std::function<Eigen::VectorXd(const Eigen:
 #define STOREY_REQUIRE_DATA(var, relative)                                                       \
   const std::string var =                                                                        \
       ::storey::test::sharedDataPath(relative); /* NOLINT(bugprone-macro-parentheses): a name */ \
-  if (var.empty()) {                                                                             \
+  if ((var).empty()) {                                                                           \
     GTEST_SKIP() << "shared data file ../shared/data/" << (relative) << " is absent";            \
   }

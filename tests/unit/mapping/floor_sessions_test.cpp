@@ -21,7 +21,6 @@ using geometry::Pose2;
 using test::asymmetricFloor;
 using test::legs;
 using test::Robot;
-using test::symmetricFloor;
 using test::upperFloor;
 
 TEST(FloorSessions, ReturningRobotIsLocalisedGloballyAndResumesItsGraph) {

@@ -69,7 +69,7 @@ inline floor::FloorGraph driveFloor(const Walls& walls,
   geometry::Pose2 pose(waypoints[0].x(), waypoints[0].y(), heading);
   truth.push_back(pose);
   for (std::size_t w = 1; w < waypoints.size(); ++w) {
-    const Eigen::Vector2d target = waypoints[w];
+    const Eigen::Vector2d& target = waypoints[w];
     const Eigen::Vector2d d = target - pose.translation();
     const double want = std::atan2(d.y(), d.x());
     double turn = geometry::angleDiff(want, pose.theta());
