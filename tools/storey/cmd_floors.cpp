@@ -11,7 +11,7 @@
 #include "args.h"
 #include "storey/common/log.h"
 #include "storey/detection/floor_detector.h"
-#include "storey/detection/floor_evaluation.h"
+#include "storey/eval/floor_evaluation.h"
 #include "storey/runtime/sensor_bag.h"
 
 namespace storey::cli {
@@ -63,8 +63,8 @@ int run_floors(Args& args) {
   if (args.has("config")) options = detection::loadFloorDetectorOptions(args.get("config"));
   std::set<std::string> only;
   if (args.has("robot")) only = splitNames(args.get("robot"));
-  std::vector<detection::TrueTransit> truth;
-  if (args.has("ground-truth")) truth = detection::readTrueTransits(args.get("ground-truth"));
+  std::vector<eval::TrueTransit> truth;
+  if (args.has("ground-truth")) truth = eval::readTrueTransits(args.get("ground-truth"));
 
   runtime::SensorBagReader reader(bag_path);
   std::map<std::string, std::unique_ptr<detection::FloorDetector>> detectors;
@@ -123,11 +123,11 @@ int run_floors(Args& args) {
     }
     std::printf("\n");
     if (args.has("ground-truth")) {
-      std::vector<detection::TrueTransit> mine;
+      std::vector<eval::TrueTransit> mine;
       for (const auto& t : truth) {
         if (t.robot == robot) mine.push_back(t);
       }
-      const detection::FloorComparison c = detection::compareWithTruth(list, mine);
+      const eval::FloorComparison c = eval::compareWithTruth(list, mine);
       std::printf(
           "  vs ground truth: %d true transits, %d reported, %d missed, %d spurious, "
           "%d wrong floors, height-change RMSE %.3f m, mode right %d/%d%s\n",

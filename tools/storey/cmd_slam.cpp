@@ -21,7 +21,7 @@
 #include "storey/graph/graph_io.h"
 #include "storey/grid/image.h"
 #include "storey/io/carmen.h"
-#include "storey/mapping/evaluation.h"
+#include "storey/eval/slam_evaluation.h"
 #include "storey/mapping/floor_sessions.h"
 #include "storey/mapping/floor_slam.h"
 #include "storey/mapping/input_sequencer.h"
@@ -56,7 +56,7 @@ std::vector<double> parseList(const std::string& text, std::size_t count, const 
 
 // One line: the odometry noise rates fitted to a graph's odometry edges, next to the configured
 // ones.
-void printOdometryFit(std::ostream& out, const char* poses, const mapping::OdometryNoiseFit& fit,
+void printOdometryFit(std::ostream& out, const char* poses, const eval::OdometryNoiseFit& fit,
                       const mapping::OdometryNoiseModel& configured) {
   if (fit.steps == 0) return;
   const auto rates = [](const mapping::OdometryNoiseModel& m) {
@@ -74,7 +74,7 @@ void printOdometryFit(std::ostream& out, const char* poses, const mapping::Odome
       << "\n  configured (slam.odometry_noise):                " << rates(configured) << "\n";
 }
 
-void printStats(std::ostream& out, const char* name, const mapping::ErrorStats& s) {
+void printStats(std::ostream& out, const char* name, const eval::ErrorStats& s) {
   out << std::fixed << std::setprecision(4) << "  " << name << " pairs: " << s.count
       << "  translation " << s.translation_mean << " ± " << s.translation_std << " m"
       << "  rotation " << std::setprecision(3) << s.rotation_mean * 180.0 / M_PI << " ± "
@@ -219,15 +219,15 @@ int mapFloors(const mapping::FloorSlamOptions& options, const SlamInput& input,
     report << name << ": nodes: " << fg.nodes.size() << "  matched: " << st.matched
            << "  match failures: " << st.match_failures << "  loop closures: " << st.loop_closures
            << " of " << st.loop_attempts << " attempts\n";
-    printOdometryFit(report, "its finished graph", mapping::fitOdometryNoise(fg, options.odometry),
+    printOdometryFit(report, "its finished graph", eval::fitOdometryNoise(fg, options.odometry),
                      options.odometry);
     if (!input.reference.empty())
       printOdometryFit(report, "the reference",
-                       mapping::fitOdometryNoise(fg, node_reference, options.odometry),
+                       eval::fitOdometryNoise(fg, node_reference, options.odometry),
                        options.odometry);
     if (!input.reference.empty() && estimate.size() >= 2) {
-      const mapping::RelationErrors errors = mapping::relationErrors(estimate, reference);
-      const mapping::RelationErrors odo = mapping::relationErrors(odometry, reference);
+      const eval::RelationErrors errors = eval::relationErrors(estimate, reference);
+      const eval::RelationErrors odo = eval::relationErrors(odometry, reference);
       report
           << "relation error (Kümmerle et al. 2009) over its nodes against the reference poses:\n";
       printStats(report, "slam     nearby", errors.nearby);
@@ -308,7 +308,7 @@ int run_slam(Args& args) {
       odometry_source != "stream")
     throw UsageError("--odometry must be simulated, recorded or stream");
   const auto noise_values = parseList(args.get("odometry-noise"), 3, "odometry-noise");
-  mapping::OdometryNoise noise;
+  eval::OdometryNoise noise;
   noise.translation_fraction = noise_values[0];
   noise.rotation_per_meter = noise_values[1] * M_PI / 180.0;
   noise.rotation_fraction = noise_values[2];
@@ -369,7 +369,7 @@ int run_slam(Args& args) {
   if (changesFloor(input.floor_events)) return mapFloors(options, input, out_dir);
 
   mapping::FloorSlam slam(options, "robot", 0, 0, 0.0);
-  const mapping::OfflineRun run = mapping::runOffline(slam, scans, odometry);
+  const eval::OfflineRun run = eval::runOffline(slam, scans, odometry);
 
   // Express the result in the log's frame (the front end starts at the origin).
   const Pose2 to_log = odometry.front();
@@ -411,13 +411,13 @@ int run_slam(Args& args) {
   report << "odometry: " << input.odometry_note << "\n";
   // The odometry model the run's own graph suggests, for a robot whose odometry_noise is not
   // calibrated yet (it sets the odometry edges' weight and max_tracking_chi2's gate).
-  printOdometryFit(report, "the finished graph", mapping::fitOdometryNoise(fg, options.odometry),
+  printOdometryFit(report, "the finished graph", eval::fitOdometryNoise(fg, options.odometry),
                    options.odometry);
   if (!reference.empty()) {
     // The estimate's and the odometry's relation errors, over the pairs without a left-out pose.
     auto printRelations = [&](const std::vector<bool>& left_out) {
-      const mapping::RelationErrors errors = mapping::relationErrors(trajectory, reference, 10.0, 5000, 1, left_out);
-      const mapping::RelationErrors odo = mapping::relationErrors(odometry, reference, 10.0, 5000, 1, left_out);
+      const eval::RelationErrors errors = eval::relationErrors(trajectory, reference, 10.0, 5000, 1, left_out);
+      const eval::RelationErrors odo = eval::relationErrors(odometry, reference, 10.0, 5000, 1, left_out);
       printStats(report, "slam     nearby", errors.nearby);
       printStats(report, "slam     far   ", errors.far);
       printStats(report, "odometry nearby", odo.nearby);
@@ -426,7 +426,7 @@ int run_slam(Args& args) {
     report << "relation error (Kümmerle et al. 2009) against the reference poses:\n";
     printRelations({});
     if (check_reference) {
-      const std::vector<mapping::ReferencePoseCheck> checks = mapping::checkReferencePoses(scans, reference);
+      const std::vector<eval::ReferencePoseCheck> checks = eval::checkReferencePoses(scans, reference);
       std::vector<bool> contradicted(reference.size(), false);
       std::size_t count = 0;
       std::ofstream csv(out_dir + "/reference_check.csv");
@@ -452,10 +452,10 @@ int run_slam(Args& args) {
         node_reference[slam.floorGraph().nodes[k++].id] = reference[i];
     writeLoopAttempts(out_dir + "/loop_closures.csv", slam.loopAttempts(), &node_reference);
     printOdometryFit(report, "the reference",
-                     mapping::fitOdometryNoise(slam.floorGraph(), node_reference, options.odometry),
+                     eval::fitOdometryNoise(slam.floorGraph(), node_reference, options.odometry),
                      options.odometry);
     report << "edges against the reference (NEES: 3 when an edge's covariance is right):\n";
-    for (const auto& c : mapping::edgeConsistency(slam.floorGraph(), node_reference))
+    for (const auto& c : eval::edgeConsistency(slam.floorGraph(), node_reference))
       report << "  " << std::left << std::setw(13) << floor::edgeKindName(c.kind) << std::right << " "
              << std::setw(5) << c.count << "  NEES " << std::setprecision(2) << c.mean_nees << std::setprecision(4)
              << "  rms error " << c.rms_translation_error << " m " << c.rms_rotation_error * 180.0 / M_PI

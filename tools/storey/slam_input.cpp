@@ -14,7 +14,7 @@
 #include "storey/common/log.h"
 #include "storey/eval/trajectory.h"
 #include "storey/io/carmen.h"
-#include "storey/mapping/evaluation.h"
+#include "storey/eval/slam_evaluation.h"
 #include "storey/runtime/sensor_bag.h"
 
 namespace storey::cli {
@@ -151,7 +151,7 @@ std::vector<io::CarmenLaser> readLogLasers(const std::string& path) { return rea
 // line; "stream": its ODOM lines interpolated at each scan's stamp, as the floor_mapper pairs
 // them live), with the poses of `reference_log` (if given) as the reference.
 SlamInput logInput(const std::string& path, const std::string& odometry_source,
-                   const mapping::OdometryNoise& noise, const std::string& noise_text,
+                   const eval::OdometryNoise& noise, const std::string& noise_text,
                    std::uint64_t seed, const std::string& reference_log, long max_scans,
                    const mapping::InputSequencerOptions& sequencing) {
   const bool simulate_odometry = odometry_source == "simulated";
@@ -190,7 +190,7 @@ SlamInput logInput(const std::string& path, const std::string& odometry_source,
   }
   if (simulate_odometry) {
     input.reference = log_poses;
-    input.odometry = mapping::simulateOdometry(log_poses, noise, seed);
+    input.odometry = eval::simulateOdometry(log_poses, noise, seed);
     input.odometry_note = "simulated from the log's poses, noise " + noise_text +
                           " (translation fraction, deg per m, heading fraction), seed " +
                           std::to_string(seed);

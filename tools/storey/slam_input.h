@@ -8,7 +8,7 @@
 
 #include "storey/detection/floor_detector.h"
 #include "storey/geometry/pose2.h"
-#include "storey/mapping/evaluation.h"
+#include "storey/eval/slam_evaluation.h"
 #include "storey/mapping/input_sequencer.h"
 #include "storey/sensor/laser_scan.h"
 
@@ -30,7 +30,7 @@ struct SlamInput {
 // line; "stream": its ODOM lines interpolated at each scan's stamp, as the floor_mapper pairs
 // them live), with the poses of `reference_log` (if given) as the reference.
 SlamInput logInput(const std::string& path, const std::string& odometry_source,
-                   const mapping::OdometryNoise& noise, const std::string& noise_text,
+                   const eval::OdometryNoise& noise, const std::string& noise_text,
                    std::uint64_t seed, const std::string& reference_log, long max_scans,
                    const mapping::InputSequencerOptions& sequencing);
 

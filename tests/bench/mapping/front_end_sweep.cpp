@@ -14,7 +14,7 @@
 // Goals per cell (docs/floor_mapper.md, "Robustness benchmark"): nearby relation error
 // <= 0.03 m and 0.5°, pairs more than 10 m apart <= 0.5 m, no scan rejected, and at least
 // 50x real time on one core (CPU time of the cell's thread). Reference poses that their
-// own scans contradict are left out of the errors (mapping::checkReferencePoses). A 180°
+// own scans contradict are left out of the errors (storey::eval::checkReferencePoses). A 180°
 // view is not run on a log whose laser sees no more than that (the shared logs' lasers
 // see 180°): it would repeat the logged laser's cells.
 #include <time.h>
@@ -38,7 +38,7 @@
 #include "storey/floor/floor_graph.h"
 #include "storey/grid/image.h"
 #include "storey/io/carmen.h"
-#include "storey/mapping/evaluation.h"
+#include "storey/eval/slam_evaluation.h"
 #include "storey/mapping/floor_slam.h"
 
 namespace {
@@ -70,8 +70,8 @@ const std::vector<LogSpec> kLogs = {
 struct Condition {
   std::string spacing, odometry, laser;
   double thin_translation = 0.0, thin_rotation = 0.0;
-  mapping::OdometryNoise noise;
-  mapping::LaserDegradation degradation;
+  storey::eval::OdometryNoise noise;
+  storey::eval::LaserDegradation degradation;
   std::string name() const { return spacing + " " + odometry + " " + laser; }
 };
 
@@ -82,34 +82,34 @@ std::vector<Condition> conditions(bool recorded_odometry) {
   };
   const std::vector<Spacing> spacings = {{"every", 0.0, 0.0}, {"0.5m", 0.5, 0.5}, {"1m", 1.0, 1.0}};
   auto noise = [](double t, double r_deg, double fraction) {
-    mapping::OdometryNoise n;
+    storey::eval::OdometryNoise n;
     n.translation_fraction = t;
     n.rotation_per_meter = r_deg * kDeg;
     n.rotation_fraction = fraction;
     return n;
   };
-  std::vector<std::pair<std::string, mapping::OdometryNoise>> odometry = {
+  std::vector<std::pair<std::string, storey::eval::OdometryNoise>> odometry = {
       {"odo2%/1", noise(0.02, 1.0, 0.01)},
       {"odo5%/2", noise(0.05, 2.0, 0.02)},
       {"odo10%/5", noise(0.10, 5.0, 0.05)}};
-  mapping::OdometryNoise systematic = noise(0.02, 1.0, 0.01);
+  storey::eval::OdometryNoise systematic = noise(0.02, 1.0, 0.01);
   systematic.scale = 1.03;
   systematic.heading_drift_per_meter = 1.0 * kDeg;
   odometry.emplace_back("systematic", systematic);
   // About 2 s of a robot at 0.5 m/s held every 8 m, then caught up at once.
-  mapping::OdometryNoise stalls = noise(0.05, 2.0, 0.02);
+  storey::eval::OdometryNoise stalls = noise(0.05, 2.0, 0.02);
   stalls.stall_every = 8.0;
   stalls.stall_length = 1.0;
   odometry.emplace_back("stalls", stalls);
   auto laser = [](double range, std::size_t step, double noise_m, double fov) {
-    mapping::LaserDegradation d;
+    storey::eval::LaserDegradation d;
     d.max_range = range;
     d.beam_step = step;
     d.range_noise = noise_m;
     d.field_of_view = fov;
     return d;
   };
-  const std::vector<std::pair<std::string, mapping::LaserDegradation>> lasers = {
+  const std::vector<std::pair<std::string, storey::eval::LaserDegradation>> lasers = {
       {"range3.5", laser(3.5, 1, 0, 0)},
       {"range8", laser(8.0, 1, 0, 0)},
       {"half-beams", laser(0, 2, 0, 0)},
@@ -171,7 +171,7 @@ LogData readLog(const std::string& dir, const LogSpec& spec) {
   } else {
     for (std::size_t i = 0; i < log.scans.size(); ++i) log.scans[i].stamp = static_cast<double>(i);
   }
-  for (const auto& check : mapping::checkReferencePoses(log.scans, log.poses))
+  for (const auto& check : storey::eval::checkReferencePoses(log.scans, log.poses))
     log.contradicted.push_back(check.contradicted);
   return log;
 }
@@ -180,7 +180,7 @@ struct CellResult {
   std::string log, half, condition;
   int seed = 0;
   std::size_t scans = 0, nodes = 0, rejected = 0, closures = 0;
-  mapping::RelationErrors errors;
+  storey::eval::RelationErrors errors;
   double cpu_seconds = 0.0, duration = 0.0;
   std::string failures;  // the goals the cell misses, "" when none
 };
@@ -196,7 +196,7 @@ CellResult runCell(const LogData& log, const Condition& c, int seed,
                    const std::string& trace_dir) {
   std::vector<std::size_t> kept;
   if (c.thin_translation > 0.0)
-    kept = mapping::thinnedIndices(log.poses, c.thin_translation, c.thin_rotation);
+    kept = storey::eval::thinnedIndices(log.poses, c.thin_translation, c.thin_rotation);
   else
     for (std::size_t i = 0; i < log.scans.size(); ++i) kept.push_back(i);
   std::vector<storey::sensor::LaserScan> scans;
@@ -204,7 +204,7 @@ CellResult runCell(const LogData& log, const Condition& c, int seed,
   std::vector<bool> left_out;
   std::mt19937_64 rng(static_cast<std::uint64_t>(seed) * 7919u + 17u);
   for (std::size_t i : kept) {
-    scans.push_back(mapping::degradeScan(log.scans[i], c.degradation, rng));
+    scans.push_back(storey::eval::degradeScan(log.scans[i], c.degradation, rng));
     reference.push_back(log.poses[i]);
     recorded.push_back(log.recorded[i]);
     left_out.push_back(log.contradicted[i]);
@@ -212,7 +212,7 @@ CellResult runCell(const LogData& log, const Condition& c, int seed,
   const std::vector<Pose2> odometry =
       log.spec->recorded_odometry
           ? recorded
-          : mapping::simulateOdometry(reference, c.noise, static_cast<std::uint64_t>(seed));
+          : storey::eval::simulateOdometry(reference, c.noise, static_cast<std::uint64_t>(seed));
   CellResult r;
   r.log = log.spec->name;
   r.half = log.spec->half;
@@ -222,14 +222,14 @@ CellResult runCell(const LogData& log, const Condition& c, int seed,
   r.duration = log.duration;
   mapping::FloorSlam slam(options, "robot", 0, 0, 0.0);
   const double start = threadCpuSeconds();
-  const mapping::OfflineRun run = mapping::runOffline(slam, scans, odometry);
+  const storey::eval::OfflineRun run = storey::eval::runOffline(slam, scans, odometry);
   r.cpu_seconds = threadCpuSeconds() - start;
   r.nodes = slam.floorGraph().nodes.size();
   r.rejected = slam.stats().rejected;
   r.closures = slam.stats().loop_closures;
   std::vector<Pose2> estimate;
   for (const auto& p : run.trajectory) estimate.push_back(odometry.front() * p);
-  r.errors = mapping::relationErrors(estimate, reference, 10.0, 5000, 1, left_out);
+  r.errors = storey::eval::relationErrors(estimate, reference, 10.0, 5000, 1, left_out);
   std::ostringstream f;
   if (r.errors.nearby.translation_mean > 0.03) f << " nearby-m";
   if (r.errors.nearby.rotation_mean > 0.5 * kDeg) f << " nearby-deg";

@@ -3,12 +3,15 @@
 #include <benchmark/benchmark.h>
 
 #include "storey/common/config.h"
-#include "storey/mapping/evaluation.h"
+#include "storey/eval/slam_evaluation.h"
 #include "storey/mapping/floor_slam.h"
 #include "storey/mapping/scan_matcher.h"
 #include "synthetic_world.h"
 
 namespace storey::mapping {
+using eval::OdometryNoise;
+using eval::runOffline;
+using eval::simulateOdometry;
 namespace {
 
 using geometry::Pose2;

@@ -13,11 +13,14 @@
 
 #include "storey/common/log.h"
 #include "storey/detection/floor_detector.h"
-#include "storey/detection/floor_evaluation.h"
+#include "storey/eval/floor_evaluation.h"
 #include "storey/sim/simulator.h"
 #include "test_support.h"
 
 namespace storey::detection {
+using eval::FloorComparison;
+using eval::TrueTransit;
+using eval::compareWithTruth;
 namespace {
 
 // Five seeds by default; STOREY_FLOOR_SEEDS=N runs more (for sweeps, not for CI).

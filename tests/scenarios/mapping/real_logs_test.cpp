@@ -12,12 +12,20 @@
 
 #include "storey/common/log.h"
 #include "storey/io/carmen.h"
-#include "storey/mapping/evaluation.h"
+#include "storey/eval/slam_evaluation.h"
 #include "storey/mapping/floor_slam.h"
 #include "storey/mapping/input_sequencer.h"
 #include "test_support.h"
 
 namespace storey::mapping {
+using eval::OdometryNoise;
+using eval::OfflineRun;
+using eval::ReferencePoseCheck;
+using eval::RelationErrors;
+using eval::checkReferencePoses;
+using eval::relationErrors;
+using eval::runOffline;
+using eval::simulateOdometry;
 namespace {
 
 using geometry::Pose2;

@@ -13,12 +13,14 @@
 #include <map>
 
 #include "storey/common/config.h"
-#include "storey/mapping/evaluation.h"
+#include "storey/eval/slam_evaluation.h"
 #include "storey/mapping/floor_slam.h"
 #include "storey/sim/simulator.h"
 #include "test_support.h"
 
 namespace storey::mapping {
+using eval::EdgeConsistency;
+using eval::edgeConsistency;
 namespace {
 
 using geometry::Pose2;

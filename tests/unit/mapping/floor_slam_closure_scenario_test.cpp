@@ -11,6 +11,8 @@
 #include "world_run.h"
 
 namespace storey::mapping {
+using eval::OdometryNoise;
+using eval::simulateOdometry;
 namespace {
 
 using geometry::Pose2;

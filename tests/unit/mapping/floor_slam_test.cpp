@@ -8,13 +8,17 @@
 #include <memory>
 
 #include "bare_options.h"
-#include "storey/mapping/evaluation.h"
+#include "storey/eval/slam_evaluation.h"
 #include "storey/mapping/floor_sessions.h"
 #include "synthetic_world.h"
 #include "test_support.h"
 #include "world_run.h"
 
 namespace storey::mapping {
+using eval::OdometryNoise;
+using eval::RelationErrors;
+using eval::relationErrors;
+using eval::simulateOdometry;
 namespace {
 
 using geometry::Pose2;

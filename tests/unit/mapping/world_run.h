@@ -6,11 +6,15 @@
 #include <cstdlib>
 #include <vector>
 
-#include "storey/mapping/evaluation.h"
+#include "storey/eval/slam_evaluation.h"
 #include "storey/mapping/floor_slam.h"
 #include "synthetic_world.h"
 
 namespace storey::mapping::test {
+using eval::OdometryNoise;
+using eval::OfflineRun;
+using eval::runOffline;
+using eval::simulateOdometry;
 
 using geometry::Pose2;
 

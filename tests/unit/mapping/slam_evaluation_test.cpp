@@ -1,6 +1,6 @@
-// Evaluation against reference poses (mapping/evaluation.h): edge consistency, the
+// Evaluation against reference poses (eval/slam_evaluation.h): edge consistency, the
 // relation error with left-out poses, and the check of reference poses against their scans.
-#include "storey/mapping/evaluation.h"
+#include "storey/eval/slam_evaluation.h"
 
 #include <gtest/gtest.h>
 
@@ -16,6 +16,7 @@ namespace storey::mapping {
 namespace {
 
 using geometry::Pose2;
+using namespace eval;  // NOLINT(google-build-using-namespace): the evaluation under test
 
 TEST(EdgeConsistency, NormalisesEachKindsErrorByItsInformation) {
   floor::FloorGraph graph;

@@ -1,4 +1,4 @@
-#include "storey/detection/floor_evaluation.h"
+#include "storey/eval/floor_evaluation.h"
 
 #include <gtest/gtest.h>
 
@@ -6,8 +6,12 @@
 
 #include "test_support.h"
 
-namespace storey::detection {
+namespace storey::eval {
 namespace {
+
+using floor::FloorEvent;
+using floor::FloorEventType;
+using floor::TransitMode;
 
 FloorEvent change(double start, double end, int from, int to, double dz, bool created) {
   FloorEvent e;
@@ -99,4 +103,4 @@ TEST(FloorEvaluation, ReadsGroundTruthByColumnNameAndRejectsBadRows) {
 }
 
 }  // namespace
-}  // namespace storey::detection
+}  // namespace storey::eval

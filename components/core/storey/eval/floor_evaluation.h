@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "storey/detection/floor_detector.h"
+#include "storey/floor/floor_event.h"
 
-namespace storey::detection {
+namespace storey::eval {
 
 struct TrueTransit {
   std::string robot;
@@ -40,7 +40,7 @@ struct FloorComparison {
 // transits. The detector's start floor is identified with the truth's first from_floor;
 // each floor id the detector creates is identified with the true floor it first reached.
 // A reported change matches a true transit when their intervals overlap within `slack`.
-FloorComparison compareWithTruth(const std::vector<FloorEvent>& events,
+FloorComparison compareWithTruth(const std::vector<floor::FloorEvent>& events,
                                  const std::vector<TrueTransit>& truth, double slack = 10.0);
 
-}  // namespace storey::detection
+}  // namespace storey::eval

@@ -1,4 +1,4 @@
-#include "storey/mapping/evaluation.h"
+#include "storey/eval/slam_evaluation.h"
 
 #include <Eigen/LU>
 #include <algorithm>
@@ -11,9 +11,10 @@
 #include "storey/grid/occupancy_grid.h"
 #include "storey/mapping/scan_matcher.h"
 
-namespace storey::mapping {
+namespace storey::eval {
 
 using geometry::Pose2;
+using namespace mapping;  // NOLINT(google-build-using-namespace): the front end under evaluation
 
 std::vector<Pose2> simulateOdometry(const std::vector<Pose2>& reference, const OdometryNoise& noise,
                                     std::uint64_t seed) {
@@ -381,4 +382,4 @@ OdometryNoiseFit fitOdometryNoise(const floor::FloorGraph& graph,
   return fitOdometryNoise(graph, poses, floors);
 }
 
-}  // namespace storey::mapping
+}  // namespace storey::eval

@@ -12,7 +12,7 @@
 #include "storey/mapping/floor_slam.h"
 #include "storey/sensor/laser_scan.h"
 
-namespace storey::mapping {
+namespace storey::eval {
 
 // Odometry noise per step between consecutive poses: each translation component gets
 // N(0, (translation_fraction·d)²), the heading N(0, (rotation_per_meter·d +
@@ -57,15 +57,15 @@ sensor::LaserScan degradeScan(const sensor::LaserScan& scan, const LaserDegradat
 
 struct OfflineRun {
   std::vector<geometry::Pose2> trajectory;  // per scan, at the final graph's poses
-  std::vector<ScanStatus> status;           // per scan
-  std::vector<ScanResult> results;          // per scan, as addScan returned it
+  std::vector<mapping::ScanStatus> status;           // per scan
+  std::vector<mapping::ScanResult> results;          // per scan, as addScan returned it
   double seconds = 0.0;                     // processing time (wall clock)
 };
 
 // Feeds every scan with its odometry to `slam`, finishes it (FloorSlam::finish), and returns each
 // scan's pose: a node's pose, or the pose of the node it followed composed with the
 // odometry motion since (re-expressed after the final optimisation).
-OfflineRun runOffline(FloorSlam& slam, const std::vector<sensor::LaserScan>& scans,
+OfflineRun runOffline(mapping::FloorSlam& slam, const std::vector<sensor::LaserScan>& scans,
                       const std::vector<geometry::Pose2>& odometry);
 
 struct ErrorStats {
@@ -141,14 +141,14 @@ std::vector<EdgeConsistency> edgeConsistency(const floor::FloorGraph& graph,
 // corridor's axis), high by the graph's own errors (docs/floor_mapper.md, "Odometry noise fitted
 // to the graph"). Without odometry edges, `steps` is 0 and the model is `floors`.
 struct OdometryNoiseFit {
-  OdometryNoiseModel model;
+  mapping::OdometryNoiseModel model;
   std::size_t steps = 0;  // odometry edges with both nodes in `poses`
 };
 OdometryNoiseFit fitOdometryNoise(const floor::FloorGraph& graph,
                                   const std::map<int, geometry::Pose2>& poses,
-                                  const OdometryNoiseModel& floors = {});
+                                  const mapping::OdometryNoiseModel& floors = {});
 // The same with the graph's own node poses, which needs nothing but the run.
 OdometryNoiseFit fitOdometryNoise(const floor::FloorGraph& graph,
-                                  const OdometryNoiseModel& floors = {});
+                                  const mapping::OdometryNoiseModel& floors = {});
 
-}  // namespace storey::mapping
+}  // namespace storey::eval

@@ -1,4 +1,4 @@
-#include "storey/detection/floor_evaluation.h"
+#include "storey/eval/floor_evaluation.h"
 
 #include <cmath>
 #include <fstream>
@@ -8,7 +8,10 @@
 #include "storey/common/config.h"
 #include "storey/common/log.h"
 
-namespace storey::detection {
+namespace storey::eval {
+
+using floor::FloorEvent;
+using floor::FloorEventType;
 
 using common::str;
 
@@ -168,4 +171,4 @@ FloorComparison compareWithTruth(const std::vector<FloorEvent>& events,
   return c;
 }
 
-}  // namespace storey::detection
+}  // namespace storey::eval
