@@ -27,6 +27,7 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -208,7 +209,10 @@ void expectSameBuilding(const Comparison& c) {
   EXPECT_LE(c.max_height, kHeightTolerance) << c.text;
 }
 
+// Replaces every `from` in `text`; throws when there is none (a shipped file changed).
 std::string replaceAll(std::string text, const std::string& from, const std::string& to) {
+  if (text.find(from) == std::string::npos)
+    throw std::runtime_error("replaceAll: '" + from + "' not in the text");
   for (auto at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size()))
     text.replace(at, from.size(), to);
   return text;
@@ -257,14 +261,20 @@ class Deployment {
     // mapper stalls for 2 s now and then, and a matching in a stall depends on its timing.
     // Matching only after the replay (not while graphs grow): a matching of growing graphs
     // depends on which state it catches, and its constraints stay.
-    const std::string matcher_parameters = test::readFile(config + "floor_matcher.yaml") +
-                                           "match_after_idle: 5.0\nmatch_while_growing: false\n";
+    const std::string matcher_parameters =
+        replaceAll(replaceAll(test::readFile(config + "floor_matcher.yaml"), "match_after_idle: 2.0",
+                              "match_after_idle: 5.0"),
+                   "match_while_growing: true", "match_while_growing: false");
     write("floor_matcher.yaml", matcher_parameters);
     // The witness matcher reads its own server's state: a matcher adopts the constraints
     // the server whose state it reads holds (what a restarted matcher's predecessor published).
-    write("witness_floor_matcher.yaml", matcher_parameters + "floor_graph_topic: " + graphs +
-                                            "\nconstraint_topic: " + constraints +
-                                            "\nbuilding_state_topic: witness/building_state\n");
+    write("witness_floor_matcher.yaml",
+          replaceAll(replaceAll(replaceAll(matcher_parameters, "floor_graph_topic: storey/floor_graphs",
+                                           "floor_graph_topic: " + graphs),
+                                "constraint_topic: storey/inter_floor_constraints",
+                                "constraint_topic: " + constraints),
+                     "building_state_topic: storey/building_state",
+                     "building_state_topic: witness/building_state"));
     write("witness_graph_server.yaml", "journal: " + witnessJournal() + "\nfloor_graph_topic: " + graphs +
                                            "\nconstraint_topic: " + constraints +
                                            "\nbuilding_state_topic: witness/building_state\n"
