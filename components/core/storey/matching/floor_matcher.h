@@ -186,7 +186,7 @@ struct FloorMatcherOptions {
   // through a wall has log p `wall_log_p`). 1 turns it off.
   double wall_recheck = shipped_matcher::wall_recheck;
   int wall_beams = shipped_matcher::wall_beams;
-  // rechecks per pair (glass3 uses 0-4); past it, such are dropped
+  // rechecks per pair; past it, such candidates are dropped
   int wall_recheck_max = shipped_matcher::wall_recheck_max;
   double wall_log_p = shipped_matcher::wall_log_p;
   // Two graphs of one floor id see the same walls: a pair's accepted alignment is
