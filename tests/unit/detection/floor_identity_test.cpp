@@ -2,6 +2,10 @@
 // candidate floors, and the detector waits for the mapper's answer before the next ride.
 #include <gtest/gtest.h>
 
+#include <optional>
+#include <string>
+
+#include "storey/common/config.h"
 #include "storey/common/log.h"
 #include "storey/detection/floor_detector.h"
 #include "synthetic_ride.h"
@@ -120,6 +124,44 @@ TEST(FloorIdentity, AnAnswerMakesNoDifferenceToWhenEventsAreDecided) {
     EXPECT_EQ(runs[0][i].floor_id, runs[1][i].floor_id) << i;
     EXPECT_EQ(runs[0][i].height_change, runs[1][i].height_change) << i;
   }
+}
+
+// A detector restarted while it waits keeps the unsure arrival in its state file: the
+// mapper's answer (kept for late readers) still names the floor after the restart.
+TEST(FloorIdentity, AnAnswerAfterARestartIsApplied) {
+  common::setLogLevel(common::LogLevel::kError);
+  FloorDetector detector(shippedOptions());
+  detector.awaitIdentity(3600.0);
+  SensorSetup setup = gapSetup();
+  std::optional<FloorDetectorState> saved;
+  setup.on_event = [&](FloorDetector& d, const FloorEvent& e) {
+    if (e.type == FloorEventType::kAwaitingIdentity && !saved) saved = d.state();
+  };
+  test::run(hiddenReturn(), setup, detector);
+  ASSERT_TRUE(saved.has_value());
+  ASSERT_TRUE(saved->pending_identity.has_value());
+  const std::string path = storey::test::makeTempDir() + "/detector_state.yaml";
+  writeFloorDetectorState(path, *saved);
+  const FloorDetectorState read = readFloorDetectorState(path);
+  ASSERT_TRUE(read.pending_identity.has_value());
+  EXPECT_EQ(read.pending_identity->candidates, saved->pending_identity->candidates);
+  EXPECT_EQ(read.pending_identity->new_floor_id, 2);
+  const double ride_end = read.pending_identity->ride_end;
+  for (const int answer : {0, 1, 2}) {
+    FloorDetector restarted(shippedOptions());
+    restarted.resume(read, 60.0);
+    EXPECT_TRUE(restarted.awaitingIdentity());
+    EXPECT_TRUE(restarted.setFloorIdentity({ride_end, answer, true})) << answer;
+    EXPECT_FALSE(restarted.awaitingIdentity());
+    EXPECT_EQ(restarted.state().current_floor, answer);
+    EXPECT_FALSE(restarted.state().pending_identity.has_value());
+    EXPECT_EQ(restarted.floors().size(), answer == 2 ? 3u : 2u) << answer;
+  }
+  // A state whose pending arrival names a floor it does not hold is refused.
+  FloorDetectorState bad = read;
+  bad.pending_identity->candidates.push_back(7);
+  writeFloorDetectorState(path, bad);
+  EXPECT_THROW(readFloorDetectorState(path), common::ConfigError);
 }
 
 TEST(FloorIdentity, WithoutAnAnswerTheDetectorGoesOnAfterItsWait) {

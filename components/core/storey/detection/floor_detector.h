@@ -39,8 +39,22 @@ struct Floor {
   bool configured = false;
 };
 
+// An arrival the height did not decide, waiting for the floor mapper's answer
+// (FloorDetector::setFloorIdentity).
+struct PendingIdentity {
+  double ride_end = 0.0;
+  int chosen = 0;                     // the floor the height chose
+  bool created = false;               // ... created by this arrival
+  bool counted = false;               // ... and counted as an arrival there
+  double chosen_height_before = 0.0;  // its height before this arrival's running mean
+  double arrival = 0.0;               // m, height reached
+  std::vector<int> candidates;
+  int new_floor_id = -1;
+};
+
 // What a restarted detector needs to go on where it stopped (FloorDetector::state/resume):
-// the floors, where the robot is, and the barometric reference it compares against.
+// the floors, where the robot is, the barometric reference it compares against, and an
+// arrival still waiting for its identity (the mapper's answer may come after the restart).
 struct FloorDetectorState {
   std::vector<Floor> floors;
   int current_floor = 0;
@@ -54,6 +68,7 @@ struct FloorDetectorState {
   double reference_height = 0.0;
   double reference_stddev = 0.0;
   double saved_at = 0.0;  // s: last pressure sample processed
+  std::optional<PendingIdentity> pending_identity;
 };
 
 // Written atomically (a temporary file renamed over it). Reading is strict: an error names
@@ -160,16 +175,6 @@ class FloorDetector {
     double stairs_votes = 0.0;
   };
   // Unsure arrivals (floor_detector_identity.cpp).
-  struct PendingIdentity {
-    double ride_end = 0.0;
-    int chosen = 0;                     // the floor the height chose
-    bool created = false;               // ... created by this arrival
-    bool counted = false;               // ... and counted as an arrival there
-    double chosen_height_before = 0.0;  // its height before this arrival's running mean
-    double arrival = 0.0;               // m, height reached
-    std::vector<int> candidates;
-    int new_floor_id = -1;
-  };
   // Fills the event's candidates when the arrival is unsure; remembers it as pending.
   void identityCandidates(double arrival, double stddev, int chosen, bool created, bool changed,
                           double chosen_height_before, FloorEvent& ev);

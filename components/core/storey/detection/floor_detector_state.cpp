@@ -23,9 +23,12 @@ FloorDetectorState FloorDetector::state() const {
   s.in_transit = state_ == State::kTransit && !silent_transit_;
   s.onset = onset_;
   s.saved_at = last_pressure_stamp_ > -1e299 ? last_pressure_stamp_ : 0.0;
+  s.pending_identity = pending_;
   if (resume_pending_) {  // nothing processed since resume(): still the resumed state
     FloorDetectorState r = resumed_;
     r.floors = floors_;
+    r.current_floor = current_floor_;
+    r.pending_identity = pending_;
     return r;
   }
   if (state_ == State::kOnFloor) {
@@ -61,6 +64,19 @@ void checkFloorDetectorState(const FloorDetectorState& state) {
   for (double v : {state.height_offset, state.offset_stddev, state.onset, state.reference_height,
                    state.reference_stddev, state.saved_at})
     if (!std::isfinite(v)) bad("non-finite value");
+  if (const auto& p = state.pending_identity) {
+    const int n = static_cast<int>(state.floors.size());
+    if (p->chosen < 0 || p->chosen >= n) bad("pending identity: the chosen floor is not a floor");
+    for (const int c : p->candidates)
+      if (c < 0 || c >= n) bad("pending identity: candidate " + std::to_string(c) + " is not a floor");
+    // A floor the arrival created is the last one; a new floor it may name comes next.
+    if (p->created && p->chosen != n - 1) bad("pending identity: a created floor must be the last");
+    if (p->new_floor_id >= 0 && p->new_floor_id != (p->created ? n - 1 : n))
+      bad("pending identity: the new floor's id does not follow the floors");
+    if (!std::isfinite(p->ride_end) || !std::isfinite(p->arrival) ||
+        !std::isfinite(p->chosen_height_before))
+      bad("pending identity: non-finite value");
+  }
 }
 }  // namespace
 
@@ -71,6 +87,7 @@ void FloorDetector::resume(const FloorDetectorState& state, double max_resume_ga
   height_offset_ = state.height_offset;
   offset_stddev_ = state.offset_stddev;
   state_ = State::kOnFloor;
+  pending_ = state.pending_identity;
   resumed_ = state;
   max_resume_gap_ = max_resume_gap;
   resume_pending_ = true;
@@ -128,7 +145,20 @@ void writeFloorDetectorState(const std::string& path, const FloorDetectorState& 
         << "height" << YAML::Value << f.height << YAML::Key << "arrivals" << YAML::Value
         << f.arrivals << YAML::Key << "configured" << YAML::Value << f.configured << YAML::EndMap;
   }
-  out << YAML::EndSeq << YAML::EndMap;
+  out << YAML::EndSeq;
+  if (const auto& p = s.pending_identity) {
+    out << YAML::Key << "pending_identity" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "ride_end" << YAML::Value << p->ride_end;
+    out << YAML::Key << "chosen" << YAML::Value << p->chosen;
+    out << YAML::Key << "created" << YAML::Value << p->created;
+    out << YAML::Key << "counted" << YAML::Value << p->counted;
+    out << YAML::Key << "chosen_height_before" << YAML::Value << p->chosen_height_before;
+    out << YAML::Key << "arrival" << YAML::Value << p->arrival;
+    out << YAML::Key << "candidates" << YAML::Value << YAML::Flow << p->candidates;
+    out << YAML::Key << "new_floor_id" << YAML::Value << p->new_floor_id;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndMap;
   const std::string tmp = path + ".tmp";
   {
     std::ofstream file(tmp);
@@ -160,6 +190,20 @@ FloorDetectorState readFloorDetectorState(const std::string& path) {
     floor.configured = f.get<bool>("configured");
     f.finish();
     s.floors.push_back(floor);
+  }
+  if (node.has("pending_identity")) {
+    const common::ConfigNode p = node.child("pending_identity");
+    PendingIdentity pending;
+    pending.ride_end = p.getDouble("ride_end");
+    pending.chosen = p.getInt("chosen", 0, 100000);
+    pending.created = p.get<bool>("created");
+    pending.counted = p.get<bool>("counted");
+    pending.chosen_height_before = p.getDouble("chosen_height_before");
+    pending.arrival = p.getDouble("arrival");
+    for (const auto& c : p.sequence("candidates")) pending.candidates.push_back(c.as<int>());
+    pending.new_floor_id = p.getInt("new_floor_id", -1, 100000);
+    p.finish();
+    s.pending_identity = pending;
   }
   node.finish();
   if (s.current_floor >= static_cast<int>(s.floors.size()))
