@@ -83,6 +83,14 @@ TEST(MapJob, BundledBuildingIsMappedAndAligned) {
   EXPECT_EQ(report.find("e-1"), std::string::npos);
   EXPECT_EQ(report.find("<td>-0.000</td>"), std::string::npos);
   EXPECT_NE(report.find("<td style=\"text-align:left\">outputs"), std::string::npos);
+  // Its first section says whether the building came out right.
+  const std::size_t summary = report.find("<h2>Summary</h2>");
+  ASSERT_NE(summary, std::string::npos);
+  EXPECT_LT(summary, report.find("<h2>Floors</h2>"));
+  EXPECT_NE(report.find("2 floors, 1 robot, 2 floor graphs"), std::string::npos);
+  EXPECT_NE(report.find("every floor graph is placed by them"), std::string::npos);
+  EXPECT_EQ(report.find("class=\"warn\""), std::string::npos);
+  EXPECT_NE(report.find("Against ground truth: every floor within"), std::string::npos);
 }
 
 // A robot without a barometer (its bag has no pressure topic): the floor detector takes

@@ -7,6 +7,7 @@
 
 #include "building_runs.h"
 #include "storey/building/building_outputs.h"
+#include "storey/building/building_summary.h"
 #include "test_support.h"
 
 namespace storey::building {
@@ -57,6 +58,11 @@ TEST(BuildingGraph, ConstraintsPlaceTheSecondFloor) {
   const FloorPlacement* p1 = s.placement(1);
   ASSERT_NE(p1, nullptr);
   EXPECT_TRUE(p1->aligned);
+  const BuildingSummary summary = summarizeBuilding(building, s);
+  EXPECT_EQ(summary.aligned_graphs, 2);
+  EXPECT_EQ(summary.constraints, 3);
+  EXPECT_TRUE(summary.warnings.empty());
+  EXPECT_TRUE(summary.floors_to_check.empty());
   EXPECT_NEAR(p1->transform.x(), 3.0, 1e-6);
   EXPECT_NEAR(p1->transform.y(), -2.0, 1e-6);
   EXPECT_NEAR(p1->transform.theta(), 0.4, 1e-6);
@@ -105,6 +111,21 @@ TEST(BuildingGraph, AnUnconstrainedFloorLiesWhereTheRobotsOdometryPutsIt) {
   separate.upsertFloorGraph(g0);
   separate.upsertFloorGraph(g1);
   EXPECT_NEAR(separate.optimize().placement(1)->transform.translation().norm(), 0.0, 1e-9);
+  // The summary names the floor to check and how it was placed, each way.
+  EXPECT_TRUE(s.placement(1)->placed_by_ride);
+  const BuildingSummary by_ride = summarizeBuilding(building, s);
+  EXPECT_EQ(by_ride.floors, 2);
+  EXPECT_EQ(by_ride.robots, 1);
+  EXPECT_EQ(by_ride.aligned_graphs, 1);
+  EXPECT_EQ(by_ride.floors_to_check, std::vector<int>{1});
+  ASSERT_EQ(by_ride.warnings.size(), 1u);
+  EXPECT_NE(by_ride.warnings[0].find("through its ride"), std::string::npos) << by_ride.warnings[0];
+  const BuildingSolution alone = separate.optimize();
+  EXPECT_FALSE(alone.placement(1)->placed_by_ride);
+  const BuildingSummary apart = summarizeBuilding(separate, alone);
+  EXPECT_EQ(apart.robots, 2);
+  ASSERT_EQ(apart.warnings.size(), 1u);
+  EXPECT_NE(apart.warnings[0].find("own frame"), std::string::npos) << apart.warnings[0];
 }
 
 TEST(BuildingGraph, BadConstraintsAreRejectedWithTheirId) {

@@ -145,7 +145,7 @@ BuildingSolution BuildingGraph::optimize() {
     }
   }
 
-  placeByFloorChanges(component_root, reference, &transform);
+  const std::set<int> placed = placeByFloorChanges(component_root, reference, &transform);
 
   pose_graph_ = graph::PoseGraph();
   std::set<int> roots_fixed;
@@ -184,24 +184,26 @@ BuildingSolution BuildingGraph::optimize() {
     placement.height = fg.floor_height;
     placement.transform = local.empty() ? transform[g] : fitRigidTransform(local, global);
     placement.aligned = component_root[g] == component_root[reference];
+    placement.placed_by_ride = !placement.aligned && placed.count(component_root[g]) > 0;
     solution.placements.push_back(placement);
   }
   solution_ = solution;
   return solution;
 }
 
-void BuildingGraph::placeByFloorChanges(const std::map<int, int>& component_root, int reference,
-                                        std::map<int, geometry::Pose2>* transform) const {
+std::set<int> BuildingGraph::placeByFloorChanges(const std::map<int, int>& component_root,
+                                                 int reference,
+                                                 std::map<int, geometry::Pose2>* transform) const {
   // Most updates join every graph to the reference: then there is nothing to place, and
   // no need to sort every node by stamp.
   const int reference_root = component_root.at(reference);
+  std::set<int> placed{reference_root};
   if (std::all_of(component_root.begin(), component_root.end(),
                   [&](const auto& entry) { return entry.second == reference_root; }))
-    return;
+    return placed;
   std::vector<const floor::FloorGraph*> graphs;
   for (const auto& [id, g] : graphs_) graphs.push_back(&g);
   const std::vector<floor::TransitLink> links = floor::transitLinks(graphs);
-  std::set<int> placed{reference_root};
   for (bool moved = true; moved;) {
     moved = false;
     for (const floor::TransitLink& link : links) {
@@ -227,6 +229,7 @@ void BuildingGraph::placeByFloorChanges(const std::map<int, int>& component_root
       moved = true;
     }
   }
+  return placed;
 }
 
 void BuildingGraph::addEdges(graph::PoseGraph& pose_graph) const {

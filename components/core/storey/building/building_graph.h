@@ -5,6 +5,7 @@
 
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -59,6 +60,9 @@ struct FloorPlacement {
   geometry::Pose2 transform;  // floor graph frame -> building frame
   double height = 0.0;
   bool aligned = false;  // connected to the reference floor graph by constraints
+  // Not aligned, but placed where a robot's odometry through a floor change puts it;
+  // neither: left in its own frame.
+  bool placed_by_ride = false;
 };
 
 struct BuildingSolution {
@@ -112,9 +116,10 @@ class BuildingGraph {
  private:
   void addEdges(graph::PoseGraph& pose_graph) const;
   // Moves each set of graphs the constraints join (component_root: graph -> the set's
-  // root) that is not the reference's to where a floor change from a placed set puts it.
-  void placeByFloorChanges(const std::map<int, int>& component_root, int reference,
-                           std::map<int, geometry::Pose2>* transform) const;
+  // root) that is not the reference's to where a floor change from a placed set puts it;
+  // returns the roots of the sets placed (the reference's included).
+  std::set<int> placeByFloorChanges(const std::map<int, int>& component_root, int reference,
+                                    std::map<int, geometry::Pose2>* transform) const;
 
   BuildingGraphOptions options_;
   std::map<int, floor::FloorGraph> graphs_;

@@ -10,6 +10,7 @@
 #include <map>
 #include <sstream>
 
+#include "storey/building/building_summary.h"
 #include "storey/eval/trajectory.h"
 #include "storey/graph/graph_io.h"
 #include "storey/grid/image.h"
@@ -157,6 +158,46 @@ grid::Image renderGraph(const building::BuildingGraph& graph, const building::Bu
   return image;
 }
 
+namespace {
+
+// The first screen: what was mapped, whether the constraints placed every floor graph,
+// which floors to look at, and the accuracy when there is ground truth.
+void writeSummary(std::ostream& out, const building::BuildingGraph& graph,
+                  const building::BuildingSolution& solution, const ReportExtras& extras) {
+  const building::BuildingSummary s = building::summarizeBuilding(graph, solution);
+  out << "<h2>Summary</h2>\n<ul>\n<li>" << s.floors << (s.floors == 1 ? " floor, " : " floors, ")
+      << s.robots << (s.robots == 1 ? " robot, " : " robots, ") << s.graphs
+      << (s.graphs == 1 ? " floor graph" : " floor graphs");
+  if (extras.recording_seconds > 0)
+    out << ", " << fixedText(extras.recording_seconds / 60.0, 1) << " min of recording";
+  out << "</li>\n<li>" << s.constraints << " inter-floor constraints; ";
+  if (s.floors_to_check.empty()) {
+    out << "<b>every floor graph is placed by them</b>";
+  } else {
+    out << "<b>" << s.graphs - s.aligned_graphs << " of " << s.graphs
+        << " floor graphs not placed by them: check floor";
+    for (std::size_t i = 0; i < s.floors_to_check.size(); ++i)
+      out << (i == 0 ? (s.floors_to_check.size() > 1 ? "s " : " ") : ", ") << s.floors_to_check[i];
+    out << "</b>";
+  }
+  out << "</li>\n";
+  for (const std::string& w : s.warnings) out << "<li class=\"warn\">" << html(w) << "</li>\n";
+  if (extras.evaluation && !extras.evaluation->floors.empty()) {
+    const eval::FloorError* worst = &extras.evaluation->floors.front();
+    for (const auto& f : extras.evaluation->floors)
+      if (f.residual_translation > worst->residual_translation) worst = &f;
+    double worst_rotation = 0.0;
+    for (const auto& f : extras.evaluation->floors)
+      worst_rotation = std::max(worst_rotation, std::abs(f.residual_rotation));
+    out << "<li>Against ground truth: every floor within "
+        << fixedText(worst->residual_translation * 1000, 0) << " mm (floor " << html(worst->floor)
+        << ") and " << fixedText(worst_rotation * 180 / M_PI, 2) << "&deg;</li>\n";
+  }
+  out << "</ul>\n";
+}
+
+}  // namespace
+
 BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const building::BuildingGraph& graph,
                                            const building::BuildingSolution& solution,
                                            const BuildingOutputOptions& options, const ReportExtras& extras) {
@@ -207,10 +248,13 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
                              ": cannot open for writing");
   out << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>" << html(extras.title)
       << "</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:auto}"
-         "table{border-collapse:collapse}td,th{border:1px solid #aaa;padding:3px 8px;text-align:right}"
-         "img{max-width:100%;border:1px solid #ccc}figure{display:inline-block;margin:6px}</style></head><body>\n";
+         "table{border-collapse:collapse}td,th{border:1px solid #aaa;padding:3px "
+         "8px;text-align:right}"
+         "img{max-width:100%;border:1px solid #ccc}figure{display:inline-block;margin:6px}"
+         "li.warn{color:#a40}</style></head><body>\n";
   out << "<h1>" << html(extras.title) << "</h1>\n";
   if (!extras.input.empty()) out << "<p>Input: <code>" << html(extras.input) << "</code></p>\n";
+  writeSummary(out, graph, solution, extras);
   out << "<h2>Floors</h2>\n<table><tr><th>floor graph</th><th>robot</th><th>floor</th><th>height [m]</th>"
          "<th>x [m]</th><th>y [m]</th><th>&theta; [deg]</th><th>aligned</th><th>nodes</th></tr>\n";
   for (const auto& p : solution.placements)
