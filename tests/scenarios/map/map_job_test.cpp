@@ -50,7 +50,8 @@ TEST(MapJob, BundledBuildingIsMappedAndAligned) {
   EXPECT_EQ(result.outputs.floors, 2u);
   EXPECT_GE(result.outputs.constraints, 3u);
   for (const char* file : {"floor_0.pgm", "floor_0.yaml", "floor_1.pgm", "building.yaml", "graph.g2o",
-                           "trajectory.csv", "building.bt", "report.html", "overlay.png", "journal.bin"})
+                           "trajectory.csv", "building.bt", "report.html", "overlay.png", "journal.bin",
+                           "building_before.png", "building_after.png"})
     EXPECT_TRUE(fs::exists(fs::path(out) / file)) << file;
   ASSERT_TRUE(result.evaluation.has_value());
   ASSERT_TRUE(result.evaluation_unaligned.has_value());

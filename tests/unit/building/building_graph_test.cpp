@@ -8,6 +8,7 @@
 #include "building_runs.h"
 #include "storey/building/building_outputs.h"
 #include "storey/building/building_summary.h"
+#include "storey/building/isometric_view.h"
 #include "test_support.h"
 
 namespace storey::building {
@@ -219,6 +220,43 @@ TEST(BuildingOutputs, OctomapHasOccupiedVoxelsOnEveryFloorAtTheRightHeight) {
   EXPECT_EQ(between, 0);
   const grid::Image overlay = renderFloorOverlay(floors);
   EXPECT_GT(overlay.width, 10);
+}
+
+// The isometric view stacks the floors: the upper floor's walls are drawn above the
+// lower floor's, and each constraint is a black line between them.
+TEST(BuildingOutputs, IsometricViewStacksTheFloorsAndDrawsTheConstraints) {
+  std::vector<Pose2> truth0, truth1;
+  BuildingGraph building;
+  building.upsertFloorGraph(makeLoop(0, 0, 0.0, Pose2(), &truth0));
+  building.upsertFloorGraph(makeLoop(1, 1, 3.0, Pose2(), &truth1));
+  int id = 0;
+  for (int k : {1, 5, 9})
+    building.addConstraint(exactConstraint(id++, 0, k, 1, k, truth0[k], truth1[k], 3.0));
+  const BuildingSolution s = building.optimize();
+  const auto floors = renderBuildingFloors(building, s, grid::OccupancyGridOptions());
+  const grid::Image plain = renderIsometric(floors, 400);
+  const grid::Image image = renderIsometric(floors, 400, &building, &s);
+  ASSERT_EQ(image.width, 400);
+  EXPECT_LE(image.height, 2 * image.width);
+  // Mean row of each floor's colour, and the black pixels.
+  const auto c0 = floorColour(0), c1 = floorColour(1);
+  double rows[2] = {0, 0};
+  int counts[2] = {0, 0}, black = 0, plain_black = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      const std::uint8_t* p = image.at(x, y);
+      const std::array<std::uint8_t, 3> rgb{p[0], p[1], p[2]};
+      if (rgb == c0) rows[0] += y, ++counts[0];
+      if (rgb == c1) rows[1] += y, ++counts[1];
+      if (rgb == std::array<std::uint8_t, 3>{0, 0, 0}) ++black;
+      const std::uint8_t* q = plain.at(x, y);
+      if (q[0] == 0 && q[1] == 0 && q[2] == 0) ++plain_black;
+    }
+  ASSERT_GT(counts[0], 50);
+  ASSERT_GT(counts[1], 50);
+  EXPECT_GT(rows[0] / counts[0], rows[1] / counts[1] + 20);  // floor 1 higher up (smaller rows)
+  EXPECT_GT(black, 20);
+  EXPECT_EQ(plain_black, 0);
 }
 
 }  // namespace

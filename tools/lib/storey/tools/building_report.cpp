@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "storey/building/building_summary.h"
+#include "storey/building/isometric_view.h"
 #include "storey/eval/trajectory.h"
 #include "storey/graph/graph_io.h"
 #include "storey/grid/image.h"
@@ -234,6 +235,13 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
   grid::writePng((fs::path(dir) / "graph_after.png").string(), renderGraph(graph, solution, true));
   add("graph_before.png");
   add("graph_after.png");
+  grid::writePng(
+      (fs::path(dir) / "building_before.png").string(),
+      building::renderIsometric(building::renderBuildingFloors(graph, before, options.map)));
+  grid::writePng((fs::path(dir) / "building_after.png").string(),
+                 building::renderIsometric(floors, 900, &graph, &solution));
+  add("building_before.png");
+  add("building_after.png");
 
   // Constraints per pair of floors.
   std::map<std::pair<int, int>, int> per_pair;
@@ -255,6 +263,12 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
   out << "<h1>" << html(extras.title) << "</h1>\n";
   if (!extras.input.empty()) out << "<p>Input: <code>" << html(extras.input) << "</code></p>\n";
   writeSummary(out, graph, solution, extras);
+  out << "<figure><img src=\"building_before.png\" width=\"440\"><figcaption>the floors at their "
+         "heights "
+         "without inter-floor constraints</figcaption></figure>\n"
+      << "<figure><img src=\"building_after.png\" width=\"440\"><figcaption>with them (constraints "
+         "in "
+         "black)</figcaption></figure>\n";
   out << "<h2>Floors</h2>\n<table><tr><th>floor graph</th><th>robot</th><th>floor</th><th>height [m]</th>"
          "<th>x [m]</th><th>y [m]</th><th>&theta; [deg]</th><th>aligned</th><th>nodes</th></tr>\n";
   for (const auto& p : solution.placements)
