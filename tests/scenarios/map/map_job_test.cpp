@@ -92,6 +92,13 @@ TEST(MapJob, BundledBuildingIsMappedAndAligned) {
   EXPECT_NE(report.find("every floor graph is placed by them"), std::string::npos);
   EXPECT_EQ(report.find("class=\"warn\""), std::string::npos);
   EXPECT_NE(report.find("Against ground truth: every floor within"), std::string::npos);
+  // The timeline: small2's robot rides the lift up and takes the stairs down.
+  EXPECT_NE(report.find("<h2>Timeline</h2>"), std::string::npos);
+  EXPECT_NE(report.find("<svg"), std::string::npos);
+  EXPECT_NE(report.find("<td>F0</td><td>F1 (new)</td>"), std::string::npos);
+  EXPECT_NE(report.find("<td>F1</td><td>F0</td>"), std::string::npos);
+  EXPECT_NE(report.find("<td>elevator</td>"), std::string::npos);
+  EXPECT_NE(report.find("<td>stairs</td>"), std::string::npos);
 }
 
 // A robot without a barometer (its bag has no pressure topic): the floor detector takes

@@ -11,6 +11,7 @@
 #include "storey/building/building_graph.h"
 #include "storey/building/building_outputs.h"
 #include "storey/eval/metrics.h"
+#include "storey/tools/report_timeline.h"
 
 namespace storey::tools {
 
@@ -39,6 +40,7 @@ struct ReportExtras {
   // solveWithoutConstraints(graph) when the caller has it already; computed when absent.
   std::optional<building::BuildingSolution> unaligned;
   double recording_seconds = 0.0;          // for the real-time factor
+  RobotRides rides;                        // the floor detectors' TransitEnded events
   std::vector<std::string> notes;
 };
 

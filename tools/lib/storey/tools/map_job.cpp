@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <iostream>
 #include <limits>
+#include <optional>
 #include <set>
 
 #include "storey/catalog/all_components.h"
@@ -15,14 +16,17 @@
 #include "storey/graph_server/graph_server.h"
 #include "storey/runtime/component_registry.h"
 #include "storey/runtime/context.h"
+#include "storey/runtime/floor_event_conversions.h"
 #include "storey/runtime/sensor_bag.h"
 #include "storey/runtime/sensor_conversions.h"
+#include "storey/runtime/subscription.h"
 #include "storey/sim/ground_truth.h"
 #include "storey/sim/scenario.h"
 #include "storey/sim/simulator.h"
 #include "storey/tools/replay.h"
 #include "storey/tools/robot_setup.h"
 #include "storey/tools/simulation_bag.h"
+#include "storey_msgs/msg/FloorEventPubSubTypes.h"
 
 namespace storey::tools {
 namespace fs = std::filesystem;
@@ -283,12 +287,36 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   graph_server::GraphServer* server = nullptr;
   const std::string journal = (fs::path(options.output_dir) / "journal.bin").string();
   fs::remove(journal);
+  // The rides each detector reports, for the report's timeline (delivered on the executor,
+  // which this thread drains).
+  RobotRides rides;
+  std::vector<std::shared_ptr<
+      runtime::Subscription<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>>>
+      ride_readers;
   for (const auto& robot : robots) {
     if (!robot_input[robot]->floor && !without_height.count(robot)) {
-      pipeline.push_back(registry.create("floor_detector", context,
-                                         common::ConfigNode(floorDetectorParameters(config_dir, robot, setup),
-                                                            parameterFilePath(config_dir, "floor_detector"), ""),
-                                         "floor_detector_" + robot));
+      const YAML::Node parameters = floorDetectorParameters(config_dir, robot, setup);
+      pipeline.push_back(registry.create(
+          "floor_detector", context,
+          common::ConfigNode(parameters, parameterFilePath(config_dir, "floor_detector"), ""),
+          "floor_detector_" + robot));
+      ride_readers.push_back(
+          std::make_shared<runtime::Subscription<storey_msgs::msg::FloorEvent,
+                                                 storey_msgs::msg::FloorEventPubSubType>>(
+              context, runtime::robotTopic(robot, parameters["events_topic"].as<std::string>()),
+              runtime::TopicKind::kGraph,
+              [&rides, robot, started = std::optional<floor::FloorEvent>()](
+                  const storey_msgs::msg::FloorEvent& m) mutable {
+                floor::FloorEvent e = runtime::fromMessage(m);
+                if (e.type == floor::FloorEventType::kTransitStarted) started = e;
+                if (e.type != floor::FloorEventType::kTransitEnded) return;
+                if (started) {  // the message of an arrival names neither its start nor its origin
+                  e.start_stamp = started->stamp;
+                  e.from_height = started->from_height;
+                }
+                started.reset();
+                rides[robot].push_back(e);
+              }));
     }
   }
   for (const auto& robot : robots) {
@@ -370,6 +398,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   extras.title = result.scenario.empty() ? "storey building" : "storey building: " + result.scenario;
   for (const auto& input : inputs) extras.input += (extras.input.empty() ? "" : ", ") + input.path;
   extras.recording_seconds = result.recording_seconds;
+  extras.rides = rides;
   extras.unaligned = solveWithoutConstraints(graph);
   if (!ground_truth_dir.empty()) {
     const auto truth = eval::readTrajectoryCsv((fs::path(ground_truth_dir) / "trajectory.csv").string());
