@@ -96,6 +96,7 @@ void writeTimeline(std::ostream& out, const building::BuildingGraph& graph,
         << width << "\" height=\"" << height << "\" style=\"border:1px solid #ccc\">\n";
     // Axes: height of each floor the robot was on, time at both ends.
     std::vector<std::pair<double, int>> levels;
+    levels.reserve(stretches.size());
     for (const Stretch& s : stretches) levels.emplace_back(s.height, s.floor_id);
     std::sort(levels.begin(), levels.end());
     levels.erase(std::unique(levels.begin(), levels.end()), levels.end());
