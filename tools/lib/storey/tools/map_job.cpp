@@ -258,8 +258,8 @@ MapJobResult runMapJob(const MapJobOptions& options) {
       if (!robot_input.count(robot)) {
         std::string recorded;
         for (const auto& r : robots) recorded += (recorded.empty() ? "" : ", ") + r;
-        throw std::invalid_argument(given.path + ": robot '" + robot + "' is not in the recordings (they hold " +
-                                    recorded + ")");
+        throw std::invalid_argument(
+            common::str(given.path, ": robot '", robot, "' is not in the recordings (they hold ", recorded, ")"));
       }
       setup.start_floor[robot] = floor;
     }
