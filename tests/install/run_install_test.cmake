@@ -1,6 +1,6 @@
 # cmake -P script run by ctest: install, configure the consumer against the installed
 # package only (no build tree on any search path), build it and run it.
-foreach(var STOREY_BUILD_DIR CONSUMER_SOURCE_DIR WORK_DIR GENERATOR CXX_COMPILER)
+foreach(var STOREY_BUILD_DIR CONSUMER_SOURCE_DIR WORK_DIR GENERATOR CXX_COMPILER STOREY_VERSION)
   if(NOT ${var})
     message(FATAL_ERROR "${var} is not set")
   endif()
@@ -21,6 +21,7 @@ run("install" ${CMAKE_COMMAND} --install ${STOREY_BUILD_DIR} --prefix ${prefix})
 foreach(installed bin/storey lib/cmake/storey/storeyConfig.cmake
         lib/cmake/storey/storeyTargets.cmake include/storey/geometry/pose2.h
         include/storey/bag/bag_reader.h include/storey_messages/sensor_msgs/msg/LaserScan.h
+        include/storey/common/shipped_config.h
         share/storey/config)
   if(NOT EXISTS ${prefix}/${installed})
     message(FATAL_ERROR "the install lacks ${installed}")
@@ -28,7 +29,7 @@ foreach(installed bin/storey lib/cmake/storey/storeyConfig.cmake
 endforeach()
 run("configure consumer" ${CMAKE_COMMAND} -S ${CONSUMER_SOURCE_DIR} -B ${WORK_DIR}/build
     -G ${GENERATOR} -DCMAKE_CXX_COMPILER=${CXX_COMPILER} -DCMAKE_PREFIX_PATH=${prefix}
-    -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF)
+    -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF -DSTOREY_VERSION=${STOREY_VERSION})
 run("build consumer" ${CMAKE_COMMAND} --build ${WORK_DIR}/build)
 run("run consumer" ${WORK_DIR}/build/storey_consumer ${WORK_DIR}/bag)
 message(STATUS "${last_output}")
