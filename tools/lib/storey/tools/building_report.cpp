@@ -307,7 +307,7 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
   if (extras.evaluation_unaligned)
     evaluation_table(*extras.evaluation_unaligned, "Without inter-floor constraints");
   if (extras.evaluation) evaluation_table(*extras.evaluation, "With inter-floor constraints");
-  writeTimeline(out, graph, extras.rides);
+  writeTimeline(out, graph, extras.rides ? &*extras.rides : nullptr);
   if (!extras.timings.empty()) {
     out << "<h2>Timings</h2>\n<table><tr><th>phase</th><th>seconds</th></tr>\n";
     std::vector<Timing> timings = extras.timings;

@@ -40,7 +40,9 @@ struct ReportExtras {
   // solveWithoutConstraints(graph) when the caller has it already; computed when absent.
   std::optional<building::BuildingSolution> unaligned;
   double recording_seconds = 0.0;          // for the real-time factor
-  RobotRides rides;                        // the floor detectors' TransitEnded events
+  // The floor detectors' TransitEnded events; absent when they are not known (a journal
+  // holds no floor events).
+  std::optional<RobotRides> rides;
   std::vector<std::string> notes;
 };
 

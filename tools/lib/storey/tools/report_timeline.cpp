@@ -66,7 +66,7 @@ std::string escaped(const std::string& text) {
 }  // namespace
 
 void writeTimeline(std::ostream& out, const building::BuildingGraph& graph,
-                   const RobotRides& rides) {
+                   const RobotRides* rides) {
   std::vector<std::string> robots;
   for (const auto& [id, g] : graph.floorGraphs())
     if (std::find(robots.begin(), robots.end(), g.robot) == robots.end()) robots.push_back(g.robot);
@@ -74,9 +74,10 @@ void writeTimeline(std::ostream& out, const building::BuildingGraph& graph,
   out << "<h2>Timeline</h2>\n";
   for (const std::string& robot : robots) {
     const std::vector<Stretch> stretches = stretchesOf(graph, robot);
-    const auto found = rides.find(robot);
     const std::vector<floor::FloorEvent> none;
-    const std::vector<floor::FloorEvent>& events = found == rides.end() ? none : found->second;
+    const auto found = rides ? rides->find(robot) : RobotRides::const_iterator();
+    const std::vector<floor::FloorEvent>& events =
+        rides && found != rides->end() ? found->second : none;
     double t0 = std::numeric_limits<double>::infinity(), t1 = -t0, z0 = t0, z1 = -t0;
     for (const Stretch& s : stretches) {
       t0 = std::min(t0, s.start), t1 = std::max(t1, s.end);
@@ -119,6 +120,10 @@ void writeTimeline(std::ostream& out, const building::BuildingGraph& graph,
           << fixedText(y(e.floor_height), 1) << "\" stroke=\"" << modeColour(e.mode)
           << "\" stroke-width=\"3\"/>\n";
     out << "</svg>\n";
+    if (!rides) {
+      out << "<p>The rides are not known here (a journal holds no floor events).</p>\n";
+      continue;
+    }
     out << "<table><tr><th>start [s]</th><th>end [s]</th><th>from</th><th>to</th><th>height change "
            "[m]</th>"
            "<th>mode</th><th>confidence</th></tr>\n";

@@ -20,8 +20,8 @@ using RobotRides = std::map<std::string, std::vector<floor::FloorEvent>>;
 // Writes "<h2>Timeline</h2>" and, per robot with floor graphs, an SVG (time on x, height
 // on y: a line per stretch on a floor, each ride from its start to its end coloured by its
 // mode) and a table of its rides (start, end, the floor mapped before it and the floor
-// reached, mode, confidence).
+// reached, mode, confidence). `rides` null: not known, only the floors over time.
 void writeTimeline(std::ostream& out, const building::BuildingGraph& graph,
-                   const RobotRides& rides);
+                   const RobotRides* rides);
 
 }  // namespace storey::tools
