@@ -24,14 +24,11 @@ void plot(grid::Image& image, int x, int y, const std::array<std::uint8_t, 3>& c
   std::copy(colour.begin(), colour.end(), image.at(x, y));
 }
 
+// A line between two picture points, rounded to pixels.
 void line(grid::Image& image, double x0, double y0, double x1, double y1,
           const std::array<std::uint8_t, 3>& colour) {
-  const int steps = static_cast<int>(std::max(std::abs(x1 - x0), std::abs(y1 - y0))) + 1;
-  for (int i = 0; i <= steps; ++i) {
-    const double t = static_cast<double>(i) / steps;
-    plot(image, static_cast<int>(std::lround(x0 + t * (x1 - x0))),
-         static_cast<int>(std::lround(y0 + t * (y1 - y0))), colour);
-  }
+  grid::drawLine(image, static_cast<int>(std::lround(x0)), static_cast<int>(std::lround(y0)),
+                 static_cast<int>(std::lround(x1)), static_cast<int>(std::lround(y1)), colour);
 }
 
 // The extent of a floor's occupied cells, 1 m around them (a grid holds room to grow).
@@ -108,6 +105,7 @@ grid::Image renderIsometric(const std::map<int, FloorMap>& floors, int width,
   };
 
   std::vector<const FloorMap*> order;
+  order.reserve(floors.size());
   for (const auto& [id, floor] : floors) order.push_back(&floor);
   std::stable_sort(order.begin(), order.end(),
                    [](const FloorMap* a, const FloorMap* b) { return a->height < b->height; });

@@ -11,9 +11,6 @@
 
 namespace storey::detection {
 
-// The shipped file's detector values (config/floor_detector.yaml), the defaults below.
-namespace shipped_detector = shipped::floor_detector::detector;
-
 struct BarometerOptions {
   // air temperature for the hypsometric equation
   double temperature_kelvin = shipped_detector::barometer::temperature_kelvin;

@@ -129,4 +129,24 @@ void writePgm(const std::string& path, const Image& grey) {
   if (!out) throw std::runtime_error(path + ": write failed");
 }
 
+void drawLine(Image& image, int x0, int y0, int x1, int y1, const std::array<std::uint8_t, 3>& colour) {
+  const int dx = std::abs(x1 - x0), dy = -std::abs(y1 - y0);
+  const int sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
+  int err = dx + dy;
+  while (true) {
+    if (x0 >= 0 && y0 >= 0 && x0 < image.width && y0 < image.height)
+      std::copy(colour.begin(), colour.end(), image.at(x0, y0));
+    if (x0 == x1 && y0 == y1) break;
+    const int e2 = 2 * err;
+    if (e2 >= dy) {
+      err += dy;
+      x0 += sx;
+    }
+    if (e2 <= dx) {
+      err += dx;
+      y0 += sy;
+    }
+  }
+}
+
 }  // namespace storey::grid

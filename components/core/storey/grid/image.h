@@ -1,6 +1,7 @@
 // PNG and PGM writing for maps and figures (8-bit grey or RGB, zlib-compressed).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -21,6 +22,10 @@ struct Image {
     return &pixels[(static_cast<std::size_t>(y) * width + x) * channels];
   }
 };
+
+// A straight line of `colour` from (x0, y0) to (x1, y1) on an RGB image (Bresenham);
+// the part outside the image is left out.
+void drawLine(Image& image, int x0, int y0, int x1, int y1, const std::array<std::uint8_t, 3>& colour);
 
 // Throws std::runtime_error naming the path on failure.
 void writePng(const std::string& path, const Image& image);

@@ -16,9 +16,6 @@
 
 namespace storey::mapping {
 
-// The shipped file's front-end values (config/floor_mapper.yaml, `slam`), the defaults below.
-namespace shipped_slam = shipped::floor_mapper::slam;
-
 // What the laser's readings are worth: the standard deviation of a range reading about the
 // surface it hit, the walls' own roughness included (a SICK LMS's 1 cm on a real building's
 // walls, doors and clutter shows as about 4 cm; a simulated laser's is its noise).

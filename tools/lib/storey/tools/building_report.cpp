@@ -45,27 +45,10 @@ graph::PoseGraph withRankedGraphIds(const graph::PoseGraph& graph) {
   return out;
 }
 
-void drawLine(grid::Image& image, int x0, int y0, int x1, int y1, const std::array<std::uint8_t, 3>& colour) {
-  const int dx = std::abs(x1 - x0), dy = -std::abs(y1 - y0);
-  const int sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
-  int err = dx + dy;
-  while (true) {
-    if (x0 >= 0 && y0 >= 0 && x0 < image.width && y0 < image.height)
-      std::copy(colour.begin(), colour.end(), image.at(x0, y0));
-    if (x0 == x1 && y0 == y1) break;
-    const int e2 = 2 * err;
-    if (e2 >= dy) {
-      err += dy;
-      x0 += sx;
-    }
-    if (e2 <= dx) {
-      err += dx;
-      y0 += sy;
-    }
-  }
-}
 
-std::string html(const std::string& text) {
+}  // namespace
+
+std::string htmlText(const std::string& text) {
   std::string out;
   for (char c : text) {
     if (c == '<') out += "&lt;";
@@ -75,8 +58,6 @@ std::string html(const std::string& text) {
   }
   return out;
 }
-
-}  // namespace
 
 // A number for people: fixed notation with `decimals` places (millimetres for metres, hundredths
 // for degrees), never an exponent, and no minus sign on a zero.
@@ -145,7 +126,7 @@ grid::Image renderGraph(const building::BuildingGraph& graph, const building::Bu
       if (a == solution.poses.end() || b == solution.poses.end()) continue;
       const auto [x0, y0] = pixel(a->second);
       const auto [x1, y1] = pixel(b->second);
-      drawLine(image, x0, y0, x1, y1, colour);
+      grid::drawLine(image, x0, y0, x1, y1, colour);
     }
   }
   if (draw_constraints)
@@ -154,7 +135,7 @@ grid::Image renderGraph(const building::BuildingGraph& graph, const building::Bu
       if (a == solution.poses.end() || b == solution.poses.end()) continue;
       const auto [x0, y0] = pixel(a->second);
       const auto [x1, y1] = pixel(b->second);
-      drawLine(image, x0, y0, x1, y1, {0, 0, 0});
+      grid::drawLine(image, x0, y0, x1, y1, {0, 0, 0});
     }
   return image;
 }
@@ -182,7 +163,7 @@ void writeSummary(std::ostream& out, const building::BuildingGraph& graph,
     out << "</b>";
   }
   out << "</li>\n";
-  for (const std::string& w : s.warnings) out << "<li class=\"warn\">" << html(w) << "</li>\n";
+  for (const std::string& w : s.warnings) out << "<li class=\"warn\">" << htmlText(w) << "</li>\n";
   if (extras.evaluation && !extras.evaluation->floors.empty()) {
     const eval::FloorError* worst = &extras.evaluation->floors.front();
     for (const auto& f : extras.evaluation->floors)
@@ -191,7 +172,7 @@ void writeSummary(std::ostream& out, const building::BuildingGraph& graph,
     for (const auto& f : extras.evaluation->floors)
       worst_rotation = std::max(worst_rotation, std::abs(f.residual_rotation));
     out << "<li>Against ground truth: every floor within "
-        << fixedText(worst->residual_translation * 1000, 0) << " mm (floor " << html(worst->floor)
+        << fixedText(worst->residual_translation * 1000, 0) << " mm (floor " << htmlText(worst->floor)
         << ") and " << fixedText(worst_rotation * 180 / M_PI, 2) << "&deg;</li>\n";
   }
   out << "</ul>\n";
@@ -254,14 +235,14 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
   if (!out)
     throw std::runtime_error((fs::path(dir) / "report.html").string() +
                              ": cannot open for writing");
-  out << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>" << html(extras.title)
+  out << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>" << htmlText(extras.title)
       << "</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:auto}"
          "table{border-collapse:collapse}td,th{border:1px solid #aaa;padding:3px "
          "8px;text-align:right}"
          "img{max-width:100%;border:1px solid #ccc}figure{display:inline-block;margin:6px}"
          "li.warn{color:#a40}</style></head><body>\n";
-  out << "<h1>" << html(extras.title) << "</h1>\n";
-  if (!extras.input.empty()) out << "<p>Input: <code>" << html(extras.input) << "</code></p>\n";
+  out << "<h1>" << htmlText(extras.title) << "</h1>\n";
+  if (!extras.input.empty()) out << "<p>Input: <code>" << htmlText(extras.input) << "</code></p>\n";
   writeSummary(out, graph, solution, extras);
   out << "<figure><img src=\"building_before.png\" width=\"440\"><figcaption>the floors at their "
          "heights "
@@ -272,7 +253,7 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
   out << "<h2>Floors</h2>\n<table><tr><th>floor graph</th><th>robot</th><th>floor</th><th>height [m]</th>"
          "<th>x [m]</th><th>y [m]</th><th>&theta; [deg]</th><th>aligned</th><th>nodes</th></tr>\n";
   for (const auto& p : solution.placements)
-    out << "<tr><td>" << p.graph_id << "</td><td>" << html(p.robot) << "</td><td>" << p.floor_id
+    out << "<tr><td>" << p.graph_id << "</td><td>" << htmlText(p.robot) << "</td><td>" << p.floor_id
         << "</td><td>" << fixedText(p.height, 2) << "</td><td>" << fixedText(p.transform.x(), 3)
         << "</td><td>" << fixedText(p.transform.y(), 3) << "</td><td>"
         << fixedText(p.transform.theta() * 180 / M_PI, 2) << "</td><td>"
@@ -285,10 +266,10 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
   out << "</table>\n<p>&chi;&sup2; " << fixedText(solution.initial_chi2, 1) << " &rarr; "
       << fixedText(solution.final_chi2, 1) << " in " << solution.iterations << " iterations.</p>\n";
   auto evaluation_table = [&](const eval::Evaluation& e, const std::string& caption) {
-    out << "<h3>" << html(caption) << "</h3>\n<table><tr><th>floor</th><th>poses</th><th>alignment error [m]</th>"
+    out << "<h3>" << htmlText(caption) << "</h3>\n<table><tr><th>floor</th><th>poses</th><th>alignment error [m]</th>"
            "<th>alignment error [deg]</th><th>ATE rmse [m]</th></tr>\n";
     for (const auto& f : e.floors)
-      out << "<tr><td>" << html(f.floor) << "</td><td>" << f.poses << "</td><td>"
+      out << "<tr><td>" << htmlText(f.floor) << "</td><td>" << f.poses << "</td><td>"
           << fixedText(f.residual_translation, 3) << "</td><td>"
           << fixedText(f.residual_rotation * 180 / M_PI, 2) << "</td><td>"
           << fixedText(f.ate_rmse, 3) << "</td></tr>\n";
@@ -297,7 +278,7 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
       out << "<table><tr><th>corridor</th><th>true [m]</th><th>estimated [m]</th><th>error [%]</th></tr>\n";
       for (const auto& c : e.corridors)
         if (c.measured)
-          out << "<tr><td>" << html(c.name) << "</td><td>" << fixedText(c.true_length, 2)
+          out << "<tr><td>" << htmlText(c.name) << "</td><td>" << fixedText(c.true_length, 2)
               << "</td><td>" << fixedText(c.estimated_length, 2) << "</td><td>"
               << fixedText((c.ratio - 1.0) * 100, 2) << "</td></tr>\n";
       out << "</table>\n";
@@ -316,7 +297,7 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
          std::chrono::duration<double>(std::chrono::steady_clock::now() - outputs_start).count()});
     double total = 0;
     for (const auto& t : timings) {
-      out << "<tr><td style=\"text-align:left\">" << html(t.phase) << "</td><td>"
+      out << "<tr><td style=\"text-align:left\">" << htmlText(t.phase) << "</td><td>"
           << fixedText(t.seconds, 2) << "</td></tr>\n";
       total += t.seconds;
     }
@@ -326,7 +307,7 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
           << fixedText(extras.recording_seconds, 1) << " s of recording in " << fixedText(total, 2)
           << " s)</p>\n";
   }
-  for (const auto& note : extras.notes) out << "<p>" << html(note) << "</p>\n";
+  for (const auto& note : extras.notes) out << "<p>" << htmlText(note) << "</p>\n";
   out << "<h2>Pictures</h2>\n";
   for (const auto& [id, floor] : floors)
     out << "<figure><img src=\"floor_" << id << ".png\"><figcaption>floor " << id << " (height "

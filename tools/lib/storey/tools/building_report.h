@@ -63,6 +63,9 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
 // `decimals` places, never an exponent, no minus sign on a zero, "-" when not finite.
 std::string fixedText(double value, int decimals);
 
+// Text for HTML: <, > and & escaped.
+std::string htmlText(const std::string& text);
+
 // The optimised node poses as trajectory rows (building frame; floor = floor id).
 std::vector<eval::PoseRow> trajectoryRows(const building::BuildingGraph& graph,
                                           const building::BuildingSolution& solution);

@@ -398,7 +398,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   extras.title = result.scenario.empty() ? "storey building" : "storey building: " + result.scenario;
   for (const auto& input : inputs) extras.input += (extras.input.empty() ? "" : ", ") + input.path;
   extras.recording_seconds = result.recording_seconds;
-  extras.rides = rides;  // known: the detectors ran in this job
+  extras.rides = std::move(rides);  // known: the detectors ran in this job
   extras.unaligned = solveWithoutConstraints(graph);
   if (!ground_truth_dir.empty()) {
     const auto truth = eval::readTrajectoryCsv((fs::path(ground_truth_dir) / "trajectory.csv").string());

@@ -48,21 +48,6 @@ const char* modeColour(floor::TransitMode mode) {
   return "#888";
 }
 
-std::string escaped(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    if (c == '<')
-      out += "&lt;";
-    else if (c == '>')
-      out += "&gt;";
-    else if (c == '&')
-      out += "&amp;";
-    else
-      out += c;
-  }
-  return out;
-}
-
 }  // namespace
 
 void writeTimeline(std::ostream& out, const building::BuildingGraph& graph,
@@ -93,7 +78,7 @@ void writeTimeline(std::ostream& out, const building::BuildingGraph& graph,
     const int width = 880, height = 220, left = 60, right = 10, top = 10, bottom = 30;
     auto x = [&](double t) { return left + (t - t0) / (t1 - t0) * (width - left - right); };
     auto y = [&](double z) { return top + (z1 - z) / (z1 - z0) * (height - top - bottom); };
-    out << "<h3>" << escaped(robot) << "</h3>\n<svg xmlns=\"http://www.w3.org/2000/svg\" width=\""
+    out << "<h3>" << htmlText(robot) << "</h3>\n<svg xmlns=\"http://www.w3.org/2000/svg\" width=\""
         << width << "\" height=\"" << height << "\" style=\"border:1px solid #ccc\">\n";
     // Axes: height of each floor the robot was on, time at both ends.
     std::vector<std::pair<double, int>> levels;
