@@ -129,7 +129,8 @@ void writePgm(const std::string& path, const Image& grey) {
   if (!out) throw std::runtime_error(path + ": write failed");
 }
 
-void drawLine(Image& image, int x0, int y0, int x1, int y1, const std::array<std::uint8_t, 3>& colour) {
+void drawLine(Image& image, int x0, int y0, int x1, int y1,
+              const std::array<std::uint8_t, 3>& colour) {
   const int dx = std::abs(x1 - x0), dy = -std::abs(y1 - y0);
   const int sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
   int err = dx + dy;

@@ -25,7 +25,8 @@ struct Image {
 
 // A straight line of `colour` from (x0, y0) to (x1, y1) on an RGB image (Bresenham);
 // the part outside the image is left out.
-void drawLine(Image& image, int x0, int y0, int x1, int y1, const std::array<std::uint8_t, 3>& colour);
+void drawLine(Image& image, int x0, int y0, int x1, int y1,
+              const std::array<std::uint8_t, 3>& colour);
 
 // Throws std::runtime_error naming the path on failure.
 void writePng(const std::string& path, const Image& image);

@@ -45,7 +45,6 @@ graph::PoseGraph withRankedGraphIds(const graph::PoseGraph& graph) {
   return out;
 }
 
-
 }  // namespace
 
 std::string htmlText(const std::string& text) {
@@ -172,8 +171,9 @@ void writeSummary(std::ostream& out, const building::BuildingGraph& graph,
     for (const auto& f : extras.evaluation->floors)
       worst_rotation = std::max(worst_rotation, std::abs(f.residual_rotation));
     out << "<li>Against ground truth: every floor within "
-        << fixedText(worst->residual_translation * 1000, 0) << " mm (floor " << htmlText(worst->floor)
-        << ") and " << fixedText(worst_rotation * 180 / M_PI, 2) << "&deg;</li>\n";
+        << fixedText(worst->residual_translation * 1000, 0) << " mm (floor "
+        << htmlText(worst->floor) << ") and " << fixedText(worst_rotation * 180 / M_PI, 2)
+        << "&deg;</li>\n";
   }
   out << "</ul>\n";
 }
@@ -266,7 +266,8 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
   out << "</table>\n<p>&chi;&sup2; " << fixedText(solution.initial_chi2, 1) << " &rarr; "
       << fixedText(solution.final_chi2, 1) << " in " << solution.iterations << " iterations.</p>\n";
   auto evaluation_table = [&](const eval::Evaluation& e, const std::string& caption) {
-    out << "<h3>" << htmlText(caption) << "</h3>\n<table><tr><th>floor</th><th>poses</th><th>alignment error [m]</th>"
+    out << "<h3>" << htmlText(caption)
+        << "</h3>\n<table><tr><th>floor</th><th>poses</th><th>alignment error [m]</th>"
            "<th>alignment error [deg]</th><th>ATE rmse [m]</th></tr>\n";
     for (const auto& f : e.floors)
       out << "<tr><td>" << htmlText(f.floor) << "</td><td>" << f.poses << "</td><td>"
