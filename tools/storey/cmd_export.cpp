@@ -36,6 +36,7 @@ int run_export(Args& args) {
   tools::ReportExtras extras;
   extras.title = "storey building (from journal)";
   extras.input = journal_path;
+  extras.warnings = building::journalProblems(journal_path, journal);
   const auto summary = tools::writeBuildingOutputs(out, graph, solution, options, extras);
   std::cout << "exported " << journal.records - skipped << " journal records: " << summary.floors
             << " floors, " << summary.constraints << " inter-floor constraints, " << summary.occupied_voxels

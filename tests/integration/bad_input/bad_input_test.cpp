@@ -54,6 +54,7 @@ Outcome run(const std::vector<std::string>& argv, const std::vector<std::string>
     }
     for (const auto& e : env) putenv(const_cast<char*>(e.c_str()));
     std::vector<char*> args;
+    args.reserve(argv.size() + 1);
     for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);
     execv(args[0], args.data());
@@ -211,6 +212,10 @@ std::vector<Row> rows() {
        kSuccess, "torn",
        [](const std::string& d) {
          EXPECT_NE(test::readFile(d + "/out/graph.g2o").find("VERTEX_SE2"), std::string::npos);
+         // The report's summary says the journal was repaired.
+         EXPECT_NE(test::readFile(d + "/out/report.html")
+                       .find("<li class=\"warn\">" + d + "/j.bin: the last record was torn"),
+                   std::string::npos);
        }},
       {"JournalFloorHeightOutOfReach",
        [](const std::string& d) {

@@ -245,6 +245,49 @@ TEST(FloorMapperComponent, ComposesTheMountingFromBaseFootprint) {
   }
 }
 
+// Scans without odometry near their stamps are counted as not mapped (the map job's report
+// warns when that is most of a robot's scans).
+TEST(FloorMapperComponent, CountsTheScansItCouldNotMap) {
+  runtime::Context context(onDomain(168));
+  FloorMapperComponent component(context, parametersFor("fc_robot", "fc_graphs"), "mapper");
+  component.configure();
+  component.activate();
+  runtime::Publisher<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType> scans(
+      context, "/fc_robot/scan", runtime::TopicKind::kSensor);
+  runtime::Publisher<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType> odom(
+      context, "/fc_robot/odom", runtime::TopicKind::kSensor);
+  runtime::Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType> events(
+      context, "/fc_robot/floor_events", runtime::TopicKind::kGraph);
+  ASSERT_TRUE(scans.waitForSubscribers(1, 5.0));
+  ASSERT_TRUE(odom.waitForSubscribers(1, 5.0));
+  ASSERT_TRUE(events.waitForSubscribers(1, 5.0));
+  const mapping::test::World office = mapping::test::officeWorld();
+  // Odometry for the first 4 of 10 scans (1 s apart), then none: 6 scans have no odometry
+  // within max_odometry_gap (0.5 s).
+  for (int i = 0; i < 10; ++i) {
+    const double t = 100.0 + i;
+    const Pose2 pose(1.5 + 0.3 * i, 1.2, 0.0);
+    if (i < 4) {
+      sensor::OdometrySample o;
+      o.stamp = t;
+      o.pose = pose;
+      odom.publish(runtime::toMessage(o));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    scans.publish(runtime::toMessage(office.scan(pose, t), "fc_robot/base_link"));
+    events.publish(progressEvent("fc_robot", t));
+    std::this_thread::sleep_for(std::chrono::milliseconds(40));
+  }
+  ASSERT_TRUE(waitFor([&] { return component.scanCounts().received == 10; }, 10.0));
+  ASSERT_TRUE(component.flush(5.0));
+  const ScanCounts counts = component.scanCounts();
+  EXPECT_EQ(counts.without_odometry, 6u);
+  EXPECT_EQ(counts.rejected, 0u);
+  EXPECT_EQ(counts.notMapped(), 6u);
+  component.deactivate();
+  component.cleanup();
+}
+
 TEST(FloorMapperComponent, BadParametersNameTheKey) {
   runtime::Context context(onDomain(227));
   FloorMapperComponent component(

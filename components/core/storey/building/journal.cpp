@@ -234,9 +234,19 @@ JournalBuilding rebuildFromJournal(const std::string& path) {
   return out;
 }
 
+std::vector<std::string> journalProblems(const std::string& path, const JournalBuilding& journal) {
+  std::vector<std::string> problems;
+  if (journal.torn_tail) problems.push_back(path + ": the last record was torn and is ignored");
+  for (const auto& why : journal.skipped) {
+    std::string line = path;
+    line.append(": ").append(why).append(" (skipped)");
+    problems.push_back(std::move(line));
+  }
+  return problems;
+}
+
 void printJournalProblems(std::ostream& out, const std::string& path, const JournalBuilding& journal) {
-  if (journal.torn_tail) out << path << ": the last record was torn and is ignored\n";
-  for (const auto& why : journal.skipped) out << path << ": " << why << " (skipped)\n";
+  for (const std::string& problem : journalProblems(path, journal)) out << problem << "\n";
 }
 
 void applyRecord(BuildingGraph& building, const JournalRecord& record) {

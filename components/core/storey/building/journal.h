@@ -98,6 +98,7 @@ struct JournalBuilding {
 // Throws as readJournal does.
 JournalBuilding rebuildFromJournal(const std::string& path);
 // One line per problem the rebuild met (a torn tail, each skipped record), naming `path`.
+std::vector<std::string> journalProblems(const std::string& path, const JournalBuilding& journal);
 void printJournalProblems(std::ostream& out, const std::string& path, const JournalBuilding& journal);
 
 // A journal's state for `storey journal check`: where its intact prefix ends and why,

@@ -49,6 +49,15 @@ std::uint64_t FloorMapperComponent::updatesPublished() const {
   return published_;
 }
 
+ScanCounts FloorMapperComponent::scanCounts() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ScanCounts counts;
+  counts.received = scans_received_;
+  counts.rejected = scans_rejected_;
+  if (sequencer_) counts.without_odometry = sequencer_->stats().scans_without_odometry;
+  return counts;
+}
+
 std::size_t FloorMapperComponent::nodeCount() const {
   std::lock_guard<std::mutex> lock(mutex_);
   std::size_t n = 0;
@@ -166,6 +175,7 @@ std::vector<std::string> FloorMapperComponent::baseFrames() const {
 void FloorMapperComponent::onScan(const sensor_msgs::msg::LaserScan& message) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!sequencer_) return;
+  ++scans_received_;
   unmounted_.emplace_back(message.header().frame_id(), runtime::fromMessage(message, geometry::Pose2()));
   passMountedScans(false);
 }
@@ -194,7 +204,8 @@ void FloorMapperComponent::passMountedScans(bool all) {
 }
 
 void FloorMapperComponent::addScan(const sensor::LaserScan& scan, const geometry::Pose2& odometry) {
-  sessions_->addScan(scan, odometry);
+  if (sessions_->addScan(scan, odometry).status == mapping::ScanStatus::kRejected)
+    ++scans_rejected_;
   publishUpdates();
   publishIdentities();
 }

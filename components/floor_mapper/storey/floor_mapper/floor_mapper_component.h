@@ -57,6 +57,14 @@ FloorMapperComponentOptions readFloorMapperComponentOptions(const common::Config
 // the graph server then rejects by name rather than merging two robots' graphs).
 int floorGraphIdBase(const std::string& robot);
 
+// What became of the scans a floor_mapper received.
+struct ScanCounts {
+  std::size_t received = 0;
+  std::size_t without_odometry = 0;  // dropped: no odometry within max_odometry_gap
+  std::size_t rejected = 0;          // refused by the front end (bad scan or stamp)
+  std::size_t notMapped() const { return without_odometry + rejected; }
+};
+
 class FloorMapperComponent : public runtime::Component {
  public:
   FloorMapperComponent(runtime::Context& context, const common::ConfigNode& parameters,
@@ -64,6 +72,7 @@ class FloorMapperComponent : public runtime::Component {
 
   std::uint64_t updatesPublished() const;
   std::size_t nodeCount() const;  // over all floors
+  ScanCounts scanCounts() const;
   // Optimises the current floor graph once more and publishes what is new.
   bool flush(double timeout_s) override;
   const FloorMapperComponentOptions& options() const { return options_; }
@@ -106,6 +115,7 @@ class FloorMapperComponent : public runtime::Component {
       identity_publisher_;
   void publishIdentities();
   std::uint64_t published_ = 0;
+  std::size_t scans_received_ = 0, scans_rejected_ = 0;
 };
 
 }  // namespace storey::floor_mapper

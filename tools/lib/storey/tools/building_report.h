@@ -44,6 +44,9 @@ struct ReportExtras {
   // holds no floor events).
   std::optional<RobotRides> rides;
   std::vector<std::string> notes;
+  // What the summary flags for a person besides unplaced floor graphs (a robot's scans
+  // mostly not mapped, a journal repaired).
+  std::vector<std::string> warnings;
 };
 
 struct BuildingOutputSummary {
@@ -62,6 +65,11 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
 // A number for people, in the report and the experiment tables: fixed notation with
 // `decimals` places, never an exponent, no minus sign on a zero, "-" when not finite.
 std::string fixedText(double value, int decimals);
+
+// The summary's warning for a robot most of whose scans were not mapped (more than half:
+// its floors' maps then hold less than they miss); none otherwise.
+std::optional<std::string> unmappedScansWarning(const std::string& robot, std::size_t received,
+                                                std::size_t without_odometry, std::size_t rejected);
 
 // Text for HTML: <, > and & escaped.
 std::string htmlText(const std::string& text);

@@ -13,6 +13,7 @@
 #include "storey/common/log.h"
 #include "storey/eval/corridors.h"
 #include "storey/eval/trajectory.h"
+#include "storey/floor_mapper/floor_mapper_component.h"
 #include "storey/graph_server/graph_server.h"
 #include "storey/runtime/component_registry.h"
 #include "storey/runtime/context.h"
@@ -392,6 +393,17 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   // 6. The building.
   phase_start = Clock::now();
   auto [graph, solution] = server->snapshot();
+  std::vector<std::string> warnings;
+  for (const auto& component : pipeline)
+    if (const auto* mapper =
+            dynamic_cast<const floor_mapper::FloorMapperComponent*>(component.get())) {
+      const floor_mapper::ScanCounts c = mapper->scanCounts();
+      if (auto w = unmappedScansWarning(mapper->options().robot, c.received, c.without_odometry,
+                                        c.rejected)) {
+        common::logWarn(*w);
+        warnings.push_back(std::move(*w));
+      }
+    }
   for (auto it = pipeline.rbegin(); it != pipeline.rend(); ++it) (*it)->shutdown();
   if (graph.empty()) throw std::runtime_error("no floor graph was built: nothing to write");
   ReportExtras extras;
@@ -408,6 +420,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
     extras.evaluation_unaligned = result.evaluation_unaligned;
   }
   extras.timings = result.timings;
+  extras.warnings = std::move(warnings);
   result.outputs = writeBuildingOutputs(options.output_dir, graph, solution, options.outputs, extras);
   result.timings.push_back({"outputs", secondsSince(phase_start)});
   if (options.keep_graph) result.graph = std::make_shared<const building::BuildingGraph>(std::move(graph));
