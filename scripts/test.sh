@@ -10,10 +10,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 start=$SECONDS
-# The independent DDS peer of the interoperability test (tests/interop), not a
-# dependency of storey itself: installed before the build configures.
+# The independent DDS peer of the interoperability test (tests/interop) and the browser
+# of the report test (tests/browser), not dependencies of storey itself: installed before
+# the build configures.
 source scripts/packages.sh
-ensure_packages cyclonedds-dev cyclonedds-tools
+ensure_packages cyclonedds-dev cyclonedds-tools chromium-headless-shell
 ./scripts/setup.sh
 echo "== build: $((SECONDS - start)) s"
 build_dir=${STOREY_BUILD_DIR:-build}
