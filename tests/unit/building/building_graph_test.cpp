@@ -257,6 +257,51 @@ TEST(BuildingOutputs, IsometricViewStacksTheFloorsAndDrawsTheConstraints) {
   EXPECT_GT(rows[0] / counts[0], rows[1] / counts[1] + 20);  // floor 1 higher up (smaller rows)
   EXPECT_GT(black, 20);
   EXPECT_EQ(plain_black, 0);
+  // Without constraints: no black line, the path still drawn.
+  const grid::Image unconstrained = renderIsometric(floors, 400, &building, &s, false);
+  int path = 0;
+  for (int y = 0; y < unconstrained.height; ++y)
+    for (int x = 0; x < unconstrained.width; ++x) {
+      const std::uint8_t* q = unconstrained.at(x, y);
+      EXPECT_FALSE(q[0] == 0 && q[1] == 0 && q[2] == 0) << x << ", " << y;
+      if (std::array<std::uint8_t, 3>{q[0], q[1], q[2]} == robotColour(0)) ++path;
+    }
+  EXPECT_GT(path, 20);
+}
+
+// One robot on two floors: its ride is a line in its colour from its last node on the
+// first floor to its first on the second; the same graphs driven by two robots have the
+// same paths and no ride.
+TEST(BuildingOutputs, IsometricViewDrawsARobotsRideBetweenFloors) {
+  auto pathPixels = [](bool one_robot) {
+    std::vector<Pose2> truth0, truth1;
+    floor::FloorGraph lower = makeLoop(0, 0, 0.0, Pose2(), &truth0);
+    floor::FloorGraph upper = makeLoop(1, 1, 3.0, Pose2(), &truth1);
+    for (auto& n : upper.nodes) n.stamp += 100.0;  // after the lower floor's
+    lower.robot = "r";
+    upper.robot = one_robot ? "r" : "s";
+    BuildingGraph building;
+    building.upsertFloorGraph(lower);
+    building.upsertFloorGraph(upper);
+    int id = 0;
+    for (int k : {1, 5, 9})
+      building.addConstraint(exactConstraint(id++, 0, k, 1, k, truth0[k], truth1[k], 3.0));
+    const BuildingSolution s = building.optimize();
+    const grid::Image image = renderIsometric(
+        renderBuildingFloors(building, s, grid::OccupancyGridOptions()), 400, &building, &s, false);
+    int count = 0;
+    for (int y = 0; y < image.height; ++y)
+      for (int x = 0; x < image.width; ++x) {
+        const std::uint8_t* q = image.at(x, y);
+        const std::array<std::uint8_t, 3> rgb{q[0], q[1], q[2]};
+        if (rgb == robotColour(0) || rgb == robotColour(1)) ++count;
+      }
+    return count;
+  };
+  const int paths = pathPixels(false);
+  EXPECT_GT(paths, 40);
+  // The ride rises from (3, 2) on floor 0 to (0, 0) on floor 1: tens of pixels.
+  EXPECT_GT(pathPixels(true), paths + 20);
 }
 
 }  // namespace

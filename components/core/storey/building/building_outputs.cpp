@@ -119,6 +119,12 @@ std::array<std::uint8_t, 3> floorColour(std::size_t index) {
   return kColours[index % kColours.size()];
 }
 
+std::array<std::uint8_t, 3> robotColour(std::size_t index) {
+  static constexpr std::array<std::array<std::uint8_t, 3>, 4> kColours{
+      {{110, 110, 110}, {0, 80, 160}, {160, 80, 0}, {110, 0, 130}}};
+  return kColours[index % kColours.size()];
+}
+
 grid::Image renderFloorOverlay(const std::map<int, FloorMap>& floors) {
   double min_x = std::numeric_limits<double>::infinity(), min_y = min_x, max_x = -min_x, max_y = -min_x, res = 0.05;
   for (const auto& [id, floor] : floors) {

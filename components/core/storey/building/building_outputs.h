@@ -42,6 +42,8 @@ void writeBuildingYaml(const std::string& path, const BuildingSolution& solution
 
 // The colour pictures use for the index-th floor (a fixed palette, repeating).
 std::array<std::uint8_t, 3> floorColour(std::size_t index);
+// Colours for robots' paths: none a floor colour, the outline's grey or black.
+std::array<std::uint8_t, 3> robotColour(std::size_t index);
 
 // Overlay of floors in one picture (the paper's Fig. 4): each floor's occupied cells in its
 // own colour over a common frame.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
 #include <vector>
 
 namespace storey::building {
@@ -54,7 +55,8 @@ Extent occupiedExtent(const grid::OccupancyGrid& grid) {
 }  // namespace
 
 grid::Image renderIsometric(const std::map<int, FloorMap>& floors, int width,
-                            const BuildingGraph* graph, const BuildingSolution* solution) {
+                            const BuildingGraph* graph, const BuildingSolution* solution,
+                            bool constraints) {
   // The plan's extent over all floors and the spacing of the floors' heights.
   double min_x = std::numeric_limits<double>::infinity(), min_y = min_x, max_x = -min_x,
          max_y = -min_x;
@@ -111,6 +113,38 @@ grid::Image renderIsometric(const std::map<int, FloorMap>& floors, int width,
                    [](const FloorMap* a, const FloorMap* b) { return a->height < b->height; });
   std::map<int, std::size_t> colour_index;
   for (const auto& [id, floor] : floors) colour_index.emplace(id, colour_index.size());
+  // Robots' colours by name; a node's place in the building (position and height).
+  std::map<std::string, std::size_t> robot_index;
+  if (graph && solution)
+    for (const auto& [id, g] : graph->floorGraphs()) robot_index.emplace(g.robot, 0);
+  std::size_t next_robot = 0;
+  for (auto& entry : robot_index) entry.second = next_robot++;
+  auto nodeAt = [&](int graph_id, int node_id, double* x, double* y, double* z) {
+    const auto pose = solution->poses.find({graph_id, node_id});
+    const FloorPlacement* placement = solution->placement(graph_id);
+    if (pose == solution->poses.end() || !placement) return false;
+    *x = pose->second.x();
+    *y = pose->second.y();
+    *z = placement->height;
+    return true;
+  };
+  // A floor's paths, drawn over its walls before the floors above.
+  auto drawPaths = [&](int floor_id) {
+    if (!graph || !solution) return;
+    for (const auto& [id, g] : graph->floorGraphs()) {
+      const FloorPlacement* placement = solution->placement(id);
+      if (!placement || placement->floor_id != floor_id) continue;
+      const auto colour = robotColour(robot_index.at(g.robot));
+      double x0 = 0, y0 = 0, z0 = 0, x1 = 0, y1 = 0, z1 = 0;
+      bool have = false;
+      for (const floor::FloorNode& n : g.nodes) {
+        if (!nodeAt(id, n.id, &x1, &y1, &z1)) continue;
+        if (have) line(image, px(x0, y0), py(x0, y0, z0), px(x1, y1), py(x1, y1, z1), colour);
+        x0 = x1, y0 = y1, z0 = z1;
+        have = true;
+      }
+    }
+  };
   for (const FloorMap* floor : order) {
     const auto extent = extents.find(floor->floor_id);
     if (extent == extents.end()) continue;
@@ -131,8 +165,31 @@ grid::Image renderIsometric(const std::map<int, FloorMap>& floors, int width,
         plot(image, static_cast<int>(px(c.x(), c.y())), static_cast<int>(py(c.x(), c.y(), z)),
              colour);
       }
+    drawPaths(floor->floor_id);
   }
-  if (graph && solution)
+  if (graph && solution) {
+    // Rides: where a robot's nodes, in stamp order, pass from one floor graph to another.
+    struct Visit {
+      double stamp;
+      int graph_id, node_id;
+    };
+    std::map<std::string, std::vector<Visit>> visits;
+    for (const auto& [id, g] : graph->floorGraphs())
+      for (const floor::FloorNode& n : g.nodes) visits[g.robot].push_back({n.stamp, id, n.id});
+    for (auto& [robot, v] : visits) {
+      std::stable_sort(v.begin(), v.end(),
+                       [](const Visit& a, const Visit& b) { return a.stamp < b.stamp; });
+      const auto colour = robotColour(robot_index.at(robot));
+      for (std::size_t k = 1; k < v.size(); ++k) {
+        if (v[k].graph_id == v[k - 1].graph_id) continue;
+        double x0 = 0, y0 = 0, z0 = 0, x1 = 0, y1 = 0, z1 = 0;
+        if (nodeAt(v[k - 1].graph_id, v[k - 1].node_id, &x0, &y0, &z0) &&
+            nodeAt(v[k].graph_id, v[k].node_id, &x1, &y1, &z1))
+          line(image, px(x0, y0), py(x0, y0, z0), px(x1, y1), py(x1, y1, z1), colour);
+      }
+    }
+  }
+  if (graph && solution && constraints)
     for (const auto& c : graph->constraints()) {
       const auto a = solution->poses.find({c.graph_from, c.node_from});
       const auto b = solution->poses.find({c.graph_to, c.node_to});

@@ -11,13 +11,16 @@
 namespace storey::building {
 
 // Each floor's occupied cells in its floor colour, the lowest floor drawn first, with a
-// grey outline 1 m around them at its height; with `graph` and `solution`, a black
-// line for each inter-floor constraint between its two nodes. `width` pixels wide. Heights
-// are stretched so that one storey spans about half a floor's drawn depth (floors a few
-// metres apart under a plan tens of metres wide would hide each other), the whole picture
-// at most twice as high as wide.
+// grey outline 1 m around them at its height. With `graph` and `solution`: each floor
+// graph's path (its nodes in order) on its floor in its robot's colour (robotColour, robots
+// by name), each ride as a line in that colour from a robot's last node before a floor
+// change to its first after (node stamps), and, when `constraints`, a black line for each
+// inter-floor constraint between its two nodes. `width` pixels wide. Heights are stretched
+// so that one storey spans about half a floor's drawn depth (floors a few metres apart under
+// a plan tens of metres wide would hide each other), the whole picture at most twice as
+// high as wide.
 grid::Image renderIsometric(const std::map<int, FloorMap>& floors, int width = 900,
                             const BuildingGraph* graph = nullptr,
-                            const BuildingSolution* solution = nullptr);
+                            const BuildingSolution* solution = nullptr, bool constraints = true);
 
 }  // namespace storey::building

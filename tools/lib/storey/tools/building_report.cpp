@@ -235,7 +235,8 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
   add("graph_after.png");
   grid::writePng(
       (fs::path(dir) / "building_before.png").string(),
-      building::renderIsometric(building::renderBuildingFloors(graph, before, options.map)));
+      building::renderIsometric(building::renderBuildingFloors(graph, before, options.map), 900,
+                                &graph, &before, /*constraints=*/false));
   grid::writePng((fs::path(dir) / "building_after.png").string(),
                  building::renderIsometric(floors, 900, &graph, &solution));
   add("building_before.png");
@@ -262,11 +263,9 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
   if (!extras.input.empty()) out << "<p>Input: <code>" << htmlText(extras.input) << "</code></p>\n";
   writeSummary(out, graph, solution, extras);
   out << "<figure><img src=\"building_before.png\" width=\"440\"><figcaption>the floors at their "
-         "heights "
-         "without inter-floor constraints</figcaption></figure>\n"
-      << "<figure><img src=\"building_after.png\" width=\"440\"><figcaption>with them (constraints "
-         "in "
-         "black)</figcaption></figure>\n";
+         "heights without inter-floor constraints</figcaption></figure>\n"
+      << "<figure><img src=\"building_after.png\" width=\"440\"><figcaption>with them "
+         "(constraints black, paths and rides grey)</figcaption></figure>\n";
   out << "<h2>Floors</h2>\n<table><tr><th>floor graph</th><th>robot</th><th>floor</th><th>height [m]</th>"
          "<th>x [m]</th><th>y [m]</th><th>&theta; [deg]</th><th>aligned</th><th>nodes</th></tr>\n";
   for (const auto& p : solution.placements)
