@@ -55,6 +55,22 @@ storey_msgs::msg::FloorEvent progressEvent(const std::string& robot, double deci
   return m;
 }
 
+// A robot's inputs as the mapper reads them: scans, odometry and the detector's events,
+// published once the mapper has subscribed to each.
+struct RobotInputs {
+  runtime::Publisher<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType> scans;
+  runtime::Publisher<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType> odom;
+  runtime::Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType> events;
+  RobotInputs(runtime::Context& context, const std::string& robot)
+      : scans(context, "/" + robot + "/scan", runtime::TopicKind::kSensor),
+        odom(context, "/" + robot + "/odom", runtime::TopicKind::kSensor),
+        events(context, "/" + robot + "/floor_events", runtime::TopicKind::kGraph) {}
+  bool matched() {
+    return scans.waitForSubscribers(1, 5.0) && odom.waitForSubscribers(1, 5.0) &&
+           events.waitForSubscribers(1, 5.0);
+  }
+};
+
 bool waitFor(const std::function<bool()>& done, double seconds) {
   const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   while (!done()) {
@@ -76,15 +92,11 @@ TEST(FloorMapperComponent, MapsTwoFloorsAndPublishesTheirGraphs) {
   component.configure();
   component.activate();
 
-  runtime::Publisher<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType> scans(
-      context, "/fm_robot/scan", runtime::TopicKind::kSensor);
-  runtime::Publisher<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType> odom(
-      context, "/fm_robot/odom", runtime::TopicKind::kSensor);
-  runtime::Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType> events(
-      context, "/fm_robot/floor_events", runtime::TopicKind::kGraph);
-  ASSERT_TRUE(scans.waitForSubscribers(1, 5.0));
-  ASSERT_TRUE(odom.waitForSubscribers(1, 5.0));
-  ASSERT_TRUE(events.waitForSubscribers(1, 5.0));
+  RobotInputs inputs(context, "fm_robot");
+  ASSERT_TRUE(inputs.matched());
+  auto& scans = inputs.scans;
+  auto& odom = inputs.odom;
+  auto& events = inputs.events;
 
   const mapping::test::World office = mapping::test::officeWorld();
   double t = 100.0;
@@ -176,15 +188,11 @@ std::vector<Pose2> mountedOffsets(
   component.activate();
   runtime::Publisher<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType> tf_static(
       context, "tf_static", runtime::TopicKind::kGraph);
-  runtime::Publisher<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType> scans(
-      context, "/fm_robot/scan", runtime::TopicKind::kSensor);
-  runtime::Publisher<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType> odom(
-      context, "/fm_robot/odom", runtime::TopicKind::kSensor);
-  runtime::Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType> events(
-      context, "/fm_robot/floor_events", runtime::TopicKind::kGraph);
-  EXPECT_TRUE(scans.waitForSubscribers(1, 5.0));
-  EXPECT_TRUE(odom.waitForSubscribers(1, 5.0));
-  EXPECT_TRUE(events.waitForSubscribers(1, 5.0));
+  RobotInputs inputs(context, "fm_robot");
+  EXPECT_TRUE(inputs.matched());
+  auto& scans = inputs.scans;
+  auto& odom = inputs.odom;
+  auto& events = inputs.events;
   tf2_msgs::msg::TFMessage tf;
   Pose2 laser;  // the laser in base_frame
   for (const auto& [parent, child, pose] : mounting) {
@@ -252,15 +260,11 @@ TEST(FloorMapperComponent, CountsTheScansItCouldNotMap) {
   FloorMapperComponent component(context, parametersFor("fc_robot", "fc_graphs"), "mapper");
   component.configure();
   component.activate();
-  runtime::Publisher<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType> scans(
-      context, "/fc_robot/scan", runtime::TopicKind::kSensor);
-  runtime::Publisher<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType> odom(
-      context, "/fc_robot/odom", runtime::TopicKind::kSensor);
-  runtime::Publisher<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType> events(
-      context, "/fc_robot/floor_events", runtime::TopicKind::kGraph);
-  ASSERT_TRUE(scans.waitForSubscribers(1, 5.0));
-  ASSERT_TRUE(odom.waitForSubscribers(1, 5.0));
-  ASSERT_TRUE(events.waitForSubscribers(1, 5.0));
+  RobotInputs inputs(context, "fc_robot");
+  ASSERT_TRUE(inputs.matched());
+  auto& scans = inputs.scans;
+  auto& odom = inputs.odom;
+  auto& events = inputs.events;
   const mapping::test::World office = mapping::test::officeWorld();
   // Odometry for the first 4 of 10 scans (1 s apart), then none: 6 scans have no odometry
   // within max_odometry_gap (0.5 s).
