@@ -135,13 +135,16 @@ grid::Image renderIsometric(const std::map<int, FloorMap>& floors, int width,
       const FloorPlacement* placement = solution->placement(id);
       if (!placement || placement->floor_id != floor_id) continue;
       const auto colour = robotColour(robot_index.at(g.robot));
-      double x0 = 0, y0 = 0, z0 = 0, x1 = 0, y1 = 0, z1 = 0;
-      bool have = false;
+      const double z = placement->height;
+      const geometry::Pose2* last = nullptr;
       for (const floor::FloorNode& n : g.nodes) {
-        if (!nodeAt(id, n.id, &x1, &y1, &z1)) continue;
-        if (have) line(image, px(x0, y0), py(x0, y0, z0), px(x1, y1), py(x1, y1, z1), colour);
-        x0 = x1, y0 = y1, z0 = z1;
-        have = true;
+        const auto pose = solution->poses.find({id, n.id});
+        if (pose == solution->poses.end()) continue;
+        const geometry::Pose2& at = pose->second;
+        if (last)
+          line(image, px(last->x(), last->y()), py(last->x(), last->y(), z), px(at.x(), at.y()),
+               py(at.x(), at.y(), z), colour);
+        last = &at;
       }
     }
   };

@@ -139,21 +139,6 @@ grid::Image renderGraph(const building::BuildingGraph& graph, const building::Bu
   return image;
 }
 
-std::optional<std::string> unmappedScansWarning(const std::string& robot, std::size_t received,
-                                                std::size_t without_odometry,
-                                                std::size_t rejected) {
-  const std::size_t lost = without_odometry + rejected;
-  if (received == 0 || 2 * lost <= received) return std::nullopt;
-  std::ostringstream w;
-  w << robot << ": " << lost << " of its " << received << " scans were not mapped (";
-  if (without_odometry > 0)
-    w << without_odometry << " without odometry within max_odometry_gap"
-      << (rejected > 0 ? ", " : "");
-  if (rejected > 0) w << rejected << " rejected by the front end";
-  w << "): its floors' maps miss most of what it saw";
-  return w.str();
-}
-
 namespace {
 
 // The first screen: what was mapped, whether the constraints placed every floor graph,

@@ -66,11 +66,6 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
 // `decimals` places, never an exponent, no minus sign on a zero, "-" when not finite.
 std::string fixedText(double value, int decimals);
 
-// The summary's warning for a robot most of whose scans were not mapped (more than half:
-// its floors' maps then hold less than they miss); none otherwise.
-std::optional<std::string> unmappedScansWarning(const std::string& robot, std::size_t received,
-                                                std::size_t without_odometry, std::size_t rejected);
-
 // Text for HTML: <, > and & escaped.
 std::string htmlText(const std::string& text);
 

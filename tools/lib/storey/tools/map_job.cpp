@@ -7,6 +7,7 @@
 #include <limits>
 #include <optional>
 #include <set>
+#include <sstream>
 
 #include "storey/catalog/all_components.h"
 #include "storey/common/config.h"
@@ -62,6 +63,21 @@ struct PreparedInput {
   std::optional<int> floor;
   std::optional<double> height;
 };
+
+// The summary's warning for a robot most of whose scans were not mapped (more than half:
+// its floors' maps then hold less than they miss); none otherwise.
+std::optional<std::string> unmappedScansWarning(const std::string& robot,
+                                                const floor_mapper::ScanCounts& c) {
+  if (c.received == 0 || 2 * c.notMapped() <= c.received) return std::nullopt;
+  std::ostringstream w;
+  w << robot << ": " << c.notMapped() << " of its " << c.received << " scans were not mapped (";
+  if (c.without_odometry > 0)
+    w << c.without_odometry << " without odometry within max_odometry_gap"
+      << (c.rejected > 0 ? ", " : "");
+  if (c.rejected > 0) w << c.rejected << " rejected by the front end";
+  w << "): its floors' maps miss most of what it saw";
+  return w.str();
+}
 
 }  // namespace
 
@@ -397,9 +413,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   for (const auto& component : pipeline)
     if (const auto* mapper =
             dynamic_cast<const floor_mapper::FloorMapperComponent*>(component.get())) {
-      const floor_mapper::ScanCounts c = mapper->scanCounts();
-      if (auto w = unmappedScansWarning(mapper->options().robot, c.received, c.without_odometry,
-                                        c.rejected)) {
+      if (auto w = unmappedScansWarning(mapper->options().robot, mapper->scanCounts())) {
         common::logWarn(*w);
         warnings.push_back(std::move(*w));
       }
