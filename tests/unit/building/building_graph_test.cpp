@@ -7,6 +7,7 @@
 
 #include "building_runs.h"
 #include "storey/building/building_outputs.h"
+#include "storey/building/building_scene.h"
 #include "storey/building/building_summary.h"
 #include "storey/building/isometric_view.h"
 #include "test_support.h"
@@ -302,6 +303,73 @@ TEST(BuildingOutputs, IsometricViewDrawsARobotsRideBetweenFloors) {
   EXPECT_GT(paths, 40);
   // The ride rises from (3, 2) on floor 0 to (0, 0) on floor 1: tens of pixels.
   EXPECT_GT(pathPixels(true), paths + 20);
+}
+
+// One robot on two floors, three constraints: the scene holds both floors' walls at their
+// heights, a path per floor graph on its floor, one ride from floor 0 up to floor 1 and the
+// constraints between the constrained nodes; without constraints asked for, none.
+TEST(BuildingScene, HoldsWallsPathsTheRideAndTheConstraints) {
+  std::vector<Pose2> truth0, truth1;
+  floor::FloorGraph lower = makeLoop(0, 0, 0.0, Pose2(), &truth0);
+  floor::FloorGraph upper = makeLoop(1, 1, 3.0, Pose2(), &truth1);
+  for (auto& n : upper.nodes) n.stamp += 100.0;
+  lower.robot = upper.robot = "r";
+  BuildingGraph building;
+  building.upsertFloorGraph(lower);
+  building.upsertFloorGraph(upper);
+  int id = 0;
+  for (int k : {1, 5, 9})
+    building.addConstraint(exactConstraint(id++, 0, k, 1, k, truth0[k], truth1[k], 3.0));
+  const BuildingSolution s = building.optimize();
+  const auto floors = renderBuildingFloors(building, s, grid::OccupancyGridOptions());
+  const BuildingScene scene = buildingScene(floors, &building, &s);
+  ASSERT_EQ(scene.floors.size(), 2u);
+  EXPECT_EQ(scene.floors[0].floor_id, 0);
+  EXPECT_EQ(scene.floors[1].height, 3.0);
+  for (const SceneFloor& f : scene.floors) {
+    EXPECT_GT(f.walls.size(), 20u);
+    for (const Eigen::Vector2d& w : f.walls) {  // ring scans of 2 m around nodes in [0, 3] x [0, 2]
+      EXPECT_GT(w.x(), f.x0);
+      EXPECT_LT(w.y(), f.y1);
+      EXPECT_LT(w.norm(), 6.5);
+    }
+  }
+  ASSERT_EQ(scene.paths.size(), 2u);
+  for (const SceneLine& path : scene.paths) {
+    EXPECT_EQ(path.points.size(), 12u);
+    for (const Eigen::Vector3d& p : path.points) EXPECT_EQ(p.z(), path.floor_id == 0 ? 0.0 : 3.0);
+  }
+  ASSERT_EQ(scene.rides.size(), 1u);
+  // The last node below (3, 2) to the first above (0, 0).
+  EXPECT_NEAR((scene.rides[0].points[0] - Eigen::Vector3d(3, 2, 0)).norm(), 0.0, 1e-6);
+  EXPECT_NEAR((scene.rides[0].points[1] - Eigen::Vector3d(0, 0, 3)).norm(), 0.0, 1e-6);
+  ASSERT_EQ(scene.constraints.size(), 3u);
+  EXPECT_NEAR((scene.constraints[0].points[1] - scene.constraints[0].points[0]).norm(), 3.0, 1e-6);
+  EXPECT_TRUE(buildingScene(floors, &building, &s, false).constraints.empty());
+  EXPECT_TRUE(buildingScene(floors).paths.empty());
+}
+
+// Thinning keeps at most one wall point per square, doubles the square until the budget
+// holds, and keeps every floor.
+TEST(BuildingScene, ThinnedWallsStayWithinTheirBudget) {
+  BuildingScene scene;
+  for (int f = 0; f < 3; ++f) {
+    SceneFloor floor;
+    floor.floor_id = f;
+    for (int i = 0; i < 1000; ++i) floor.walls.emplace_back(0.01 * i, 0.005 * f);  // a 10 m wall
+    scene.floors.push_back(floor);
+  }
+  BuildingScene fine = scene;
+  EXPECT_EQ(thinWalls(fine, 0.1, 100000), 0.1);
+  for (const SceneFloor& f : fine.floors) EXPECT_EQ(f.walls.size(), 100u);
+  const double cell = thinWalls(scene, 0.1, 100);
+  EXPECT_EQ(cell, 0.4);  // 25 points a floor
+  std::size_t total = 0;
+  for (const SceneFloor& f : scene.floors) {
+    EXPECT_GT(f.walls.size(), 0u);
+    total += f.walls.size();
+  }
+  EXPECT_LE(total, 100u);
 }
 
 }  // namespace

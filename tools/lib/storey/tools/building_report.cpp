@@ -10,11 +10,13 @@
 #include <map>
 #include <sstream>
 
+#include "storey/building/building_scene.h"
 #include "storey/building/building_summary.h"
 #include "storey/building/isometric_view.h"
 #include "storey/eval/trajectory.h"
 #include "storey/graph/graph_io.h"
 #include "storey/grid/image.h"
+#include "storey/tools/report_view.h"
 
 namespace storey::tools {
 namespace fs = std::filesystem;
@@ -251,6 +253,7 @@ BuildingOutputSummary writeBuildingOutputs(const std::string& dir, const buildin
          "heights without inter-floor constraints</figcaption></figure>\n"
       << "<figure><img src=\"building_after.png\" width=\"440\"><figcaption>with them "
          "(constraints black, paths and rides grey)</figcaption></figure>\n";
+  writeInteractiveView(out, building::buildingScene(floors, &graph, &solution));
   out << "<h2>Floors</h2>\n<table><tr><th>floor graph</th><th>robot</th><th>floor</th><th>height [m]</th>"
          "<th>x [m]</th><th>y [m]</th><th>&theta; [deg]</th><th>aligned</th><th>nodes</th></tr>\n";
   for (const auto& p : solution.placements)
