@@ -9,7 +9,7 @@ packages=(
   cmake g++ ninja-build pkg-config ccache
   libfastrtps-dev libfastcdr-dev fastddsgen fastdds-tools
   libeigen3-dev liboctomap-dev libsuitesparse-dev libyaml-cpp-dev
-  libsqlite3-dev zlib1g-dev
+  libsqlite3-dev zlib1g-dev libzstd-dev liblz4-dev
   libgtest-dev libgmock-dev libbenchmark-dev libceres-dev
   iproute2 openssl
 )

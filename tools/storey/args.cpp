@@ -1,5 +1,6 @@
 #include "args.h"
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <sstream>
@@ -117,6 +118,15 @@ double Args::getDouble(const std::string& name, double min, double max) const {
     throw UsageError(out.str());
   }
   return value;
+}
+
+std::string Args::getChoice(const std::string& name,
+                            const std::vector<std::string>& choices) const {
+  std::string value = get(name);
+  if (std::find(choices.begin(), choices.end(), value) != choices.end()) return value;
+  std::string list;
+  for (const std::string& c : choices) list += (list.empty() ? "" : ", ") + c;
+  throw UsageError("--" + name + " must be one of " + list + ", got '" + value + "'");
 }
 
 long Args::getInt(const std::string& name) const {

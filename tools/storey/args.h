@@ -38,6 +38,8 @@ class Args {
   // A finite number within [min, max]; the error names the option and the range.
   double getDouble(const std::string& name, double min, double max) const;
   long getInt(const std::string& name) const;
+  // One of `choices`; the error names the option and lists them.
+  std::string getChoice(const std::string& name, const std::vector<std::string>& choices) const;
   bool flagSet(const std::string& name) const;
   const std::string& command() const { return command_; }
   std::string helpText() const;

@@ -51,9 +51,12 @@ int info(const std::string& path) {
   const std::int64_t start = reader.startTimeNs(), end = reader.endTimeNs();
   std::cout << "Files:       " << files << "\n"
             << "Bag size:    " << formatBytes(size) << "\n"
-            << "Storage:     sqlite3, schema "
-            << (reader.schemaVersion() ? std::to_string(reader.schemaVersion()) : "unknown")
-            << (reader.rosDistro().empty() ? "" : ", " + reader.rosDistro()) << "\n"
+            << "Storage:     " << reader.storage();
+  if (reader.storage() == bag::kStorageSqlite3)
+    std::cout << ", schema "
+              << (reader.schemaVersion() ? std::to_string(reader.schemaVersion()) : "unknown")
+              << (reader.rosDistro().empty() ? "" : ", " + reader.rosDistro());
+  std::cout << "\n"
             << "Duration:    " << std::fixed << std::setprecision(3) << (end - start) * 1e-9
             << " s\n";
   if (count > 0) {

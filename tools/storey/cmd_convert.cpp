@@ -28,8 +28,9 @@ int run_convert(Args& args) {
       .option("laser", "ID", "laser to convert: 1 front, 2 rear, ..., 0 every laser", "1")
       .option("odom", "scans|lines", "odometry from each scan line, or the ODOM lines", "scans")
       .option("stamp-offset", "S", "seconds added to every stamp", "0")
-      .option("restamp", "HZ", "stamp scan k at k/HZ s (+ offset) instead of its own (0: off)",
-              "0")
+      .option("restamp", "HZ", "stamp scan k at k/HZ s (+ offset) instead of its own (0: off)", "0")
+      .option("storage", "sqlite3|mcap", "the bag's storage (rosbag2's storage identifier)",
+              "sqlite3")
       .flag("lenient", "skip malformed lines (counted) instead of stopping at the first");
   if (!args.parse()) return 0;
   const std::string log_path = args.positional(0, "LOG");
@@ -49,11 +50,13 @@ int run_convert(Args& args) {
   if (restamp > 0.0 && odom_source == "lines")
     throw UsageError("--restamp renumbers scans only: use it with --odom scans");
   runtime::robotTopic(robot, "scan");  // rejects a bad robot name before anything is written
+  bag::BagWriterOptions bag_options;
+  bag_options.storage = args.getChoice("storage", {bag::kStorageSqlite3, bag::kStorageMcap});
 
   io::CarmenReaderOptions reader_options;
   reader_options.strict = !args.flagSet("lenient");
   io::CarmenReader reader(log_path, reader_options);
-  runtime::SensorBagWriter writer(bag_path);
+  runtime::SensorBagWriter writer(bag_path, bag_options);
 
   std::size_t scans = 0, odometry = 0, zero_stamped = 0, not_increasing = 0;
   double last_scan_stamp = -std::numeric_limits<double>::infinity();

@@ -30,6 +30,8 @@ int run_record(Args& args) {
       .option("output", "BAG", "bag folder to create (must not exist or be empty)")
       .option("duration", "SECONDS", "stop after this long (0: until stopped)", "0")
       .option("count", "N", "stop after N messages (0: no limit)", "0")
+      .option("storage", "sqlite3|mcap", "the bag's storage (rosbag2's storage identifier)",
+              "sqlite3")
       .option("domain", "ID", "DDS domain id (-1: ROS_DOMAIN_ID, else 0)", "-1")
       .option("discovery-timeout", "SECONDS", "wait for publishers to tell topic types", "5");
   if (!args.parse()) return 0;
@@ -37,6 +39,7 @@ int run_record(Args& args) {
     throw UsageError("unexpected argument " + args.positional(0, ""));
   if (!args.has("topics")) throw UsageError("--topics is required");
   if (!args.has("output")) throw UsageError("--output is required");
+  const std::string storage = args.getChoice("storage", {bag::kStorageSqlite3, bag::kStorageMcap});
   const double duration = args.getDouble("duration");
   const long count = args.getInt("count");
   if (duration < 0) throw UsageError("--duration must not be negative");
@@ -59,7 +62,7 @@ int run_record(Args& args) {
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("--topics: ") + e.what());
   }
-  runtime::BagRecorder recorder(context, args.get("output"), topics);
+  runtime::BagRecorder recorder(context, args.get("output"), topics, storage);
   common::logInfo(common::str("recording ", topics.size(), " topics on domain ", context.domainId(),
                               " into ", args.get("output")));
 

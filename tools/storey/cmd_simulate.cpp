@@ -56,6 +56,8 @@ int run_simulate(Args& args) {
       .option("config", "DIR", "component parameter files for live/ (floor_detector.yaml, ...)",
               "the shipped config/")
       .flag("no-barometer", "the robots carry no barometer (no pressure topic)")
+      .option("storage", "sqlite3|mcap", "the bag's storage (rosbag2's storage identifier)",
+              "sqlite3")
       .flag("no-bag", "skip the bag (ground truth and pictures only)")
       .flag("no-pictures", "skip the pictures");
   if (!args.parse()) return 0;
@@ -80,7 +82,9 @@ int run_simulate(Args& args) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
 
   fs::create_directories(out);
-  if (!args.flagSet("no-bag")) tools::writeSimulationBag(run, (fs::path(out) / "bag").string());
+  const std::string storage = args.getChoice("storage", {bag::kStorageSqlite3, bag::kStorageMcap});
+  if (!args.flagSet("no-bag"))
+    tools::writeSimulationBag(run, (fs::path(out) / "bag").string(), storage);
   sim::writeGroundTruth(run, (fs::path(out) / "ground_truth").string());
   sim::writeOdometryBaseline(run, (fs::path(out) / "baseline_odometry").string());
   if (!args.flagSet("no-pictures"))

@@ -374,6 +374,29 @@ std::vector<Row> rows() {
        kFailure,
        "metadata.yaml: line 3: rosbag2_bagfile_information.version: duplicate key (also on line "
        "2)"},
+      {"BagMcapWithoutItsEnd",  // a recorder killed before it wrote the summary and footer
+       [](const std::string& d) {
+         std::string log;
+         for (int i = 0; i < 30; ++i) log += flaser(0.02 * i, 1 + 0.1 * i);
+         test::writeFile(d + "/a.log", log);
+         const Outcome converted =
+             run({STOREY_EXECUTABLE, "convert", d + "/a.log", d + "/bag", "--storage", "mcap"}, {},
+                 d + "/convert.log");
+         EXPECT_EQ(converted.status, kSuccess) << converted.output;
+         // Cut where its Data End record starts: the chunks are whole, the rest is missing.
+         const std::string bytes = test::readFile(d + "/bag/bag_0.mcap");
+         const std::size_t data_end =
+             bytes.rfind(std::string("\x0f\x04", 2) + std::string(11, '\0'));
+         EXPECT_NE(data_end, std::string::npos);
+         fs::resize_file(d + "/bag/bag_0.mcap", data_end);
+         return Args{"map", d + "/bag", "--output", d + "/out", "--quiet"};
+       },
+       kSuccess, "bag_0.mcap: cut short",
+       [](const std::string& d) {
+         EXPECT_NE(test::readFile(d + "/out/report.html")
+                       .find("<li class=\"warn\">the recording ends early"),
+                   std::string::npos);
+       }},
       // Component parameter files (storey component, strict options).
       {"ParametersDuplicateKey",
        [](const std::string& d) {

@@ -27,6 +27,7 @@ constexpr int kDomain = 147;  // distinct from every other DDS test
 constexpr int kDiscoveryDomain = 148;
 constexpr int kTfStaticDomain = 50;
 constexpr int kOfferedQosDomain = 51;
+constexpr int kOfferedQosMcapDomain = 96;
 
 ContextOptions onDomain(int domain) {
   ContextOptions options;
@@ -38,6 +39,7 @@ pid_t spawn(const std::vector<std::string>& argv) {
   const pid_t pid = fork();
   if (pid == 0) {
     std::vector<char*> args;
+    args.reserve(argv.size() + 1);
     for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);
     execv(args[0], args.data());
@@ -167,12 +169,12 @@ TEST(Record, RecordsATfStaticPublishedBeforeTheRecordingStarts) {
 
 // The metadata holds the QoS the publishers offer, not the recorder's own: a reliable,
 // transient-local odometry writer and a best-effort, volatile scan writer.
-TEST(Record, RecordsTheQosThePublishersOffer) {
+void recordsTheQosThePublishersOffer(const std::string& storage, int domain) {
   const std::string output = test::makeTempDir("record") + "/offered";
-  const ContextOptions options = onDomain(kOfferedQosDomain);
-  const pid_t pid =
-      spawn({STOREY_COMMAND, "record", "--topics", "/rob4/odom,/rob4/scan", "--output", output,
-             "--count", "4", "--duration", "30", "--domain", std::to_string(kOfferedQosDomain)});
+  const ContextOptions options = onDomain(domain);
+  const pid_t pid = spawn({STOREY_COMMAND, "record", "--topics", "/rob4/odom,/rob4/scan",
+                           "--output", output, "--count", "4", "--duration", "30", "--domain",
+                           std::to_string(domain), "--storage", storage});
   ASSERT_GT(pid, 0);
   {
     Context context(options);
@@ -205,13 +207,23 @@ TEST(Record, RecordsTheQosThePublishersOffer) {
   ASSERT_EQ(scan_qos.size(), 1u);
   EXPECT_EQ(scan_qos[0]["reliability"].as<int>(), 2);  // best effort
   EXPECT_EQ(scan_qos[0]["durability"].as<int>(), 2);   // volatile
-  // The database's topics table says the same.
+  // The database's topics table (MCAP: the channel records) says the same.
   bag::BagReader bag(output);
+  EXPECT_EQ(bag.storage(), storage);
   for (const bag::TopicInfo& topic : bag.topics()) {
     EXPECT_EQ(YAML::Load(topic.offered_qos_profiles)[0]["reliability"].as<int>(),
               topic.name == "/rob4/odom" ? 1 : 2)
         << topic.name;
   }
+}
+
+TEST(Record, RecordsTheQosThePublishersOffer) {
+  recordsTheQosThePublishersOffer("sqlite3", kOfferedQosDomain);
+}
+
+// MCAP keeps a channel as its first message found it: the publisher is known by then.
+TEST(Record, RecordsTheQosThePublishersOfferInMcap) {
+  recordsTheQosThePublishersOffer("mcap", kOfferedQosMcapDomain);
 }
 
 TEST(Record, ParsesTopicListsAndInfersSensorTypes) {

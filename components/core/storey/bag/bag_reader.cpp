@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "storey/bag/bag_error.h"
+#include "storey/bag/mcap_file.h"
 #include "storey/bag/sqlite_db.h"
 #include "storey/common/file_checks.h"
 
@@ -29,9 +30,10 @@ BagReader::BagReader(const std::string& path) : path_(path) {
     const fs::path yaml = p / "metadata.yaml";
     if (fs::exists(yaml, ec)) {
       metadata_ = readMetadataFile(yaml.string());
-      if (metadata_->storage_identifier != kStorageSqlite3) {
+      if (metadata_->storage_identifier != kStorageSqlite3 &&
+          metadata_->storage_identifier != kStorageMcap) {
         throw BagError(yaml.string(), "storage '" + metadata_->storage_identifier +
-                                          "' is not supported (only sqlite3)");
+                                          "' is not supported (sqlite3 and mcap are)");
       }
       if (!metadata_->compression_format.empty()) {
         throw BagError(yaml.string(),
@@ -48,11 +50,13 @@ BagReader::BagReader(const std::string& path) : path_(path) {
       }
     } else {
       for (const fs::directory_entry& entry : fs::directory_iterator(p, ec)) {
-        if (entry.path().extension() == ".db3") files_.push_back(entry.path().string());
+        const fs::path extension = entry.path().extension();
+        if (extension == ".db3" || extension == ".mcap") files_.push_back(entry.path().string());
       }
       std::sort(files_.begin(), files_.end());
     }
-    if (files_.empty()) throw BagError(path, "not a bag: no metadata.yaml and no .db3 file");
+    if (files_.empty())
+      throw BagError(path, "not a bag: no metadata.yaml and no .db3 or .mcap file");
   } else {
     files_.push_back(p.string());
   }
@@ -64,13 +68,45 @@ BagReader::~BagReader() {
   cursors_.clear();  // statements before their databases
 }
 
+void BagReader::addTopic(const TopicInfo& info, std::int64_t id, const std::string& file,
+                         std::map<std::int64_t, std::size_t>& ids) {
+  auto it = topic_index_.find(info.name);
+  if (it == topic_index_.end()) {
+    it = topic_index_.emplace(info.name, topics_.size()).first;
+    topics_.push_back(info);
+  } else if (topics_[it->second].type != info.type) {
+    throw BagError(file, "topic " + info.name + " has type " + info.type + " here but " +
+                             topics_[it->second].type + " in an earlier file");
+  }
+  ids[id] = it->second;
+}
+
+void BagReader::openMcap(const std::string& file) {
+  auto mcap = std::make_unique<detail::McapFileReader>(file);
+  if (storage_.empty()) storage_ = kStorageMcap;
+  std::map<std::int64_t, std::size_t> ids;
+  for (const auto& [id, topic] : mcap->channels()) addTopic(topic, id, file, ids);
+  file_topics_.push_back(std::move(ids));
+  dbs_.push_back(nullptr);
+  mcaps_.push_back(std::move(mcap));
+}
+
 void BagReader::openFile(const std::string& file) {
+  if (fs::path(file).extension() == ".mcap") {
+    openMcap(file);
+    return;
+  }
   try {
     common::requireRegularFile(file, "bag database");  // sqlite would wait on a FIFO forever
   } catch (const std::runtime_error& e) {
     throw BagError(file, std::string(e.what()).substr(file.size() + 2));
   }
+  if (detail::looksLikeMcap(file)) {  // an MCAP file by another name
+    openMcap(file);
+    return;
+  }
   auto db = std::make_unique<detail::Database>(file, detail::Database::Mode::kReadOnly);
+  if (storage_.empty()) storage_ = kStorageSqlite3;
   // The first query reads the header: a garbage file fails here, naming the file.
   bool has_tables = false;
   try {
@@ -99,18 +135,11 @@ void BagReader::openFile(const std::string& file) {
     info.type = query.columnText(2);
     info.serialization_format = query.columnText(3);
     info.offered_qos_profiles = query.columnText(4);
-    auto it = topic_index_.find(info.name);
-    if (it == topic_index_.end()) {
-      it = topic_index_.emplace(info.name, topics_.size()).first;
-      topics_.push_back(info);
-    } else if (topics_[it->second].type != info.type) {
-      throw BagError(file, "topic " + info.name + " has type " + info.type + " here but " +
-                               topics_[it->second].type + " in an earlier file");
-    }
-    ids[query.columnInt(0)] = it->second;
+    addTopic(info, query.columnInt(0), file, ids);
   }
   file_topics_.push_back(std::move(ids));
   dbs_.push_back(std::move(db));
+  mcaps_.push_back(nullptr);
 }
 
 std::optional<std::size_t> BagReader::topicIndex(const std::string& name) const {
@@ -132,18 +161,28 @@ void BagReader::rewind() { startCursors(); }
 void BagReader::startCursors() {
   cursors_.clear();
   for (std::size_t f = 0; f < dbs_.size(); ++f) {
-    std::string where;
-    if (!filter_.empty()) {
-      std::string ids;
-      for (const auto& [id, index] : file_topics_[f]) {
-        const std::string& name = topics_[index].name;
-        if (std::find(filter_.begin(), filter_.end(), name) == filter_.end()) continue;
-        ids += (ids.empty() ? "" : ",") + std::to_string(id);
-      }
-      where = " WHERE topic_id IN (" + ids + ")";
+    // The file's ids of the topics asked for.
+    std::vector<std::int64_t> wanted;
+    for (const auto& [id, index] : file_topics_[f]) {
+      const std::string& name = topics_[index].name;
+      if (filter_.empty() || std::find(filter_.begin(), filter_.end(), name) != filter_.end())
+        wanted.push_back(id);
     }
     auto cursor = std::make_unique<Cursor>();
     cursor->file = f;
+    if (mcaps_[f]) {
+      // An empty list is every channel: a filter matching none of this file's reads none.
+      if (!filter_.empty() && wanted.empty()) cursor->done = true;
+      mcaps_[f]->start(std::vector<std::uint16_t>(wanted.begin(), wanted.end()));
+      cursors_.push_back(std::move(cursor));
+      continue;
+    }
+    std::string where;
+    if (!filter_.empty()) {
+      std::string ids;
+      for (const std::int64_t id : wanted) ids += (ids.empty() ? "" : ",") + std::to_string(id);
+      where = " WHERE topic_id IN (" + ids + ")";
+    }
     // id is the rowid, so the timestamp index serves this order without sorting.
     cursor->query = std::make_unique<detail::Statement>(
         *dbs_[f],
@@ -155,6 +194,22 @@ void BagReader::startCursors() {
 bool BagReader::next(BagMessage& message) {
   Cursor* best = nullptr;
   for (auto& cursor : cursors_) {
+    while (!cursor->has_head && !cursor->done && mcaps_[cursor->file]) {
+      std::uint16_t channel = 0;
+      bool more = false;
+      try {
+        more = mcaps_[cursor->file]->next(channel, cursor->head.stamp_ns, cursor->head.data);
+      } catch (const BagError&) {
+        cursor->done = true;
+        throw;
+      }
+      if (!more) {
+        cursor->done = true;
+        break;
+      }
+      cursor->head.topic_index = file_topics_[cursor->file].at(channel);
+      cursor->has_head = true;
+    }
     while (!cursor->has_head && !cursor->done) {
       detail::Statement& q = *cursor->query;
       bool row = false;
@@ -194,6 +249,17 @@ const std::vector<TopicSummary>& BagReader::summary() {
   std::vector<TopicSummary> result(topics_.size());
   for (std::size_t i = 0; i < topics_.size(); ++i) result[i].topic = topics_[i];
   for (std::size_t f = 0; f < dbs_.size(); ++f) {
+    if (mcaps_[f]) {
+      for (const auto& [channel, count] : mcaps_[f]->counts()) {
+        const auto topic = file_topics_[f].find(channel);
+        if (topic == file_topics_[f].end()) continue;
+        TopicSummary& s = result[topic->second];
+        s.first_stamp_ns = s.message_count ? std::min(s.first_stamp_ns, count.first) : count.first;
+        s.last_stamp_ns = s.message_count ? std::max(s.last_stamp_ns, count.last) : count.last;
+        s.message_count += count.messages;
+      }
+      continue;
+    }
     detail::Statement q(*dbs_[f],
                         "SELECT topic_id, COUNT(*), MIN(timestamp), MAX(timestamp) FROM messages "
                         "GROUP BY topic_id");

@@ -1,8 +1,8 @@
-// Reads rosbag2 bags with sqlite3 storage: ROS 2 Humble (schema 3), Jazzy (schema 4: an
-// extra topics column and table, ignored) and older layouts without the schema table.
-// Accepts a bag folder (metadata.yaml lists the .db3 files; without it every *.db3 in
-// the folder is read) or a single .db3 file. Messages stream from sqlite in time order
-// (merged across split files); nothing is loaded whole.
+// Reads rosbag2 bags with sqlite3 storage (ROS 2 Humble's schema 3, Jazzy's schema 4: an
+// extra topics column and table, ignored; older layouts without the schema table) or mcap
+// storage (mcap_file.h). Accepts a bag folder (metadata.yaml lists the files; without it
+// every *.db3 and *.mcap in the folder is read) or a single .db3 or .mcap file. Messages
+// stream in time order (merged across split files); no file is loaded whole.
 #pragma once
 
 #include <cstdint>
@@ -20,6 +20,7 @@ namespace storey::bag {
 namespace detail {
 class Database;
 class Statement;
+class McapFileReader;
 }  // namespace detail
 
 struct BagMessage {
@@ -37,8 +38,8 @@ struct TopicSummary {
 
 class BagReader {
  public:
-  // Throws BagError naming the file: missing path, no .db3, not an sqlite database, not a
-  // rosbag2 database, unsupported storage or compression.
+  // Throws BagError naming the file: missing path, no .db3 or .mcap, not an sqlite
+  // database or MCAP file, not a rosbag2 database, unsupported storage or compression.
   explicit BagReader(const std::string& path);
   ~BagReader();
   BagReader(const BagReader&) = delete;
@@ -48,7 +49,9 @@ class BagReader {
   const std::vector<std::string>& files() const { return files_; }
   const std::vector<TopicInfo>& topics() const { return topics_; }
   std::optional<std::size_t> topicIndex(const std::string& name) const;
-  int schemaVersion() const { return schema_version_; }  // 0: no schema table (pre-Humble)
+  // kStorageSqlite3 or kStorageMcap, of the first file (split bags have one storage).
+  const std::string& storage() const { return storage_; }
+  int schemaVersion() const { return schema_version_; }  // sqlite3; 0: no schema table (pre-Humble)
   const std::string& rosDistro() const { return ros_distro_; }
   const std::optional<BagMetadata>& metadata() const { return metadata_; }
 
@@ -69,16 +72,22 @@ class BagReader {
  private:
   struct Cursor;
   void openFile(const std::string& file);
+  void openMcap(const std::string& file);
+  void addTopic(const TopicInfo& info, std::int64_t id, const std::string& file,
+                std::map<std::int64_t, std::size_t>& ids);
   void startCursors();
 
   std::string path_;
   std::vector<std::string> files_;
   std::optional<BagMetadata> metadata_;
+  std::string storage_;
   int schema_version_ = 0;
   std::string ros_distro_;
   std::vector<TopicInfo> topics_;
   std::map<std::string, std::size_t> topic_index_;
+  // Per file, one of the two: an sqlite database or an MCAP file.
   std::vector<std::unique_ptr<detail::Database>> dbs_;
+  std::vector<std::unique_ptr<detail::McapFileReader>> mcaps_;
   std::vector<std::map<std::int64_t, std::size_t>> file_topics_;  // per file: id -> index
   std::vector<std::string> filter_;
   std::vector<std::unique_ptr<Cursor>> cursors_;

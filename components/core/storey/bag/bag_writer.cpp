@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "storey/bag/bag_error.h"
+#include "storey/bag/mcap_file.h"
 #include "storey/bag/sqlite_db.h"
 #include "storey/common/log.h"
 
@@ -27,8 +28,10 @@ BagWriter::~BagWriter() {
 
 void BagWriter::open(const std::string& folder, BagWriterOptions options) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (db_) throw BagError(folder_, "bag is already open");
+  if (isOpen()) throw BagError(folder_, "bag is already open");
   if (options.batch_size == 0) throw BagError(folder, "batch_size must be positive");
+  if (options.storage != kStorageSqlite3 && options.storage != kStorageMcap)
+    throw BagError(folder, "storage '" + options.storage + "' is not one of sqlite3, mcap");
   std::error_code ec;
   const fs::path dir(folder);
   if (fs::exists(dir, ec)) {
@@ -43,11 +46,16 @@ void BagWriter::open(const std::string& folder, BagWriterOptions options) {
   if (name.empty()) name = "bag";
   options_ = std::move(options);
   folder_ = folder;
-  db_name_ = name + "_0.db3";
   topics_.clear();
   topic_order_.clear();
   pending_ = 0;
   count_ = 0;
+  if (options_.storage == kStorageMcap) {
+    db_name_ = name + "_0.mcap";
+    mcap_ = std::make_unique<detail::McapFileWriter>((dir / db_name_).string());
+    return;
+  }
+  db_name_ = name + "_0.db3";
 
   db_ = std::make_unique<detail::Database>((dir / db_name_).string(),
                                            detail::Database::Mode::kCreate);
@@ -73,7 +81,7 @@ std::string BagWriter::databasePath() const { return (fs::path(folder_) / db_nam
 
 void BagWriter::createTopic(const TopicInfo& topic) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!db_) throw BagError(folder_, "createTopic on a closed bag");
+  if (!isOpen()) throw BagError(folder_, "createTopic on a closed bag");
   if (topic.name.empty() || topic.type.empty()) {
     throw BagError(folder_, "a topic needs a name and a type");
   }
@@ -84,6 +92,14 @@ void BagWriter::createTopic(const TopicInfo& topic) {
     }
     return;
   }
+  Topic entry;
+  entry.info = topic;
+  if (mcap_) {
+    entry.id = mcap_->addTopic(topic);
+    topics_.emplace(topic.name, std::move(entry));
+    topic_order_.push_back(topic.name);
+    return;
+  }
   detail::Statement insert(*db_,
                            "INSERT INTO topics(name, type, serialization_format, "
                            "offered_qos_profiles) VALUES(?, ?, ?, ?)");
@@ -92,11 +108,9 @@ void BagWriter::createTopic(const TopicInfo& topic) {
   insert.bind(3, topic.serialization_format);
   insert.bind(4, topic.offered_qos_profiles);
   insert.step();
-  Topic entry;
   detail::Statement id(*db_, "SELECT last_insert_rowid()");
   id.step();
   entry.id = id.columnInt(0);
-  entry.info = topic;
   topics_.emplace(topic.name, std::move(entry));
   topic_order_.push_back(topic.name);
 }
@@ -108,28 +122,36 @@ bool BagWriter::hasTopic(const std::string& name) const {
 
 void BagWriter::setOfferedQos(const std::string& name, const std::string& offered_qos_profiles) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!db_) throw BagError(folder_, "setOfferedQos on a closed bag");
+  if (!isOpen()) throw BagError(folder_, "setOfferedQos on a closed bag");
   const auto it = topics_.find(name);
   if (it == topics_.end()) throw BagError(folder_, "setOfferedQos on undeclared topic " + name);
+  it->second.info.offered_qos_profiles = offered_qos_profiles;
+  if (mcap_) {
+    mcap_->setOfferedQos(static_cast<std::uint16_t>(it->second.id), offered_qos_profiles);
+    return;
+  }
   detail::Statement update(*db_, "UPDATE topics SET offered_qos_profiles = ? WHERE id = ?");
   update.bind(1, offered_qos_profiles);
   update.bind(2, it->second.id);
   update.step();
-  it->second.info.offered_qos_profiles = offered_qos_profiles;
 }
 
 void BagWriter::write(const std::string& topic, std::int64_t stamp_ns, const std::uint8_t* data,
                       std::size_t size) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!db_) throw BagError(folder_, "write on a closed bag");
+  if (!isOpen()) throw BagError(folder_, "write on a closed bag");
   const auto it = topics_.find(topic);
   if (it == topics_.end()) throw BagError(folder_, "write on undeclared topic " + topic);
-  if (pending_ == 0) db_->exec("BEGIN TRANSACTION");
-  insert_->bind(1, it->second.id);
-  insert_->bind(2, stamp_ns);
-  insert_->bindBlob(3, data, size);
-  insert_->step();
-  insert_->reset();
+  if (mcap_) {
+    mcap_->write(static_cast<std::uint16_t>(it->second.id), stamp_ns, data, size);
+  } else {
+    if (pending_ == 0) db_->exec("BEGIN TRANSACTION");
+    insert_->bind(1, it->second.id);
+    insert_->bind(2, stamp_ns);
+    insert_->bindBlob(3, data, size);
+    insert_->step();
+    insert_->reset();
+  }
   ++it->second.count;
   if (count_ == 0) {
     min_stamp_ = max_stamp_ = stamp_ns;
@@ -138,7 +160,7 @@ void BagWriter::write(const std::string& topic, std::int64_t stamp_ns, const std
     max_stamp_ = std::max(max_stamp_, stamp_ns);
   }
   ++count_;
-  if (++pending_ >= options_.batch_size) commitLocked();
+  if (db_ && ++pending_ >= options_.batch_size) commitLocked();
 }
 
 void BagWriter::commitLocked() {
@@ -158,8 +180,9 @@ void BagWriter::close() {
 }
 
 void BagWriter::closeLocked() {
-  if (!db_) return;
+  if (!isOpen()) return;
   BagMetadata m;
+  m.storage_identifier = options_.storage;
   m.starting_time_ns = count_ ? min_stamp_ : 0;
   m.duration_ns = count_ ? max_stamp_ - min_stamp_ : 0;
   m.message_count = count_;
@@ -169,6 +192,13 @@ void BagWriter::closeLocked() {
   }
   m.relative_file_paths = {db_name_};
   m.files = {{db_name_, m.starting_time_ns, m.duration_ns, count_}};
+  if (mcap_) {
+    // Released even when closing fails, so the object is reusable.
+    std::unique_ptr<detail::McapFileWriter> mcap = std::move(mcap_);
+    mcap->close();
+    writeMetadataFile((fs::path(folder_) / "metadata.yaml").string(), m);
+    return;
+  }
   // Release the database even when the last commit fails, so the object is reusable.
   std::unique_ptr<detail::Statement> insert = std::move(insert_);
   std::unique_ptr<detail::Database> db = std::move(db_);

@@ -13,6 +13,7 @@ namespace storey::bag {
 
 inline constexpr const char* kSerializationCdr = "cdr";
 inline constexpr const char* kStorageSqlite3 = "sqlite3";
+inline constexpr const char* kStorageMcap = "mcap";
 
 struct TopicInfo {
   std::string name;  // "/robot1/scan"

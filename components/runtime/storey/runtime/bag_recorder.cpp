@@ -33,7 +33,8 @@ template <typename MsgT, typename PubSubT>
 Subscriber subscriber() {
   return [](Context& context, const std::string& topic, TopicKind kind, Sink sink) {
     return std::make_unique<Subscription<MsgT, PubSubT>>(
-        context, topic, kind, [sink](const MsgT& msg) { sink(serializeCdr(msg)); });
+        context, topic, kind,
+        [sink = std::move(sink)](const MsgT& msg) { sink(serializeCdr(msg)); });
   };
 }
 
@@ -197,9 +198,17 @@ TopicKind BagRecorder::recordKind(const RecordTopic& topic) {
   return known == knownTypeTable().end() ? TopicKind::kSensor : known->second.kind;
 }
 
+namespace {
+bag::BagWriterOptions storageOptions(const std::string& storage) {
+  bag::BagWriterOptions options;
+  options.storage = storage;
+  return options;
+}
+}  // namespace
+
 BagRecorder::BagRecorder(Context& context, const std::string& output_folder,
-                         const std::vector<RecordTopic>& topics)
-    : context_(context), bag_(output_folder) {
+                         const std::vector<RecordTopic>& topics, const std::string& storage)
+    : context_(context), bag_(output_folder, storageOptions(storage)) {
   for (const RecordTopic& topic : topics) {
     const auto known = knownTypeTable().find(topic.type);
     if (known == knownTypeTable().end()) {
@@ -207,15 +216,22 @@ BagRecorder::BagRecorder(Context& context, const std::string& output_folder,
                                   "' is not one storey can record");
     }
     const TopicKind kind = recordKind(topic);
-    // Until close() knows the publishers' QoS, the subscription's (which they match).
+    // Until a first message or close() knows the publishers' QoS, the subscription's
+    // (which they match).
     const bool reliable = kind == TopicKind::kGraph;
     bag_.createTopic(
         {topic.name, topic.type, bag::kSerializationCdr, bag::qosProfileYaml(reliable, reliable)});
     topics_.push_back({topic, kind});
+  }
+  // Subscribed once topics_ is complete: store() reads it from DDS threads.
+  for (const auto& [topic, kind] : topics_) {
     const std::string name = topic.name;
-    subscriptions_.push_back(known->second.subscribe(
-        context, name, kind,
-        [this, name](std::vector<std::uint8_t>&& bytes) { store(name, std::move(bytes)); }));
+    subscriptions_.push_back(
+        knownTypeTable()
+            .at(topic.type)
+            .subscribe(context, name, kind, [this, name](std::vector<std::uint8_t>&& bytes) {
+              store(name, std::move(bytes));
+            }));
   }
 }
 
@@ -228,10 +244,21 @@ BagRecorder::~BagRecorder() {
 }
 
 void BagRecorder::store(const std::string& topic, std::vector<std::uint8_t>&& bytes) {
+  bool first = false;
+  {
+    std::lock_guard<std::mutex> lock(counts_mutex_);
+    first = counts_[topic]++ == 0;
+  }
+  // The publisher of a first message is discovered by now: its QoS goes into the topic
+  // before the message (an MCAP channel keeps what its first message found).
+  if (first)
+    for (const auto& [recorded, kind] : topics_) {
+      if (recorded.name != topic) continue;
+      const std::vector<bag::OfferedQos> offered = offeredQos(recorded, kind);
+      if (!offered.empty()) bag_.setOfferedQos(topic, bag::qosProfilesYaml(offered));
+    }
   bag_.write(topic, nowNs(), bytes);
   ++count_;
-  std::lock_guard<std::mutex> lock(counts_mutex_);
-  ++counts_[topic];
 }
 
 std::map<std::string, std::uint64_t> BagRecorder::countsByTopic() const {

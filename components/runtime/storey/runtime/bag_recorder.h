@@ -35,9 +35,11 @@ void resolveTopicTypes(Context& context, std::vector<RecordTopic>& topics, doubl
 
 class BagRecorder {
  public:
-  // Opens the bag (a new folder) and subscribes to every topic.
+  // Opens the bag (a new folder; storage bag::kStorageSqlite3 or kStorageMcap) and
+  // subscribes to every topic.
   BagRecorder(Context& context, const std::string& output_folder,
-              const std::vector<RecordTopic>& topics);
+              const std::vector<RecordTopic>& topics,
+              const std::string& storage = bag::kStorageSqlite3);
   ~BagRecorder();  // unsubscribes, then closes the bag
   BagRecorder(const BagRecorder&) = delete;
   BagRecorder& operator=(const BagRecorder&) = delete;

@@ -368,6 +368,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   // subscribers take it, and the same order every run.
   phase_start = Clock::now();
   std::uint64_t messages = 0;
+  std::vector<std::string> warnings;  // for the log and the report's summary
   for (const auto& p : prepared) {
     ReplayOptions replay_options;
     replay_options.settle_seconds = 0.0;
@@ -390,6 +391,11 @@ MapJobResult runMapJob(const MapJobOptions& options) {
                           : p.recording + ": " + std::to_string(summary.skipped) +
                                 " records skipped (unreadable or of types storey does not use)");
     }
+    if (!summary.cut_short.empty()) {
+      warnings.push_back("the recording ends early, mapped up to where it is damaged: " +
+                         summary.cut_short);
+      common::logWarn(warnings.back());
+    }
   }
   result.timings.push_back({"replay + detection + mapping", secondsSince(phase_start)});
   say("replayed " + std::to_string(messages) + " messages (" + std::to_string(result.recording_seconds) +
@@ -409,7 +415,6 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   // 6. The building.
   phase_start = Clock::now();
   auto [graph, solution] = server->snapshot();
-  std::vector<std::string> warnings;
   for (const auto& component : pipeline)
     if (const auto* mapper =
             dynamic_cast<const floor_mapper::FloorMapperComponent*>(component.get())) {

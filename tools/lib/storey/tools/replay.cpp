@@ -6,10 +6,11 @@
 #include <thread>
 
 #include "nav_msgs/msg/OdometryPubSubTypes.h"
-#include "storey/common/log.h"
 #include "sensor_msgs/msg/FluidPressurePubSubTypes.h"
 #include "sensor_msgs/msg/ImuPubSubTypes.h"
 #include "sensor_msgs/msg/LaserScanPubSubTypes.h"
+#include "storey/bag/bag_error.h"
+#include "storey/common/log.h"
 #include "storey/io/carmen.h"
 #include "storey/runtime/publisher.h"
 #include "storey/runtime/sensor_conversions.h"
@@ -28,6 +29,7 @@ std::string ReplaySummary::text() const {
   if (skipped) out << "  skipped: " << skipped << " (other types or unreadable)\n";
   if (out_of_order) out << "  stamps going backwards: " << out_of_order << "\n";
   if (stopped) out << "  interrupted before the end\n";
+  if (!cut_short.empty()) out << "  ended early: " << cut_short << "\n";
   if (!unacknowledged.empty()) {
     out << "  not every reliable subscriber acknowledged every sample in time on:";
     for (const auto& topic : unacknowledged) out << " " << topic;
@@ -38,7 +40,7 @@ std::string ReplaySummary::text() const {
 
 bool isBag(const std::string& path) {
   if (fs::is_directory(path)) return fs::exists(fs::path(path) / "metadata.yaml") || !fs::is_empty(path);
-  return fs::path(path).extension() == ".db3";
+  return fs::path(path).extension() == ".db3" || fs::path(path).extension() == ".mcap";
 }
 
 bool isCarmenLog(const std::string& path) {
@@ -192,7 +194,15 @@ ReplaySummary SensorReplayer::replay(SensorSource& source, const std::atomic<boo
   runtime::SensorRecord record;
   bool first = true;
   double recording_start = 0.0;
-  while (source.next(record)) {
+  auto next = [&] {
+    try {
+      return source.next(record);
+    } catch (const bag::BagError& e) {
+      summary.cut_short = e.what();
+      return false;
+    }
+  };
+  while (next()) {
     if (stop && stop->load()) {
       summary.stopped = true;
       break;

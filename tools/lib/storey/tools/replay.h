@@ -45,6 +45,9 @@ struct ReplaySummary {
   std::uint64_t skipped = 0;       // records of other types, or unreadable
   std::uint64_t out_of_order = 0;  // stamps going backwards (published anyway)
   bool stopped = false;            // interrupted before the end
+  // The damage that ended a bag's replay early (bag::BagError: a truncated or corrupt
+  // file); "" when it ran to its end. What came before it was published.
+  std::string cut_short;
   // Topics whose reliable subscribers did not all acknowledge every sample in time.
   std::vector<std::string> unacknowledged;
   std::string text() const;        // a readable summary
@@ -74,7 +77,8 @@ class SensorReplayer {
   // Publishes one record on its robot's topic (publishers are created on first use).
   void publish(const runtime::SensorRecord& record);
   // Replays a whole source; `stop` (may be null) interrupts; `progress` (may be empty) is
-  // called now and then with (records done, expected or 0).
+  // called now and then with (records done, expected or 0). A damaged bag ends the replay
+  // at the damage (summary's cut_short) rather than throwing away what came before.
   ReplaySummary replay(SensorSource& source, const std::atomic<bool>* stop = nullptr,
                        const std::function<void(std::uint64_t, std::uint64_t)>& progress = {});
 

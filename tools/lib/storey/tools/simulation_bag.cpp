@@ -8,8 +8,11 @@
 
 namespace storey::tools {
 
-void writeSimulationBag(const sim::Simulation& run, const std::string& folder) {
-  runtime::SensorBagWriter bag(folder);
+void writeSimulationBag(const sim::Simulation& run, const std::string& folder,
+                        const std::string& storage) {
+  bag::BagWriterOptions options;
+  options.storage = storage;
+  runtime::SensorBagWriter bag(folder, options);
   struct Cursor {
     const sim::RobotRun* robot;
     std::size_t s = 0, o = 0, p = 0, i = 0;
