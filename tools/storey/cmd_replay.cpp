@@ -5,7 +5,9 @@
 
 #include "args.h"
 #include "storey/runtime/context.h"
+#include "storey/tools/map_job.h"
 #include "storey/tools/replay.h"
+#include "storey/tools/robot_setup.h"
 
 namespace storey::cli {
 
@@ -17,19 +19,24 @@ void onSignal(int) { g_stop = true; }
 }  // namespace
 
 int run_replay(Args& args) {
-  args.usage("INPUT [--rate R]",
-             "Publishes the sensor messages of INPUT (a rosbag2 bag folder or a CARMEN log) on\n"
-             "<robot>/scan, <robot>/odom, <robot>/pressure and <robot>/imu, in recorded order.")
+  args.usage(
+          "INPUT [--rate R]",
+          "Publishes the sensor messages of INPUT (a rosbag2 bag folder or a CARMEN log) on\n"
+          "the robots' scan, odom, pressure and imu topics, in recorded order: those --config's\n"
+          "floor_mapper.yaml and floor_detector.yaml name (scan_topic ...; shipped: <robot>/scan).")
       .option("rate", "R", "0: as fast as possible; 1: recorded rate; k: k times faster", "1")
       .option("robot", "NAME", "robot name for CARMEN logs (bags carry their own)", "robot")
       .option("prefix", "P", "prepended to every topic name", "")
+      .option("config", "DIR",
+              "parameter files naming the robots' topics (default: shipped config/)", "")
       .option("domain", "ID", "DDS domain id (default: ROS_DOMAIN_ID, else 0)", "-1")
       .option("wait", "SECONDS", "wait this long before publishing, for subscribers to appear", "1")
       .option("subscribers", "N",
-              "first wait until each topic of a robot has a subscriber and its scan topic N, then --wait",
+              "first wait until each topic of a robot has a subscriber and its scan topic N, then "
+              "--wait",
               "0")
-      .option("ack-wait", "SECONDS", "at the end, wait this long at most for reliable subscribers' acknowledgments",
-              "3")
+      .option("ack-wait", "SECONDS",
+              "at the end, wait this long at most for reliable subscribers' acknowledgments", "3")
       .flag("quiet", "no progress bar");
   if (!args.parse()) return 0;
   const std::string input = args.positional(0, "INPUT");
@@ -38,6 +45,8 @@ int run_replay(Args& args) {
   if (options.rate < 0) throw UsageError("--rate must not be negative");
   options.log_robot = args.get("robot");
   options.topic_prefix = args.get("prefix");
+  options.topics =
+      tools::sensorTopics(args.has("config") ? args.get("config") : tools::defaultConfigDir());
   options.settle_seconds = args.getDouble("wait");
   options.ack_seconds = args.getDouble("ack-wait");
   if (options.ack_seconds < 0) throw UsageError("--ack-wait must not be negative");

@@ -1,6 +1,7 @@
 // Bag throughput: writing and reading raw messages of several sizes, and LaserScans through
-// CDR + SensorBagWriter/Reader. Each iteration writes (or reads) a whole bag in a fresh
-// temporary folder on the local disk. Rates are per wall-clock second (UseRealTime).
+// CDR + SensorBagWriter/Reader, in sqlite3 storage (the reference) and MCAP (second
+// argument 1). Each iteration writes (or reads) a whole bag in a fresh temporary folder on
+// the local disk. Rates are per wall-clock second (UseRealTime); file_MB is the bag's size.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -34,11 +35,25 @@ std::string freshFolder(const std::string& name) {
 
 constexpr int kMessages = 20000;
 
-void writeRaw(const std::string& folder, std::size_t size) {
+storey::bag::BagWriterOptions storage(const benchmark::State& state) {
+  storey::bag::BagWriterOptions options;
+  options.storage = state.range(1) ? storey::bag::kStorageMcap : storey::bag::kStorageSqlite3;
+  return options;
+}
+
+double megabytes(const std::string& folder) {
+  std::uintmax_t bytes = 0;
+  for (const auto& entry : fs::directory_iterator(folder))
+    if (entry.is_regular_file()) bytes += entry.file_size();
+  return static_cast<double>(bytes) / 1e6;
+}
+
+void writeRaw(const std::string& folder, std::size_t size,
+              const storey::bag::BagWriterOptions& options) {
   std::vector<std::uint8_t> bytes(size);
   std::mt19937 rng(1);
   for (auto& b : bytes) b = static_cast<std::uint8_t>(rng());
-  storey::bag::BagWriter writer(folder);
+  storey::bag::BagWriter writer(folder, options);
   writer.createTopic({"/robot/scan", "sensor_msgs/msg/LaserScan", "cdr", ""});
   for (int i = 0; i < kMessages; ++i) {
     bytes[0] = static_cast<std::uint8_t>(i);
@@ -49,16 +64,23 @@ void writeRaw(const std::string& folder, std::size_t size) {
 
 void BM_WriteRaw(benchmark::State& state) {
   const auto size = static_cast<std::size_t>(state.range(0));
-  for (auto _ : state) writeRaw(freshFolder("write"), size);
+  const std::string folder = freshFolder("write");
+  for (auto _ : state) writeRaw(freshFolder("write"), size, storage(state));
+  state.SetLabel(storage(state).storage);
+  state.counters["file_MB"] = megabytes(folder);
   state.SetItemsProcessed(state.iterations() * kMessages);
   state.SetBytesProcessed(state.iterations() * kMessages * static_cast<int64_t>(size));
 }
-BENCHMARK(BM_WriteRaw)->Arg(100)->Arg(1500)->Arg(16000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_WriteRaw)
+    ->ArgsProduct({{100, 1500, 16000}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_ReadRaw(benchmark::State& state) {
   const auto size = static_cast<std::size_t>(state.range(0));
   const std::string folder = freshFolder("read" + std::to_string(size));
-  writeRaw(folder, size);
+  writeRaw(folder, size, storage(state));
+  state.SetLabel(storage(state).storage);
   for (auto _ : state) {
     storey::bag::BagReader reader(folder);
     storey::bag::BagMessage message;
@@ -69,7 +91,10 @@ void BM_ReadRaw(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * kMessages);
   state.SetBytesProcessed(state.iterations() * kMessages * static_cast<int64_t>(size));
 }
-BENCHMARK(BM_ReadRaw)->Arg(100)->Arg(1500)->Arg(16000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_ReadRaw)
+    ->ArgsProduct({{100, 1500, 16000}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 storey::sensor::LaserScan makeScan(int beams) {
   storey::sensor::LaserScan scan;
@@ -83,9 +108,10 @@ storey::sensor::LaserScan makeScan(int beams) {
 
 constexpr int kScans = 5000;
 
-void writeScans(const std::string& folder, int beams) {
+void writeScans(const std::string& folder, int beams,
+                const storey::bag::BagWriterOptions& options) {
   storey::sensor::LaserScan scan = makeScan(beams);
-  storey::runtime::SensorBagWriter writer(folder);
+  storey::runtime::SensorBagWriter writer(folder, options);
   for (int i = 0; i < kScans; ++i) {
     scan.stamp = 1000.0 + 0.025 * i;
     writer.write("robot", scan);
@@ -95,16 +121,23 @@ void writeScans(const std::string& folder, int beams) {
 
 void BM_WriteLaserScans(benchmark::State& state) {
   const int beams = static_cast<int>(state.range(0));
-  for (auto _ : state) writeScans(freshFolder("scans"), beams);
+  const std::string folder = freshFolder("scans");
+  for (auto _ : state) writeScans(freshFolder("scans"), beams, storage(state));
+  state.SetLabel(storage(state).storage);
+  state.counters["file_MB"] = megabytes(folder);
   state.SetItemsProcessed(state.iterations() * kScans);
   state.SetBytesProcessed(state.iterations() * kScans * (beams * 4 + 60));
 }
-BENCHMARK(BM_WriteLaserScans)->Arg(360)->Arg(1081)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_WriteLaserScans)
+    ->ArgsProduct({{360, 1081}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_ReadLaserScans(benchmark::State& state) {
   const int beams = static_cast<int>(state.range(0));
   const std::string folder = freshFolder("scans_read" + std::to_string(beams));
-  writeScans(folder, beams);
+  writeScans(folder, beams, storage(state));
+  state.SetLabel(storage(state).storage);
   for (auto _ : state) {
     storey::runtime::SensorBagReader reader(folder);
     storey::runtime::SensorRecord record;
@@ -115,7 +148,10 @@ void BM_ReadLaserScans(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * kScans);
   state.SetBytesProcessed(state.iterations() * kScans * (beams * 4 + 60));
 }
-BENCHMARK(BM_ReadLaserScans)->Arg(360)->Arg(1081)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_ReadLaserScans)
+    ->ArgsProduct({{360, 1081}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 

@@ -14,12 +14,18 @@ using common::str;
 FloorDetectorComponentOptions readFloorDetectorComponentOptions(const common::ConfigNode& node) {
   FloorDetectorComponentOptions o;
   o.robot = node.get<std::string>("robot");
+  try {
+    runtime::robotTopic(o.robot, "floor_events");
+  } catch (const std::invalid_argument& e) {
+    node.fail("robot", e.what());
+  }
+  o.topics = runtime::readSensorTopics(node, o.robot, o.topics, true);
   o.events_topic = node.get<std::string>("events_topic");
   if (o.events_topic.empty()) node.fail("events_topic", "must not be empty");
   try {
     runtime::robotTopic(o.robot, o.events_topic);
   } catch (const std::invalid_argument& e) {
-    node.fail("robot", e.what());
+    node.fail("events_topic", e.what());
   }
   o.progress_period = node.getDouble("progress_period", o.progress_period, 0.01, 60.0);
   o.state_file = node.get<std::string>("state_file", o.state_file);
@@ -71,9 +77,9 @@ void FloorDetectorComponent::onConfigure() {
     ++dropped_inactive_;
     return false;
   };
-  pressure_subscription_ =
-      createSubscription<sensor_msgs::msg::FluidPressure, sensor_msgs::msg::FluidPressurePubSubType>(
-      runtime::robotTopic(robot, "pressure"), runtime::TopicKind::kSensor,
+  pressure_subscription_ = createSubscription<sensor_msgs::msg::FluidPressure,
+                                              sensor_msgs::msg::FluidPressurePubSubType>(
+      runtime::robotTopic(robot, options_.topics.pressure), runtime::TopicKind::kSensor,
       [this, active](const sensor_msgs::msg::FluidPressure& m) {
         if (!active()) return;
         {
@@ -83,7 +89,7 @@ void FloorDetectorComponent::onConfigure() {
         publishEvents();
       });
   createSubscription<sensor_msgs::msg::Imu, sensor_msgs::msg::ImuPubSubType>(
-      runtime::robotTopic(robot, "imu"), runtime::TopicKind::kSensor,
+      runtime::robotTopic(robot, options_.topics.imu), runtime::TopicKind::kSensor,
       [this, active](const sensor_msgs::msg::Imu& m) {
         if (!active()) return;
         {
@@ -93,7 +99,7 @@ void FloorDetectorComponent::onConfigure() {
         if (!options_.detector.sensors.barometer) publishEvents();  // the IMU is the clock
       });
   createSubscription<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType>(
-      runtime::robotTopic(robot, "odom"), runtime::TopicKind::kSensor,
+      runtime::robotTopic(robot, options_.topics.odom), runtime::TopicKind::kSensor,
       [this, active](const nav_msgs::msg::Odometry& m) {
         if (!active()) return;
         {
@@ -104,7 +110,7 @@ void FloorDetectorComponent::onConfigure() {
         if (!options_.detector.sensors.barometer) publishEvents();  // IMU samples wait for it
       });
   createSubscription<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType>(
-      runtime::robotTopic(robot, "scan"), runtime::TopicKind::kSensor,
+      runtime::robotTopic(robot, options_.topics.scan), runtime::TopicKind::kSensor,
       [this, active](const sensor_msgs::msg::LaserScan& m) {
         if (!active()) return;
         std::lock_guard<std::mutex> lock(mutex_);

@@ -20,6 +20,7 @@
 #include "storey/detection/floor_detector.h"
 #include "storey/geometry/frame_tree.h"
 #include "storey/runtime/component.h"
+#include "storey/runtime/sensor_bag.h"
 #include "storey_msgs/msg/FloorEventPubSubTypes.h"
 #include "storey_msgs/msg/FloorIdentityPubSubTypes.h"
 #include "tf2_msgs/msg/TFMessagePubSubTypes.h"
@@ -28,6 +29,10 @@ namespace storey::floor_detector {
 
 struct FloorDetectorComponentOptions {
   std::string robot;                          // topic namespace
+  // Sensor topics in; relative to the robot's namespace, or absolute (runtime::robotTopic).
+  runtime::SensorTopics topics{
+      shipped::floor_detector::scan_topic, shipped::floor_detector::odom_topic,
+      shipped::floor_detector::imu_topic, shipped::floor_detector::pressure_topic};
   // under the robot's namespace
   std::string events_topic = shipped::floor_detector::events_topic;
   // s of sensor time between progress messages (optional key)
@@ -40,7 +45,7 @@ struct FloorDetectorComponentOptions {
   double identity_wait = shipped::floor_detector::identity_wait;
   detection::FloorDetectorOptions detector;
 };
-// Reads robot, events_topic, progress_period, state_file, identity_wait and detector;
+// Reads robot, the *_topic keys, progress_period, state_file, identity_wait and detector;
 // calls finish().
 FloorDetectorComponentOptions readFloorDetectorComponentOptions(const common::ConfigNode& node);
 

@@ -15,6 +15,12 @@ using common::str;
 FloorMapperComponentOptions readFloorMapperComponentOptions(const common::ConfigNode& node) {
   FloorMapperComponentOptions o;
   o.robot = node.get<std::string>("robot");
+  try {
+    runtime::robotTopic(o.robot, "floor_events");
+  } catch (const std::invalid_argument& e) {
+    node.fail("robot", e.what());
+  }
+  o.topics = runtime::readSensorTopics(node, o.robot, o.topics, false);
   o.events_topic = node.get<std::string>("events_topic", o.events_topic);
   o.floor_graph_topic = node.get<std::string>("floor_graph_topic", o.floor_graph_topic);
   if (o.events_topic.empty()) node.fail("events_topic", "must not be empty");
@@ -22,7 +28,7 @@ FloorMapperComponentOptions readFloorMapperComponentOptions(const common::Config
   try {
     runtime::robotTopic(o.robot, o.events_topic);
   } catch (const std::invalid_argument& e) {
-    node.fail("robot", e.what());
+    node.fail("events_topic", e.what());
   }
   o.initial_floor = node.getInt("initial_floor", o.initial_floor, -1000, 1000);
   o.initial_height = node.getDouble("initial_height", o.initial_height, -1e4, 1e4);
@@ -102,13 +108,13 @@ void FloorMapperComponent::onConfigure() {
       createPublisher<storey_msgs::msg::FloorIdentity, storey_msgs::msg::FloorIdentityPubSubType>(
           runtime::robotTopic(robot, "floor_identity"), runtime::TopicKind::kGraph);
   createSubscription<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType>(
-      runtime::robotTopic(robot, "odom"), runtime::TopicKind::kSensor,
+      runtime::robotTopic(robot, options_.topics.odom), runtime::TopicKind::kSensor,
       [this](const nav_msgs::msg::Odometry& m) { onOdometry(m); });
   // The laser's mounting comes, as in ROS 2, from tf_static (base_link -> laser, or a chain).
   createSubscription<tf2_msgs::msg::TFMessage, tf2_msgs::msg::TFMessagePubSubType>(
       "tf_static", runtime::TopicKind::kGraph, [this](const tf2_msgs::msg::TFMessage& m) { onTfStatic(m); });
   createSubscription<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType>(
-      runtime::robotTopic(robot, "scan"), runtime::TopicKind::kSensor,
+      runtime::robotTopic(robot, options_.topics.scan), runtime::TopicKind::kSensor,
       [this](const sensor_msgs::msg::LaserScan& m) { onScan(m); });
   createSubscription<storey_msgs::msg::FloorEvent, storey_msgs::msg::FloorEventPubSubType>(
       runtime::robotTopic(robot, options_.events_topic), runtime::TopicKind::kGraph,

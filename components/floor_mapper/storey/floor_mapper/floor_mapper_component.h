@@ -24,6 +24,7 @@
 #include "storey/mapping/input_log.h"
 #include "storey/mapping/input_sequencer.h"
 #include "storey/runtime/component.h"
+#include "storey/runtime/sensor_bag.h"
 #include "storey_msgs/msg/FloorEventPubSubTypes.h"
 #include "storey_msgs/msg/FloorGraphUpdatePubSubTypes.h"
 #include "storey_msgs/msg/FloorIdentityPubSubTypes.h"
@@ -32,7 +33,10 @@
 namespace storey::floor_mapper {
 
 struct FloorMapperComponentOptions {
-  std::string robot;                               // reads /<robot>/scan, /<robot>/odom
+  std::string robot;  // topic namespace
+  // Scan and odometry topics in (imu, pressure unused); relative or absolute.
+  runtime::SensorTopics topics{shipped::floor_mapper::scan_topic,
+                               shipped::floor_mapper::odom_topic};
   // under the robot's namespace
   std::string events_topic = shipped::floor_mapper::events_topic;
   std::string floor_graph_topic = shipped::floor_mapper::floor_graph_topic;

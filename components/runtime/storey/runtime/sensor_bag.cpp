@@ -1,7 +1,7 @@
 #include "storey/runtime/sensor_bag.h"
 
 #include <algorithm>
-#include <cctype>
+#include <optional>
 #include <set>
 #include <stdexcept>
 
@@ -11,55 +11,9 @@
 namespace storey::runtime {
 namespace {
 
-bool validRobotName(const std::string& robot) {
-  if (robot.empty()) return true;
-  std::size_t start = 0;
-  while (start <= robot.size()) {
-    const std::size_t end = std::min(robot.find('/', start), robot.size());
-    if (end == start) return false;  // empty token
-    if (std::isdigit(static_cast<unsigned char>(robot[start]))) return false;
-    for (std::size_t i = start; i < end; ++i) {
-      const char c = robot[i];
-      if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_')) return false;
-    }
-    start = end + 1;
-  }
-  return true;
-}
-
-void checkRobot(const std::string& robot) {
-  if (!validRobotName(robot)) {
-    throw std::invalid_argument("robot name '" + robot +
-                                "' is not a ROS 2 namespace (letters, digits, '_', '/')");
-  }
-}
-
 constexpr int kMaxWarnings = 5;
 
 }  // namespace
-
-std::string robotTopic(const std::string& robot, const std::string& leaf) {
-  checkRobot(robot);
-  return robot.empty() ? "/" + leaf : "/" + robot + "/" + leaf;
-}
-
-std::string robotFrame(const std::string& robot, const std::string& frame) {
-  checkRobot(robot);
-  return robot.empty() ? frame : robot + "/" + frame;
-}
-
-std::vector<std::string> robotBaseFrames(const std::string& robot,
-                                         const std::string& odometry_frame) {
-  std::vector<std::string> bases;
-  auto add = [&](const std::string& frame) {
-    if (!frame.empty() && std::find(bases.begin(), bases.end(), frame) == bases.end())
-      bases.push_back(frame);
-  };
-  add(odometry_frame);
-  for (const char* leaf : {"base_footprint", "base_link"}) add(robotFrame(robot, leaf));
-  for (const char* leaf : {"base_footprint", "base_link"}) add(leaf);
-  return bases;
-}
 
 SensorBagWriter::SensorBagWriter(const std::string& folder, const bag::BagWriterOptions& options)
     : bag_(folder, options) {}
@@ -134,22 +88,26 @@ void SensorBagWriter::write(const std::string& robot, const sensor::ImuSample& i
               toMessage(imu, robotFrame(robot, "imu")));
 }
 
-SensorBagReader::SensorBagReader(const std::string& path) : bag_(path) {
-  std::set<std::string> skipped;
+SensorBagReader::SensorBagReader(const std::string& path, const SensorTopics& names) : bag_(path) {
   for (const bag::TopicInfo& info : bag_.topics()) {
     TopicState state;
-    const std::size_t slash = info.name.rfind('/');
-    state.robot = slash == std::string::npos || slash == 0 ? "" : info.name.substr(1, slash - 1);
+    // A sensor topic of its type, when the robots' topic names name it.
+    auto sensor = [&](Kind kind, const std::string& leaf) {
+      if (const auto robot = robotOfTopic(info.name, leaf)) {
+        state.kind = kind;
+        state.robot = *robot;
+      }
+    };
     if (info.serialization_format != bag::kSerializationCdr) {
       state.kind = Kind::kOther;
     } else if (info.type == kLaserScanType) {
-      state.kind = Kind::kScan;
+      sensor(Kind::kScan, names.scan);
     } else if (info.type == kOdometryType) {
-      state.kind = Kind::kOdometry;
+      sensor(Kind::kOdometry, names.odom);
     } else if (info.type == kFluidPressureType) {
-      state.kind = Kind::kPressure;
+      sensor(Kind::kPressure, names.pressure);
     } else if (info.type == kImuType) {
-      state.kind = Kind::kImu;
+      sensor(Kind::kImu, names.imu);
     } else if (info.type == kTfMessageType && info.name == kTfStaticTopic) {
       state.kind = Kind::kTfStatic;
     } else if (info.type == kTfMessageType && info.name == kTfTopic) {

@@ -22,6 +22,7 @@
 #include "storey/geometry/pose2.h"
 #include "storey/runtime/bag_cdr.h"
 #include "storey/runtime/sensor_conversions.h"
+#include "storey/runtime/sensor_topics.h"
 #include "storey/sensor/laser_scan.h"
 
 namespace storey::runtime {
@@ -39,16 +40,6 @@ inline constexpr const char* kTfTopic = "/tf";
 inline bool isTfStaticTopic(const std::string& name) {
   return name.substr(name.rfind('/') + 1) == "tf_static";
 }
-
-// "/<robot>/<leaf>", or "/<leaf>" for robot "". Throws std::invalid_argument for a robot
-// name that is not a ROS 2 namespace (tokens of letters, digits, '_', joined by '/').
-std::string robotTopic(const std::string& robot, const std::string& leaf);
-std::string robotFrame(const std::string& robot, const std::string& frame);
-// The frames a sensor may be mounted on, first choice first: the frame the odometry moves
-// (its child_frame_id, "" if unknown), then base_footprint and base_link, in the robot's
-// namespace and without one (a single robot's standard frames carry none).
-std::vector<std::string> robotBaseFrames(const std::string& robot,
-                                         const std::string& odometry_frame);
 
 class SensorBagWriter {
  public:
@@ -118,12 +109,13 @@ struct SensorBagStats {
 };
 
 // Reads the sensor messages of every robot in a bag as one time-ordered stream (by bag
-// timestamp). Sensor topics are recognised by type; the robot is the topic's namespace,
-// so ROS 2 recordings with other topic names replay too. Scan sensor offsets come from
-// /tf_static when present (identity otherwise).
+// timestamp). A sensor topic is a robot's when `topics` names it for its type (its robot
+// as robotOfTopic says); sensor topics named otherwise are skipped and listed in
+// stats().skipped_topics. Scan sensor offsets come from /tf_static when present (identity
+// otherwise).
 class SensorBagReader {
  public:
-  explicit SensorBagReader(const std::string& path);
+  explicit SensorBagReader(const std::string& path, const SensorTopics& topics = {});
 
   // Robots with at least one sensor topic, sorted.
   std::vector<std::string> robots() const;

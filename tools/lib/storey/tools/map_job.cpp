@@ -224,7 +224,8 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   }
   result.timings.push_back({"simulate", secondsSince(phase_start)});
 
-  // 2. Robots and which of them need floor detection.
+  // 2. Robots and which of them need floor detection; their topics as configured.
+  const runtime::SensorTopics topics = sensorTopics(config_dir);
   std::vector<std::string> robots;
   std::map<std::string, const PreparedInput*> robot_input;
   // What each robot carries decides its floor detector: pressure, else the IMU (with the
@@ -232,16 +233,35 @@ MapJobResult runMapJob(const MapJobOptions& options) {
   std::set<std::string> without_height;
   for (const auto& p : prepared) {
     std::vector<std::string> found;
+    std::string not_read;  // a bag's topics of other names or types
     std::map<std::string, runtime::SensorBagReader::Sensors> sensors;
     if (isCarmenLog(p.recording)) {
       found = {p.robot};
       sensors[p.robot].scan = sensors[p.robot].odometry = true;
     } else {
-      const runtime::SensorBagReader reader(p.recording);
-      found = reader.robots();
-      for (const auto& r : found) sensors[r] = reader.sensorsOf(r);
+      const runtime::SensorBagReader reader(p.recording, topics);
+      for (const auto& t : reader.stats().skipped_topics)
+        not_read += (not_read.empty() ? "" : ", ") + t;
+      // A robot is mapped from its scans and odometry: one lacking either is left out.
+      for (const auto& r : reader.robots()) {
+        sensors[r] = reader.sensorsOf(r);
+        if (sensors[r].scan && sensors[r].odometry) {
+          found.push_back(r);
+          continue;
+        }
+        const std::string missing = sensors[r].scan ? "odometry" : "scans";
+        common::logWarn(
+            common::str(p.recording, ": robot '", r, "' has no ", missing, " topic: not mapped"));
+        not_read += common::str(not_read.empty() ? "" : ", ", "robot '", r, "' without ", missing);
+      }
     }
-    if (found.empty()) throw std::runtime_error(p.recording + ": no robot's sensor data found");
+    if (found.empty())
+      throw std::runtime_error(p.recording + ": no robot with both scans and odometry found" +
+                               (not_read.empty()
+                                    ? ""
+                                    : " (topics not read: " + not_read +
+                                          "; floor_mapper.yaml's and floor_detector.yaml's "
+                                          "scan_topic and odom_topic name a robot's topics)"));
     for (const auto& r : found) {
       if (robot_input.count(r)) throw std::invalid_argument("robot '" + r + "' appears in two inputs");
       robots.push_back(r);
@@ -373,6 +393,7 @@ MapJobResult runMapJob(const MapJobOptions& options) {
     ReplayOptions replay_options;
     replay_options.settle_seconds = 0.0;
     replay_options.log_robot = p.robot;
+    replay_options.topics = topics;
     replay_options.after_each = [&context] {
       context.executor().drain();
       context.executor().drain();  // what the first drain's tasks published

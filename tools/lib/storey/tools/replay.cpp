@@ -54,12 +54,24 @@ namespace {
 
 class BagSource : public SensorSource {
  public:
-  explicit BagSource(const std::string& path) : reader_(path) {}
+  BagSource(const std::string& path, const runtime::SensorTopics& topics)
+      : path_(path), reader_(path, topics) {}
   bool next(runtime::SensorRecord& record) override { return reader_.next(record); }
   std::uint64_t skipped() const override { return reader_.stats().skipped + reader_.stats().malformed; }
   std::uint64_t outOfOrder() const override { return reader_.stats().out_of_order; }
+  std::string skippedNote() const override {
+    const auto& s = reader_.stats();
+    if (s.skipped_topics.empty()) return "";
+    std::string note =
+        path_ + ": " + std::to_string(s.skipped) + " messages skipped on topics not read:";
+    for (const std::string& topic : s.skipped_topics) note += " " + topic;
+    return note +
+           " (a sensor topic is read when scan_topic, odom_topic, imu_topic or pressure_topic "
+           "names it)";
+  }
 
  private:
+  std::string path_;
   runtime::SensorBagReader reader_;
 };
 
@@ -111,16 +123,22 @@ class CarmenSource : public SensorSource {
 std::unique_ptr<SensorSource> openSensorSource(const std::string& path, const ReplayOptions& options) {
   if (!fs::exists(path)) throw std::runtime_error(path + ": no such file or folder");
   if (isCarmenLog(path)) return std::make_unique<CarmenSource>(path, options.log_robot);
-  if (isBag(path)) return std::make_unique<BagSource>(path);
+  if (isBag(path)) return std::make_unique<BagSource>(path, options.topics);
   throw std::runtime_error(path + ": neither a rosbag2 bag nor a CARMEN log (.log, .log.gz, .gfs)");
 }
 
 struct SensorReplayer::Publishers {
-  Publishers(runtime::Context& context, const std::string& prefix)
-      : scan(context, prefix + "/scan", runtime::TopicKind::kSensor),
-        odom(context, prefix + "/odom", runtime::TopicKind::kSensor),
-        pressure(context, prefix + "/pressure", runtime::TopicKind::kSensor),
-        imu(context, prefix + "/imu", runtime::TopicKind::kSensor) {}
+  // A robot's topics under `prefix` (robotTopic's names without their leading '/').
+  Publishers(runtime::Context& context, const std::string& prefix, const std::string& robot,
+             const runtime::SensorTopics& names)
+      : scan(context, prefix + runtime::robotTopic(robot, names.scan).substr(1),
+             runtime::TopicKind::kSensor),
+        odom(context, prefix + runtime::robotTopic(robot, names.odom).substr(1),
+             runtime::TopicKind::kSensor),
+        pressure(context, prefix + runtime::robotTopic(robot, names.pressure).substr(1),
+                 runtime::TopicKind::kSensor),
+        imu(context, prefix + runtime::robotTopic(robot, names.imu).substr(1),
+            runtime::TopicKind::kSensor) {}
   runtime::Publisher<sensor_msgs::msg::LaserScan, sensor_msgs::msg::LaserScanPubSubType> scan;
   runtime::Publisher<nav_msgs::msg::Odometry, nav_msgs::msg::OdometryPubSubType> odom;
   runtime::Publisher<sensor_msgs::msg::FluidPressure, sensor_msgs::msg::FluidPressurePubSubType> pressure;
@@ -135,7 +153,7 @@ SensorReplayer::~SensorReplayer() = default;
 SensorReplayer::Publishers& SensorReplayer::publishersFor(const std::string& robot) {
   auto& slot = publishers_[robot];
   if (!slot) {
-    slot = std::make_unique<Publishers>(context_, options_.topic_prefix + robot);
+    slot = std::make_unique<Publishers>(context_, options_.topic_prefix, robot, options_.topics);
     if (options_.min_subscribers > 0) {
       const double t = options_.subscriber_timeout;
       const bool matched = slot->scan.waitForSubscribers(options_.min_subscribers, t) &&

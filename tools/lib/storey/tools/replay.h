@@ -23,6 +23,9 @@ struct ReplayOptions {
   double rate = 0.0;                 // 0: as fast as possible; 1: recorded rate; k: k times faster
   std::string log_robot = "robot";   // CARMEN logs carry no robot name
   std::string topic_prefix;          // prepended to every topic ("" -> "<robot>/scan")
+  // The robots' sensor topic names (the components' scan_topic, odom_topic, imu_topic,
+  // pressure_topic): which topics of a bag are read, and where they are published.
+  runtime::SensorTopics topics;
   double settle_seconds = 0.3;       // wait after creating publishers, for discovery
   // At the end, wait this long at most for acknowledgments (and, with min_subscribers,
   // for that many subscribers on each scan topic again: one restarted mid-replay).

@@ -34,6 +34,23 @@ YAML::Node parameterFile(const std::string& config_dir, const std::string& kind)
   return YAML::Clone(common::ConfigNode::loadFile(path).yaml());
 }
 
+runtime::SensorTopics sensorTopics(const std::string& config_dir) {
+  const std::string detector_file = parameterFilePath(config_dir, "floor_detector");
+  const std::string mapper_file = parameterFilePath(config_dir, "floor_mapper");
+  runtime::SensorTopics topics = runtime::readSensorTopics(
+      common::ConfigNode(parameterFile(config_dir, "floor_detector"), detector_file, ""), "", {},
+      true);
+  const runtime::SensorTopics mapped = runtime::readSensorTopics(
+      common::ConfigNode(parameterFile(config_dir, "floor_mapper"), mapper_file, ""), "", {},
+      false);
+  if (mapped.scan != topics.scan || mapped.odom != topics.odom)
+    throw std::invalid_argument(mapper_file + ": scan_topic '" + mapped.scan +
+                                "' and odom_topic '" + mapped.odom + "' differ from " +
+                                detector_file + "'s '" + topics.scan + "' and '" + topics.odom +
+                                "' (a robot's components read the same topics)");
+  return topics;
+}
+
 YAML::Node floorDetectorParameters(const std::string& config_dir, const std::string& robot, const RobotSetup& setup) {
   YAML::Node n = parameterFile(config_dir, "floor_detector");
   n["robot"] = robot;

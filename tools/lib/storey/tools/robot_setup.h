@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "storey/runtime/sensor_topics.h"
 #include "storey/sim/scenario.h"
 
 namespace storey::tools {
@@ -45,6 +46,10 @@ YAML::Node floorMapperParameters(const std::string& config_dir, const std::strin
 // `config_dir`/`kind`.yaml (its path, and its contents or an empty mapping).
 std::string parameterFilePath(const std::string& config_dir, const std::string& kind);
 YAML::Node parameterFile(const std::string& config_dir, const std::string& kind);
+// The robots' sensor topic names: scan_topic and odom_topic of floor_mapper.yaml, which
+// floor_detector.yaml must name alike (else std::invalid_argument naming both files), and
+// imu_topic and pressure_topic of floor_detector.yaml.
+runtime::SensorTopics sensorTopics(const std::string& config_dir);
 
 // `storey simulate`: writes into `dir` a bringup file, live.yaml, that runs the
 // simulated robots' components as `storey map` runs them (floor_detector and floor_mapper
