@@ -21,7 +21,7 @@ namespace storey::tools {
 namespace {
 namespace fs = std::filesystem;
 
-constexpr int kDomain = 186;
+constexpr int kTopicsDomain = 186;
 
 // `from` copied into `to` with its topics renamed (`names`: old -> new; others kept).
 void copyRenamed(const std::string& from, const std::string& to,
@@ -82,7 +82,7 @@ TEST(MapJobTopics, APlainBagWithItsOwnTopicNamesMaps) {
                {"/robot1/pressure", "/barometer"}});
 
   MapJobOptions options;
-  options.domain_id = kDomain;
+  options.domain_id = kTopicsDomain;
   options.quiet = true;
   options.output_dir = dir + "/reference";
   options.inputs = {parseMapInput(dir + "/sim")};
@@ -128,7 +128,7 @@ TEST(MapJobTopics, DetectorAndMapperNamingOtherTopicsIsAnError) {
   mapper.replace(mapper.find("/front/scan"), 11, "/rear/scan");
   test::writeFile(config + "/floor_mapper.yaml", mapper);
   MapJobOptions options;
-  options.domain_id = kDomain;
+  options.domain_id = kTopicsDomain;
   options.quiet = true;
   options.config_dir = config;
   options.output_dir = dir + "/out";

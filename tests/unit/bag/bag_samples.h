@@ -73,4 +73,18 @@ inline void expectSame(const std::vector<Written>& expected, const std::vector<W
   }
 }
 
+// The three topics writeSample declares, as a reader gives them back, and its messages
+// in time order (twice: rewinding replays the same stream).
+inline void expectTheSample(BagReader& reader, const std::vector<Written>& written) {
+  ASSERT_EQ(reader.topics().size(), 3u);
+  EXPECT_EQ(reader.topics()[0].name, "/r1/scan");
+  EXPECT_EQ(reader.topics()[0].type, "sensor_msgs/msg/LaserScan");
+  EXPECT_EQ(reader.topics()[2].type, "storey_msgs/msg/FloorGraph");
+  EXPECT_EQ(reader.topics()[2].serialization_format, "cdr");
+  EXPECT_EQ(reader.topics()[2].offered_qos_profiles, qosProfileYaml(true, true));
+  expectSame(timeOrdered(written), readAll(reader));
+  reader.rewind();
+  expectSame(timeOrdered(written), readAll(reader));
+}
+
 }  // namespace storey::bag::samples

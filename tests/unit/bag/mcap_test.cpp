@@ -48,14 +48,8 @@ TEST(McapBag, WriteThenReadGivesTheSameTopicsAndMessagesInTimeOrder) {
   EXPECT_EQ(meta.message_count, 3000u);
 
   BagReader reader(folder);
-  ASSERT_EQ(reader.topics().size(), 3u);
-  EXPECT_EQ(reader.topics()[0].name, "/r1/scan");
-  EXPECT_EQ(reader.topics()[0].type, "sensor_msgs/msg/LaserScan");
-  EXPECT_EQ(reader.topics()[2].serialization_format, "cdr");
-  EXPECT_EQ(reader.topics()[2].offered_qos_profiles, qosProfileYaml(true, true));
-  expectSame(timeOrdered(written), readAll(reader));
-  reader.rewind();
-  expectSame(timeOrdered(written), readAll(reader));
+  EXPECT_EQ(reader.storage(), "mcap");
+  samples::expectTheSample(reader, written);
 
   EXPECT_EQ(reader.messageCount(), 3000u);
   EXPECT_EQ(reader.summary()[0].message_count, 1000u);

@@ -270,24 +270,37 @@ TEST(BuildingOutputs, IsometricViewStacksTheFloorsAndDrawsTheConstraints) {
   EXPECT_GT(path, 20);
 }
 
+// Two floors 3 m apart, the upper one mapped after the lower (by robot "r", or by "s"
+// when not `one_robot`), joined by three exact constraints, optimised.
+struct TwoFloors {
+  BuildingGraph building;
+  BuildingSolution solution;
+};
+TwoFloors twoFloorsByRide(bool one_robot) {
+  std::vector<Pose2> truth0, truth1;
+  floor::FloorGraph lower = makeLoop(0, 0, 0.0, Pose2(), &truth0);
+  floor::FloorGraph upper = makeLoop(1, 1, 3.0, Pose2(), &truth1);
+  for (auto& n : upper.nodes) n.stamp += 100.0;  // after the lower floor's
+  lower.robot = "r";
+  upper.robot = one_robot ? "r" : "s";
+  TwoFloors t;
+  t.building.upsertFloorGraph(lower);
+  t.building.upsertFloorGraph(upper);
+  int id = 0;
+  for (int k : {1, 5, 9})
+    t.building.addConstraint(exactConstraint(id++, 0, k, 1, k, truth0[k], truth1[k], 3.0));
+  t.solution = t.building.optimize();
+  return t;
+}
+
 // One robot on two floors: its ride is a line in its colour from its last node on the
 // first floor to its first on the second; the same graphs driven by two robots have the
 // same paths and no ride.
 TEST(BuildingOutputs, IsometricViewDrawsARobotsRideBetweenFloors) {
   auto pathPixels = [](bool one_robot) {
-    std::vector<Pose2> truth0, truth1;
-    floor::FloorGraph lower = makeLoop(0, 0, 0.0, Pose2(), &truth0);
-    floor::FloorGraph upper = makeLoop(1, 1, 3.0, Pose2(), &truth1);
-    for (auto& n : upper.nodes) n.stamp += 100.0;  // after the lower floor's
-    lower.robot = "r";
-    upper.robot = one_robot ? "r" : "s";
-    BuildingGraph building;
-    building.upsertFloorGraph(lower);
-    building.upsertFloorGraph(upper);
-    int id = 0;
-    for (int k : {1, 5, 9})
-      building.addConstraint(exactConstraint(id++, 0, k, 1, k, truth0[k], truth1[k], 3.0));
-    const BuildingSolution s = building.optimize();
+    const TwoFloors t = twoFloorsByRide(one_robot);
+    const BuildingGraph& building = t.building;
+    const BuildingSolution& s = t.solution;
     const grid::Image image = renderIsometric(
         renderBuildingFloors(building, s, grid::OccupancyGridOptions()), 400, &building, &s, false);
     int count = 0;
@@ -309,18 +322,9 @@ TEST(BuildingOutputs, IsometricViewDrawsARobotsRideBetweenFloors) {
 // heights, a path per floor graph on its floor, one ride from floor 0 up to floor 1 and the
 // constraints between the constrained nodes; without constraints asked for, none.
 TEST(BuildingScene, HoldsWallsPathsTheRideAndTheConstraints) {
-  std::vector<Pose2> truth0, truth1;
-  floor::FloorGraph lower = makeLoop(0, 0, 0.0, Pose2(), &truth0);
-  floor::FloorGraph upper = makeLoop(1, 1, 3.0, Pose2(), &truth1);
-  for (auto& n : upper.nodes) n.stamp += 100.0;
-  lower.robot = upper.robot = "r";
-  BuildingGraph building;
-  building.upsertFloorGraph(lower);
-  building.upsertFloorGraph(upper);
-  int id = 0;
-  for (int k : {1, 5, 9})
-    building.addConstraint(exactConstraint(id++, 0, k, 1, k, truth0[k], truth1[k], 3.0));
-  const BuildingSolution s = building.optimize();
+  const TwoFloors t = twoFloorsByRide(true);
+  const BuildingGraph& building = t.building;
+  const BuildingSolution& s = t.solution;
   const auto floors = renderBuildingFloors(building, s, grid::OccupancyGridOptions());
   const BuildingScene scene = buildingScene(floors, &building, &s);
   ASSERT_EQ(scene.floors.size(), 2u);
