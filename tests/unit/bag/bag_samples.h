@@ -87,4 +87,15 @@ inline void expectTheSample(BagReader& reader, const std::vector<Written>& writt
   expectSame(timeOrdered(written), readAll(reader));
 }
 
+// The reader's time span is the written messages' earliest and latest stamp.
+inline void expectTimeSpan(BagReader& reader, const std::vector<Written>& written) {
+  std::int64_t lo = written.at(0).stamp, hi = written.at(0).stamp;
+  for (const auto& w : written) {
+    lo = std::min(lo, w.stamp);
+    hi = std::max(hi, w.stamp);
+  }
+  EXPECT_EQ(reader.startTimeNs(), lo);
+  EXPECT_EQ(reader.endTimeNs(), hi);
+}
+
 }  // namespace storey::bag::samples

@@ -56,13 +56,7 @@ TEST(Bag, SummaryCountsAndTimeSpan) {
   EXPECT_EQ(summary[0].message_count, 101u);
   EXPECT_EQ(summary[1].message_count, 100u);
   EXPECT_EQ(summary[2].message_count, 100u);
-  std::int64_t lo = written[0].stamp, hi = written[0].stamp;
-  for (const auto& w : written) {
-    lo = std::min(lo, w.stamp);
-    hi = std::max(hi, w.stamp);
-  }
-  EXPECT_EQ(reader.startTimeNs(), lo);
-  EXPECT_EQ(reader.endTimeNs(), hi);
+  samples::expectTimeSpan(reader, written);
 }
 
 TEST(Bag, TopicFilterYieldsOnlyThoseTopics) {

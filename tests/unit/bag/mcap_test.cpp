@@ -53,13 +53,7 @@ TEST(McapBag, WriteThenReadGivesTheSameTopicsAndMessagesInTimeOrder) {
 
   EXPECT_EQ(reader.messageCount(), 3000u);
   EXPECT_EQ(reader.summary()[0].message_count, 1000u);
-  std::int64_t lo = written[0].stamp, hi = written[0].stamp;
-  for (const auto& w : written) {
-    lo = std::min(lo, w.stamp);
-    hi = std::max(hi, w.stamp);
-  }
-  EXPECT_EQ(reader.startTimeNs(), lo);
-  EXPECT_EQ(reader.endTimeNs(), hi);
+  samples::expectTimeSpan(reader, written);
 
   reader.setTopicFilter({"/r1/odom"});
   std::vector<Written> odom;

@@ -79,17 +79,18 @@ class Fields {
   std::string where_;
 };
 
-std::vector<std::uint8_t> decompress(const std::string& compression,
-                                     const std::vector<std::uint8_t>& in, std::uint64_t size,
+// `in`: the `in_size` compressed bytes of a chunk's records.
+std::vector<std::uint8_t> decompress(const std::string& compression, const std::uint8_t* in,
+                                     std::size_t in_size, std::uint64_t size,
                                      const std::string& file, std::uint64_t at) {
   const std::string where = "the chunk at byte " + std::to_string(at);
   std::vector<std::uint8_t> out(size);
   if (compression.empty()) {
-    if (in.size() != size) throw BagError(file, where + " holds a size other than it declares");
-    return in;
+    if (in_size != size) throw BagError(file, where + " holds a size other than it declares");
+    return std::vector<std::uint8_t>(in, in + in_size);
   }
   if (compression == "zstd") {
-    const std::size_t n = ZSTD_decompress(out.data(), out.size(), in.data(), in.size());
+    const std::size_t n = ZSTD_decompress(out.data(), out.size(), in, in_size);
     if (ZSTD_isError(n) || n != size)
       throw BagError(file, where + " does not decompress (zstd" +
                                (ZSTD_isError(n) ? std::string(": ") + ZSTD_getErrorName(n) : "") +
@@ -103,9 +104,9 @@ std::vector<std::uint8_t> decompress(const std::string& compression,
     std::unique_ptr<LZ4F_dctx, decltype(&LZ4F_freeDecompressionContext)> owner(
         context, LZ4F_freeDecompressionContext);
     std::size_t read = 0, written = 0, hint = 1;
-    while (hint != 0 && read < in.size()) {
-      std::size_t src = in.size() - read, dst = out.size() - written;
-      hint = LZ4F_decompress(context, out.data() + written, &dst, in.data() + read, &src, nullptr);
+    while (hint != 0 && read < in_size) {
+      std::size_t src = in_size - read, dst = out.size() - written;
+      hint = LZ4F_decompress(context, out.data() + written, &dst, in + read, &src, nullptr);
       if (LZ4F_isError(hint))
         throw BagError(file, where + " does not decompress (lz4: " + LZ4F_getErrorName(hint) + ")");
       read += src;
@@ -239,7 +240,8 @@ void McapFileReader::scan() {
                                     std::to_string(chunk.uncompressed) + " bytes (at most " +
                                     std::to_string(kMaxMcapChunkBytes) + ")");
         chunks_.push_back(chunk);
-        readRecords(chunkRecords(static_cast<std::uint32_t>(chunks_.size() - 1)),
+        // Unpacked from the bytes read here, not read from the file again.
+        readRecords(unpackChunk(chunk, content.data() + (chunk.offset - body)),
                     static_cast<std::uint32_t>(chunks_.size() - 1), at);
       } else {
         // A schema or channel record alone: the same parser as inside chunks.
@@ -304,8 +306,13 @@ std::vector<std::uint8_t> McapFileReader::chunkRecords(std::uint32_t index) {
   in_.seekg(static_cast<std::streamoff>(c.offset));
   in_.read(reinterpret_cast<char*>(compressed.data()), static_cast<std::streamsize>(c.compressed));
   if (!in_) throw BagError(file_, "read error at byte " + std::to_string(c.offset));
+  return unpackChunk(c, compressed.data());
+}
+
+std::vector<std::uint8_t> McapFileReader::unpackChunk(const Chunk& c,
+                                                      const std::uint8_t* compressed) const {
   std::vector<std::uint8_t> records =
-      decompress(c.compression, compressed, c.uncompressed, file_, c.offset);
+      decompress(c.compression, compressed, c.compressed, c.uncompressed, file_, c.offset);
   if (c.crc != 0 && crc32Of(records.data(), records.size()) != c.crc)
     throw BagError(file_, "the chunk at byte " + std::to_string(c.offset) +
                               " does not match its CRC (the file is damaged)");
@@ -323,16 +330,17 @@ std::map<std::uint16_t, McapFileReader::Count> McapFileReader::counts() const {
 }
 
 void McapFileReader::start(const std::vector<std::uint16_t>& channels) {
-  wanted_.assign(1u << 16, channels.empty());
-  for (const std::uint16_t c : channels) wanted_[c] = true;
+  // Only channels the file defines: a message of no channel is skipped.
+  wanted_.assign(1u << 16, false);
+  for (const auto& [id, topic] : channels_)
+    wanted_[id] =
+        channels.empty() || std::find(channels.begin(), channels.end(), id) != channels.end();
   position_ = 0;
 }
 
 bool McapFileReader::next(std::uint16_t& channel, std::int64_t& stamp,
                           std::vector<std::uint8_t>& data) {
-  while (position_ < entries_.size() &&
-         (!wanted_[entries_[position_].channel] || !channels_.count(entries_[position_].channel)))
-    ++position_;
+  while (position_ < entries_.size() && !wanted_[entries_[position_].channel]) ++position_;
   if (position_ >= entries_.size()) {
     if (position_ == entries_.size() && truncated_) {
       ++position_;  // thrown once

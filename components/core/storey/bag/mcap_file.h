@@ -65,7 +65,9 @@ class McapFileReader {
   void scan();
   void readRecords(const std::vector<std::uint8_t>& records, std::uint32_t chunk,
                    std::uint64_t file_at);
+  // A chunk's records: read from the file, or unpacked from its compressed bytes.
   std::vector<std::uint8_t> chunkRecords(std::uint32_t chunk);
+  std::vector<std::uint8_t> unpackChunk(const Chunk& chunk, const std::uint8_t* compressed) const;
 
   std::string file_;
   std::ifstream in_;
@@ -75,7 +77,7 @@ class McapFileReader {
   std::vector<Chunk> chunks_;
   std::vector<Entry> entries_;
   std::optional<std::string> truncated_;
-  std::vector<bool> wanted_;  // by channel id
+  std::vector<bool> wanted_;  // by channel id: defined and asked for
   std::size_t position_ = 0;
   std::uint32_t cached_chunk_ = kDirect;
   std::vector<std::uint8_t> cache_;

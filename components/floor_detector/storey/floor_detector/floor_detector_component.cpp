@@ -14,11 +14,6 @@ using common::str;
 FloorDetectorComponentOptions readFloorDetectorComponentOptions(const common::ConfigNode& node) {
   FloorDetectorComponentOptions o;
   o.robot = node.get<std::string>("robot");
-  try {
-    runtime::robotTopic(o.robot, "floor_events");
-  } catch (const std::invalid_argument& e) {
-    node.fail("robot", e.what());
-  }
   o.topics = runtime::readSensorTopics(node, o.robot, o.topics, true);
   o.events_topic = node.get<std::string>("events_topic");
   if (o.events_topic.empty()) node.fail("events_topic", "must not be empty");

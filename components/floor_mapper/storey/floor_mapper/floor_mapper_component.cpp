@@ -15,11 +15,6 @@ using common::str;
 FloorMapperComponentOptions readFloorMapperComponentOptions(const common::ConfigNode& node) {
   FloorMapperComponentOptions o;
   o.robot = node.get<std::string>("robot");
-  try {
-    runtime::robotTopic(o.robot, "floor_events");
-  } catch (const std::invalid_argument& e) {
-    node.fail("robot", e.what());
-  }
   o.topics = runtime::readSensorTopics(node, o.robot, o.topics, false);
   o.events_topic = node.get<std::string>("events_topic", o.events_topic);
   o.floor_graph_topic = node.get<std::string>("floor_graph_topic", o.floor_graph_topic);

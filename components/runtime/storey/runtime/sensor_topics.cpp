@@ -76,6 +76,11 @@ std::vector<std::string> robotBaseFrames(const std::string& robot,
 
 SensorTopics readSensorTopics(const common::ConfigNode& node, const std::string& robot,
                               SensorTopics defaults, bool imu_and_pressure) {
+  try {
+    checkRobot(robot);
+  } catch (const std::invalid_argument& e) {
+    node.fail("robot", e.what());
+  }
   auto read = [&](const char* key, std::string& value) {
     value = node.get<std::string>(key, value);
     try {

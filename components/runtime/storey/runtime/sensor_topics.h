@@ -37,7 +37,7 @@ std::vector<std::string> robotBaseFrames(const std::string& robot,
 
 // The scan_topic and odom_topic keys (and with `imu_and_pressure`, imu_topic and
 // pressure_topic), each optional with `defaults`' value, checked as robot's topic names;
-// errors name the key.
+// errors name the key (`robot` when the robot's name is no ROS 2 namespace).
 SensorTopics readSensorTopics(const common::ConfigNode& node, const std::string& robot,
                               SensorTopics defaults, bool imu_and_pressure);
 
